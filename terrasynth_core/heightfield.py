@@ -1,0 +1,232 @@
+"""The height field: heights, their nodata mask, cell size and georeference.
+
+Every reader returns a :class:`HeightField` and every writer takes one.  The
+grid is stored north-up: row 0 is the northern edge, column 0 the western
+edge, indexing is ``(row, col)``.
+
+Nodata strategy
+---------------
+Cells without a valid height are ``NaN`` in :attr:`HeightField.heights` and
+``True`` in :attr:`HeightField.nodata`; they are never silently zero.  The
+algorithms do not accept NaN.  Two ways to get a fully valid grid:
+
+* :meth:`HeightField.crop_valid` crops to the largest axis-aligned rectangle
+  holding only valid cells (the right choice for exemplars: no invented
+  terrain, e.g. the Mandakini basin clip or the ragged USGS quadrangle).
+* :meth:`HeightField.fill_nodata` fills each invalid cell from its nearest
+  valid cell and smooths the fill (the right choice for a few scattered
+  voids, e.g. SRTM holes).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy import ndimage
+
+from .errors import DEMFormatError
+
+#: Mean Earth radius in metres (IUGG), used to turn arc-seconds into metres.
+EARTH_RADIUS_M = 6_371_008.8
+
+
+@dataclass(frozen=True)
+class GeoReference:
+    """Where the grid lies on Earth.
+
+    Parameters
+    ----------
+    x_origin, y_origin : float
+        Map coordinates of the upper-left *corner* of the upper-left cell, in
+        the units of the CRS (metres for UTM, degrees for geographic).
+    x_step, y_step : float
+        Cell size along columns and rows, in CRS units; ``y_step`` is positive
+        and rows run north to south.
+    epsg : int or None
+        EPSG code of the coordinate reference system when known
+        (4326 for SRTM tiles, 326zz for WGS 84 / UTM zone zz North).
+    """
+
+    x_origin: float
+    y_origin: float
+    x_step: float
+    y_step: float
+    epsg: int | None = None
+
+
+def geographic_cell_size(lat_deg: float, step_deg: float) -> tuple[float, float]:
+    """Ground size ``(dy, dx)`` in metres of a geographic cell.
+
+    Parameters
+    ----------
+    lat_deg : float
+        Latitude of the cell centre in degrees.
+    step_deg : float
+        Angular cell size in degrees (1/1200 for 3 arc-seconds).
+
+    Returns
+    -------
+    (dy, dx) : tuple of float
+        North-south and east-west size in metres; ``dx`` shrinks with
+        ``cos(lat)`` because meridians converge.
+    """
+    dy = math.radians(step_deg) * EARTH_RADIUS_M
+    dx = dy * math.cos(math.radians(lat_deg))
+    return (dy, dx)
+
+
+@dataclass(frozen=True, eq=False)
+class HeightField:
+    """A north-up grid of heights in metres.
+
+    Parameters
+    ----------
+    heights : ndarray of float32, shape (rows, cols)
+        Heights in metres; ``NaN`` marks nodata.  Infinite values are
+        rejected.
+    cell_size : (dy, dx) or None
+        Ground size of a cell in metres, north-south then east-west, when
+        the file tells or implies it.
+    georef : GeoReference or None
+        Map placement when the format carries one.
+    source : str or None
+        File the field was read from, for messages.
+    format : str or None
+        Short name of the format it was read from (``"hgt"``, ``"geotiff"``...).
+    """
+
+    heights: np.ndarray
+    cell_size: tuple[float, float] | None = None
+    georef: GeoReference | None = None
+    source: str | None = None
+    format: str | None = None
+    metadata: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        h = np.asarray(self.heights)
+        where = f" in {self.source}" if self.source else ""
+        if h.ndim != 2 or min(h.shape) < 2:
+            raise DEMFormatError(
+                f"height field{where} must be a 2-D grid of at least 2x2 cells, got shape {h.shape}"
+            )
+        if not np.issubdtype(h.dtype, np.number):
+            raise DEMFormatError(f"height field{where} has non-numeric type {h.dtype}")
+        h = h.astype(np.float32, copy=False)
+        if np.isinf(h).any():
+            raise DEMFormatError(
+                f"height field{where} holds {int(np.isinf(h).sum())} infinite values; "
+                "expected finite heights in metres (NaN for nodata)"
+            )
+        if np.isnan(h).all():
+            raise DEMFormatError(f"height field{where} has no valid cell: every cell is nodata")
+        if self.cell_size is not None:
+            dy, dx = (float(v) for v in self.cell_size)
+            if not (dy > 0 and dx > 0 and math.isfinite(dy) and math.isfinite(dx)):
+                raise DEMFormatError(f"height field{where} has invalid cell size {self.cell_size}")
+            object.__setattr__(self, "cell_size", (dy, dx))
+        h.flags.writeable = False
+        object.__setattr__(self, "heights", h)
+
+    # -- derived ---------------------------------------------------------
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(rows, cols)`` of the grid."""
+        return self.heights.shape
+
+    @property
+    def nodata(self) -> np.ndarray:
+        """Boolean mask, shape (rows, cols): ``True`` where there is no height."""
+        return np.isnan(self.heights)
+
+    @property
+    def nodata_count(self) -> int:
+        return int(np.isnan(self.heights).sum())
+
+    @property
+    def min(self) -> float:
+        return float(np.nanmin(self.heights))
+
+    @property
+    def max(self) -> float:
+        return float(np.nanmax(self.heights))
+
+    def with_heights(self, heights: np.ndarray, **changes) -> "HeightField":
+        """A copy with new heights (same cell size and georeference unless changed)."""
+        return replace(self, heights=heights, **changes)
+
+    # -- nodata strategies ----------------------------------------------
+    def crop_valid(self) -> "HeightField":
+        """Crop to the largest rectangle of valid cells.
+
+        Returns the field itself when it has no nodata.  The georeference
+        origin moves with the crop.
+        """
+        valid = ~self.nodata
+        if valid.all():
+            return self
+        r0, r1, c0, c1 = largest_valid_rectangle(valid)
+        geo = self.georef
+        if geo is not None:
+            geo = replace(
+                geo,
+                x_origin=geo.x_origin + c0 * geo.x_step,
+                y_origin=geo.y_origin - r0 * geo.y_step,
+            )
+        return replace(self, heights=self.heights[r0:r1, c0:c1].copy(), georef=geo)
+
+    def fill_nodata(self) -> "HeightField":
+        """Fill nodata cells from their nearest valid cell, then smooth the fill.
+
+        Only the filled cells change; valid heights are kept exactly.
+        """
+        mask = self.nodata
+        if not mask.any():
+            return self
+        idx = ndimage.distance_transform_edt(mask, return_distances=False, return_indices=True)
+        filled = self.heights[tuple(idx)]
+        # A few passes of a 3x3 mean inside the hole remove the Voronoi steps
+        # that nearest-neighbour filling leaves, without touching valid cells.
+        for _ in range(8):
+            smooth = ndimage.uniform_filter(filled, size=3, mode="nearest")
+            filled = np.where(mask, smooth, filled)
+        return replace(self, heights=filled.astype(np.float32))
+
+
+def largest_valid_rectangle(valid: np.ndarray) -> tuple[int, int, int, int]:
+    """Largest axis-aligned all-``True`` rectangle of a boolean grid.
+
+    Parameters
+    ----------
+    valid : ndarray of bool, shape (rows, cols)
+
+    Returns
+    -------
+    (r0, r1, c0, c1) : tuple of int
+        Half-open row and column bounds of the rectangle.
+
+    Notes
+    -----
+    The classic histogram-stack method, O(rows * cols): column heights of
+    consecutive ``True`` cells are updated row by row and the largest
+    rectangle under each histogram is found with a monotone stack.
+    """
+    rows, cols = valid.shape
+    heights = np.zeros(cols, dtype=np.int64)
+    best = (0, 0, 0, 0, 0)  # area, r0, r1, c0, c1
+    for r in range(rows):
+        heights = np.where(valid[r], heights + 1, 0)
+        stack: list[int] = []
+        hs = heights.tolist() + [0]
+        for c, h in enumerate(hs):
+            while stack and hs[stack[-1]] >= h:
+                top = stack.pop()
+                left = stack[-1] + 1 if stack else 0
+                area = hs[top] * (c - left)
+                if area > best[0]:
+                    best = (area, r + 1 - hs[top], r + 1, left, c)
+            stack.append(c)
+    if best[0] == 0:
+        raise DEMFormatError("grid has no valid cell")
+    return best[1:]
