@@ -1,0 +1,266 @@
+"""Reading and writing DEM files and terrain meshes.
+
+:func:`load_dem` and :func:`save_dem` pick the format from the file
+extension (any case) and always deal in :class:`HeightField` objects: heights
+in metres, NaN for nodata, north-up, with the cell size and georeference the
+file holds.
+
+Formats
+-------
+=================  ==========  =====  =====  =====================================
+Extension          Name        Read   Write  Notes
+=================  ==========  =====  =====  =====================================
+.hgt               hgt         yes    no     SRTM tile; place from the file name
+.tif .tiff         geotiff     yes    yes    single band; written as float32
+.bil .bsq .bip     envi        yes    no     single band, needs the .hdr
+.dem               usgs-dem    yes    no     USGS ASCII DEM (1024-byte records)
+.asc               esri-ascii  yes    yes    ESRI ASCII grid
+.png               png         yes    yes    8/16-bit gray; metres via sidecar
+.npy               npy         yes    yes    written as float32, NaN nodata
+.ter               terragen    yes    yes    int16 with scale; no nodata
+.r16               r16         yes    yes    LE uint16 levels; metres via sidecar
+.r32               r32         yes    yes    LE float32 metres
+=================  ==========  =====  =====  =====================================
+
+PNG, ``.r16``, ``.r32`` and ``.npy`` files are written with a JSON sidecar
+``<same stem>.json`` holding the height range, cell size, georeference and
+shape that those formats cannot store.
+
+Every write goes to a temporary file in the destination directory that
+then replaces the target (sidecar included), so an interrupted save never
+leaves a truncated file.  Every failure a file can cause raises one
+:class:`~terrasynth_core.errors.DEMFormatError` naming the file.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from os import PathLike
+from pathlib import Path
+
+from ..errors import DEMFormatError
+from ..heightfield import HeightField
+from . import envi, esri_ascii, geotiff, hgt, mesh, npy, png, raw, terragen, usgs_dem
+from ._common import atomic_outputs, open_new, sidecar_path, wrap_errors, write_sidecar
+
+__all__ = [
+    "MESH_EXTENSIONS",
+    "READ_EXTENSIONS",
+    "WRITE_EXTENSIONS",
+    "format_name",
+    "load_dem",
+    "save_dem",
+    "save_mesh",
+]
+
+#: Short format name by extension.
+_FORMAT_NAMES = {
+    ".hgt": "hgt",
+    ".tif": "geotiff",
+    ".tiff": "geotiff",
+    ".bil": "envi",
+    ".bsq": "envi",
+    ".bip": "envi",
+    ".dem": "usgs-dem",
+    ".asc": "esri-ascii",
+    ".png": "png",
+    ".npy": "npy",
+    ".ter": "terragen",
+    ".r16": "r16",
+    ".r32": "r32",
+}
+
+_READERS: dict[str, Callable[[Path], HeightField]] = {
+    "hgt": hgt.read_hgt,
+    "geotiff": geotiff.read_geotiff,
+    "envi": envi.read_envi,
+    "usgs-dem": usgs_dem.read_usgs_dem,
+    "esri-ascii": esri_ascii.read_esri_ascii,
+    "png": png.read_png,
+    "npy": npy.read_npy,
+    "terragen": terragen.read_terragen,
+}
+
+#: Readers of headerless files, which take the grid ``size``.
+_RAW_READERS = {"r16": raw.read_r16, "r32": raw.read_r32}
+
+#: Writers by format name, called as ``writer(field, binary_file)``; those of
+#: :data:`_SIDECAR_FORMATS` return the sidecar content.
+_WRITERS = {
+    "geotiff": geotiff.write_geotiff,
+    "esri-ascii": esri_ascii.write_esri_ascii,
+    "png": png.write_png,
+    "npy": npy.write_npy,
+    "terragen": terragen.write_terragen,
+    "r16": raw.write_r16,
+    "r32": raw.write_r32,
+}
+
+#: Formats written with a JSON sidecar (see :func:`._common.make_sidecar`).
+_SIDECAR_FORMATS = {"png", "npy", "r16", "r32"}
+
+_MESH_WRITERS = {".obj": mesh.write_obj, ".stl": mesh.write_stl, ".ply": mesh.write_ply}
+
+#: Extensions :func:`load_dem` reads.
+READ_EXTENSIONS: tuple[str, ...] = tuple(_FORMAT_NAMES)
+#: Extensions :func:`save_dem` writes.
+WRITE_EXTENSIONS: tuple[str, ...] = tuple(ext for ext, name in _FORMAT_NAMES.items() if name in _WRITERS)
+#: Extensions :func:`save_mesh` writes.
+MESH_EXTENSIONS: tuple[str, ...] = tuple(_MESH_WRITERS)
+
+
+def format_name(path: str | PathLike) -> str:
+    """Short name of the DEM format of ``path`` from its extension.
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    str
+        ``"hgt"``, ``"geotiff"``, ``"envi"``, ``"usgs-dem"``, ``"esri-ascii"``,
+        ``"png"``, ``"npy"``, ``"terragen"``, ``"r16"`` or ``"r32"``.
+
+    Raises
+    ------
+    DEMFormatError
+        For an extension that is not a DEM format; the message lists the
+        supported ones.
+    """
+    path = Path(path)
+    name = _FORMAT_NAMES.get(path.suffix.lower())
+    if name is None:
+        raise DEMFormatError(
+            f"{path}: unknown DEM extension {path.suffix!r}; supported: {', '.join(READ_EXTENSIONS)}"
+        )
+    return name
+
+
+def load_dem(path: str | PathLike, *, size: tuple[int, int] | None = None) -> HeightField:
+    """Read a DEM file, choosing the reader from the extension.
+
+    Parameters
+    ----------
+    path : str or path-like
+        One of :data:`READ_EXTENSIONS` (any case).
+    size : (rows, cols), optional
+        Grid shape of a headerless ``.r16``/``.r32`` file.  Without it the
+        shape comes from the sidecar, else the grid must be square.  Ignored
+        by the other formats, whose files say their own shape.
+
+    Returns
+    -------
+    HeightField
+        North-up float32 heights in metres with NaN for nodata;
+        ``format`` is the short name of :func:`format_name`, ``source`` the
+        path.
+
+    Raises
+    ------
+    DEMFormatError
+        Unknown extension, missing file, or content that cannot be read;
+        always one line naming the file.
+    """
+    path = Path(path)
+    name = format_name(path)
+    if not path.is_file():
+        raise DEMFormatError(f"{path}: no such file" if not path.exists() else f"{path}: not a file")
+    with wrap_errors(path, "read"):
+        if name in _RAW_READERS:
+            return _RAW_READERS[name](path, size=size)
+        return _READERS[name](path)
+
+
+def save_dem(field: HeightField, path: str | PathLike) -> None:
+    """Write ``field`` in the format given by the extension of ``path``.
+
+    Parameters
+    ----------
+    field : HeightField
+    path : str or path-like
+        One of :data:`WRITE_EXTENSIONS` (any case).  PNG, ``.r16``, ``.r32``
+        and ``.npy`` also get the sidecar ``<same stem>.json``.
+
+    Notes
+    -----
+    What each format keeps:
+
+    * ``.tif``: float32 heights exactly, NaN nodata, georeference and EPSG.
+    * ``.asc``: float32 heights exactly, nodata, georeference (no EPSG).
+    * ``.npy``, ``.r32``: float32 heights exactly, NaN nodata; placement
+      in the sidecar.
+    * ``.png``, ``.r16``: 16-bit levels between min and max (error at most
+      half a level, about range / 131070), level 0 for nodata; placement in
+      the sidecar.
+    * ``.ter``: int16 with scale, error below range / 30000 for a range
+      over about 0.6 cell sizes; nodata filled with the minimum.
+
+    Raises
+    ------
+    DEMFormatError
+        Unsupported extension, unwritable destination, or a field the
+        format cannot hold; the message names the file.
+    """
+    path = Path(path)
+    name = _FORMAT_NAMES.get(path.suffix.lower())
+    if name not in _WRITERS:
+        raise DEMFormatError(
+            f"cannot write {path}: unsupported extension {path.suffix!r}; "
+            f"supported: {', '.join(WRITE_EXTENSIONS)}"
+        )
+    if not isinstance(field, HeightField):
+        raise TypeError(f"save_dem expects a HeightField, got {type(field).__name__}")
+    targets = (path, sidecar_path(path)) if name in _SIDECAR_FORMATS else (path,)
+    with wrap_errors(path, "write"), atomic_outputs(*targets) as temps:
+        with open_new(temps[0]) as fh:
+            sidecar = _WRITERS[name](field, fh)
+        if len(temps) > 1:
+            write_sidecar(sidecar, temps[1])
+
+
+def save_mesh(
+    field: HeightField,
+    path: str | PathLike,
+    *,
+    vertical_scale: float = 1.0,
+    step: int = 1,
+) -> None:
+    """Write the surface of ``field`` as a triangle mesh.
+
+    Parameters
+    ----------
+    field : HeightField
+    path : str or path-like
+        ``.obj`` (text), ``.stl`` (binary) or ``.ply`` (binary
+        little-endian), any case.
+    vertical_scale : float, default 1.0
+        Factor on heights (vertical exaggeration).
+    step : int, default 1
+        Keep every ``step``-th row and column, to thin large grids.
+
+    Notes
+    -----
+    Vertices are the valid nodes at ``x = col * dx``, ``y = (rows - 1 -
+    row) * dy``, ``z = height * vertical_scale`` (metres; 1 per cell when the
+    cell size is unknown); two triangles per cell, those touching nodata
+    left out.  See :func:`terrasynth_core.io.mesh.mesh_arrays`.
+
+    Raises
+    ------
+    DEMFormatError
+        Unsupported extension, unwritable destination, no valid triangle.
+    ParamsError
+        Bad ``vertical_scale`` or ``step``.
+    """
+    path = Path(path)
+    writer = _MESH_WRITERS.get(path.suffix.lower())
+    if writer is None:
+        raise DEMFormatError(
+            f"cannot write {path}: unsupported mesh extension {path.suffix!r}; "
+            f"supported: {', '.join(MESH_EXTENSIONS)}"
+        )
+    with wrap_errors(path, "write"), atomic_outputs(path) as (temp,):
+        vertices, faces = mesh.mesh_arrays(field, vertical_scale=vertical_scale, step=step)
+        with open_new(temp) as fh:
+            writer(vertices, faces, fh)

@@ -1,0 +1,290 @@
+"""Helpers shared by the DEM readers and writers.
+
+* atomic output: every file is first written under a temporary name in the
+  destination directory and moved into place with :func:`os.replace`, so a
+  crash never leaves a half-written DEM behind;
+* the JSON sidecar that gives heightmaps without a header (PNG, RAW, NPY)
+  their height range, cell size and georeference;
+* the 16-bit level encoding of heights used by PNG and ``.r16``;
+* turning library exceptions into one :class:`DEMFormatError` line.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import secrets
+import struct
+import zlib
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from ..errors import DEMFormatError, TerraSynthError
+from ..heightfield import GeoReference, HeightField, geographic_cell_size
+
+#: Value of the sidecar's ``"format"`` key; a JSON file without it is not ours.
+SIDECAR_FORMAT = "terrasynth-heightmap"
+
+#: Exceptions that file-format libraries raise on bad input.  They are turned
+#: into :class:`DEMFormatError`; anything else is a bug and propagates.
+LIBRARY_ERRORS = (
+    OSError,
+    ValueError,
+    EOFError,
+    SyntaxError,
+    KeyError,
+    IndexError,
+    TypeError,
+    OverflowError,
+    MemoryError,
+    struct.error,
+    zlib.error,
+    Image.DecompressionBombError,
+)
+
+
+@contextmanager
+def wrap_errors(path: Path, action: str) -> Iterator[None]:
+    """Re-raise library exceptions as one :class:`DEMFormatError` line.
+
+    A :class:`DEMFormatError` that does not name ``path`` yet (writers do
+    not know it) gets it prefixed.
+
+    Parameters
+    ----------
+    path : Path
+        File named in the message.
+    action : str
+        What was being done, e.g. ``"read"`` or ``"write"``.
+    """
+    try:
+        yield
+    except DEMFormatError as exc:
+        if str(path) in str(exc):
+            raise
+        raise DEMFormatError(f"cannot {action} {path}: {exc}") from exc
+    except TerraSynthError:
+        raise  # parameter errors are not about the file
+    except FileNotFoundError as exc:
+        raise DEMFormatError(f"cannot {action} {path}: no such file or directory") from exc
+    except LIBRARY_ERRORS as exc:
+        detail = " ".join(str(exc).split()) or type(exc).__name__
+        raise DEMFormatError(f"cannot {action} {path}: {detail}") from exc
+
+
+@contextmanager
+def atomic_outputs(*paths: Path) -> Iterator[list[Path]]:
+    """Temporary paths beside ``paths``, moved onto them if the block succeeds.
+
+    The temporary files are created by the caller (use :func:`open_new`).  On
+    success each one replaces its target with :func:`os.replace` (atomic on
+    POSIX and Windows within one file system); on failure they are removed and
+    the targets are left untouched.
+    """
+    temps = [p.with_name(f".{p.name}.{secrets.token_hex(6)}.tmp") for p in paths]
+    try:
+        yield temps
+        for temp, target in zip(temps, paths):
+            os.replace(temp, target)
+    finally:
+        for temp in temps:
+            temp.unlink(missing_ok=True)
+
+
+def open_new(path: Path):
+    """Open a new file for binary writing; fails if it exists.
+
+    Unlike :mod:`tempfile`, the permissions follow the umask, so the final
+    file gets the same mode as any file the user creates.
+    """
+    return open(path, "xb")
+
+
+# -- sidecar -------------------------------------------------------------
+
+
+def sidecar_path(path: Path) -> Path:
+    """``<same stem>.json`` beside a heightmap file."""
+    return path.with_suffix(".json")
+
+
+def make_sidecar(field: HeightField, *, nodata_value: float | None) -> dict:
+    """The sidecar content describing ``field``.
+
+    Parameters
+    ----------
+    field : HeightField
+    nodata_value : float or None
+        Stored value meaning nodata (0 for 16-bit levels), ``None`` when the
+        file stores NaN or has no nodata.
+
+    Returns
+    -------
+    dict
+        ``format``, ``version``, ``min`` and ``max`` (metres), ``cell_size``
+        (``[dy, dx]`` metres or ``None``), ``nodata_value``, ``georef`` (the
+        :class:`GeoReference` fields or ``None``) and ``shape``
+        (``[rows, cols]``, which headerless raw files need).
+    """
+    return {
+        "format": SIDECAR_FORMAT,
+        "version": 1,
+        "min": field.min,
+        "max": field.max,
+        "cell_size": list(field.cell_size) if field.cell_size is not None else None,
+        "nodata_value": nodata_value,
+        "georef": _georef_json(field.georef),
+        "shape": list(field.shape),
+    }
+
+
+def _georef_json(georef: GeoReference | None) -> dict | None:
+    """Plain JSON values of a georeference (numpy scalars are not JSON)."""
+    if georef is None:
+        return None
+    content = {key: float(value) for key, value in asdict(georef).items() if key != "epsg"}
+    content["epsg"] = int(georef.epsg) if georef.epsg is not None else None
+    return content
+
+
+def write_sidecar(content: dict, path: Path) -> None:
+    """Write a sidecar dictionary as JSON to a new file ``path``."""
+    with open_new(path) as fh:
+        fh.write((json.dumps(content, indent=2) + "\n").encode("utf-8"))
+
+
+def read_sidecar(path: Path) -> dict | None:
+    """The sidecar of the heightmap ``path``, or ``None`` when there is none.
+
+    A JSON file with the same stem that was not written by TerraSynth (no
+    ``"format": "terrasynth-heightmap"``) is ignored.  A sidecar of ours that
+    is malformed raises :class:`DEMFormatError` naming it.
+    """
+    side = sidecar_path(path)
+    if not side.is_file():
+        return None
+    try:
+        content = json.loads(side.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise DEMFormatError(f"cannot read sidecar {side}: {exc}") from exc
+    if not isinstance(content, dict) or content.get("format") != SIDECAR_FORMAT:
+        return None
+    try:
+        lo, hi = float(content["min"]), float(content["max"])
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+            raise ValueError(f"min {lo} and max {hi} must be finite with min <= max")
+        content["min"], content["max"] = lo, hi
+        if content.get("cell_size") is not None:
+            dy, dx = (float(v) for v in content["cell_size"])
+            content["cell_size"] = (dy, dx)
+        if content.get("georef") is not None:
+            content["georef"] = GeoReference(**content["georef"])
+        if content.get("shape") is not None:
+            rows, cols = (int(v) for v in content["shape"])
+            content["shape"] = (rows, cols)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise DEMFormatError(f"sidecar {side} is malformed: {exc}") from exc
+    return content
+
+
+# -- 16-bit levels ----------------------------------------------------------
+
+
+def encode_levels(field: HeightField) -> tuple[np.ndarray, dict]:
+    """Heights as 16-bit levels and the sidecar that maps them back.
+
+    Without nodata the range ``min..max`` maps linearly to ``0..65535``.  With
+    nodata, level 0 is reserved for it and valid cells use ``1..65535``.
+
+    Returns
+    -------
+    levels : ndarray of uint16, shape (rows, cols)
+    sidecar : dict
+        See :func:`make_sidecar`.
+    """
+    heights = field.heights
+    nodata = field.nodata
+    lo, hi = field.min, field.max
+    has_nodata = bool(nodata.any())
+    first = 1 if has_nodata else 0
+    span = 65535 - first
+    if hi > lo:
+        filled = np.where(nodata, lo, heights).astype(np.float64)
+        levels = first + np.rint((filled - lo) * (span / (hi - lo)))
+    else:
+        # A flat field has no range: every valid cell takes the top level.
+        levels = np.full(heights.shape, 65535.0)
+    levels = np.where(nodata, 0, levels).astype(np.uint16)
+    return levels, make_sidecar(field, nodata_value=0 if has_nodata else None)
+
+
+def decode_levels(levels: np.ndarray, top: int, sidecar: dict | None) -> np.ndarray:
+    """Heights in metres from integer levels, the inverse of :func:`encode_levels`.
+
+    Parameters
+    ----------
+    levels : ndarray of int, shape (rows, cols)
+    top : int
+        Largest level of the storage (255 for 8-bit, 65535 for 16-bit).
+    sidecar : dict or None
+        Without one, the levels themselves are the heights.
+
+    Returns
+    -------
+    ndarray of float32, shape (rows, cols)
+        ``NaN`` where the level is the sidecar's nodata value.
+    """
+    if sidecar is None:
+        return levels.astype(np.float32)
+    nodata_value = sidecar.get("nodata_value")
+    first = 0 if nodata_value is None else 1
+    lo, hi = sidecar["min"], sidecar["max"]
+    heights = lo + (levels.astype(np.float64) - first) * ((hi - lo) / (top - first))
+    if nodata_value is not None:
+        heights[levels == nodata_value] = np.nan
+    return heights.astype(np.float32)
+
+
+def apply_sidecar_nodata(values: np.ndarray, sidecar: dict | None) -> np.ndarray:
+    """Float32 heights with the sidecar's ``nodata_value`` (if any) set to NaN."""
+    heights = values.astype(np.float32)
+    if sidecar is not None and sidecar.get("nodata_value") is not None:
+        heights[values == sidecar["nodata_value"]] = np.nan
+    return heights
+
+
+def sidecar_placement(sidecar: dict | None) -> dict:
+    """``cell_size`` and ``georef`` keyword arguments from a sidecar."""
+    if sidecar is None:
+        return {"cell_size": None, "georef": None}
+    return {"cell_size": sidecar.get("cell_size"), "georef": sidecar.get("georef")}
+
+
+# -- geometry -------------------------------------------------------------
+
+
+def geographic_cell(lat_deg: float, y_step_deg: float, x_step_deg: float) -> tuple[float, float]:
+    """Ground size ``(dy, dx)`` in metres of a cell of ``y_step x x_step`` degrees."""
+    dy = geographic_cell_size(lat_deg, y_step_deg)[0]
+    dx = geographic_cell_size(lat_deg, x_step_deg)[1]
+    return (dy, dx)
+
+
+def looks_geographic(x: float, y: float, step: float) -> bool:
+    """Whether coordinates without a CRS are likely degrees.
+
+    Longitudes within +-180, latitudes within +-90 and a step under 0.1 are
+    implausible for a grid in metres.
+    """
+    return abs(x) <= 180 and abs(y) <= 90 and step < 0.1
+
+
+def is_geographic_epsg(epsg: int) -> bool:
+    """Whether an EPSG code names a geographic 2-D CRS (the 4000-4999 block)."""
+    return 4000 <= epsg < 5000
