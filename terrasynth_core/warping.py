@@ -1,0 +1,398 @@
+"""Thin-plate spline warps of example patches onto sketch features.
+
+A matched example patch rarely has its ridge exactly where the sketch wants
+it.  Zhou et al. (2007, §4.1) bend the patch with a thin-plate spline that
+carries the example's control points (feature point and the places where the
+feature crosses the patch's inscribed circle) onto the sketch's, and rank the
+candidates by the spline's bending energy.
+
+Coordinates are ``(row, col)`` in grid cells throughout.
+
+References
+----------
+.. [1] F. L. Bookstein, "Principal warps: thin-plate splines and the
+   decomposition of deformations", IEEE TPAMI 11(6):567-585, 1989.
+.. [2] H. Zhou, J. Sun, G. Turk, J. M. Rehg, "Terrain synthesis from digital
+   elevation models", IEEE TVCG 13(4):834-848, 2007.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import ndimage
+
+from .errors import ParamsError
+
+#: Relative size (to the point spread) below which two control points count
+#: as the same point.
+_DEGENERACY_TOL = 1e-9
+
+#: Cells of margin kept around the sampled area when cropping the source for
+#: ``map_coordinates``; splines of order > 1 are prefiltered on the crop, and
+#: their coefficients' dependence on far cells decays by about 0.27 per cell,
+#: so 12 cells make the crop's effect negligible (< 1e-6 relative).
+_CROP_MARGIN = 12
+
+
+def _radial_kernel(r2: np.ndarray) -> np.ndarray:
+    """Bookstein's ``U = r^2 log r^2`` from squared distances (``U(0) = 0``)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = r2 * np.log(r2)
+    return np.where(r2 > 0.0, u, 0.0)
+
+
+def _squared_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(len(a), len(b))`` squared Euclidean distances between point sets."""
+    dr = a[:, 0, None] - b[None, :, 0]
+    dc = a[:, 1, None] - b[None, :, 1]
+    return dr * dr + dc * dc
+
+
+def _as_points(points, name: str) -> np.ndarray:
+    p = np.asarray(points, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ParamsError(f"{name} must be an (n, 2) array of (row, col) points, got shape {p.shape}")
+    if not np.isfinite(p).all():
+        raise ParamsError(f"{name} holds non-finite coordinates")
+    return p
+
+
+def _similarity_fit(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares rotation + uniform scale + translation taking src to dst.
+
+    Returns ``(linear, offset)`` with ``dst ~ src @ linear.T + offset``.
+    Points are treated as complex numbers ``row + i col``: the fit is the
+    linear regression ``z' = a z + b`` with complex ``a``, which is exact for
+    two points.
+    """
+    zs = src[:, 0] + 1j * src[:, 1]
+    zd = dst[:, 0] + 1j * dst[:, 1]
+    ms, md = zs.mean(), zd.mean()
+    denom = np.vdot(zs - ms, zs - ms).real
+    a = np.vdot(zs - ms, zd - md) / denom if denom > 0 else 1.0 + 0j
+    b = md - a * ms
+    linear = np.array([[a.real, -a.imag], [a.imag, a.real]])
+    return linear, np.array([b.real, b.imag])
+
+
+class ThinPlateSpline:
+    """A 2-D thin-plate spline map ``f: (row, col) -> (row, col)``.
+
+    ``f(x) = c + L (x - m) + sum_i w_i U(|x - p_i|)`` with ``U(r) = r^2 log r^2``
+    (Bookstein 1989), control points ``p_i``, their mean ``m``, an affine part
+    ``(c, L)`` and kernel weights ``w`` (one column per output coordinate).
+    Build one with :meth:`fit` (interpolating control points) or
+    :meth:`similarity` (a rotation/scale/mirror, no bending).
+
+    Attributes
+    ----------
+    control_points : ndarray of float64, shape (n, 2)
+        Source-side kernel centres (may include one virtual point, see
+        :meth:`fit`); empty for a purely affine map.
+    weights : ndarray of float64, shape (n, 2)
+    linear : ndarray of float64, shape (2, 2)
+        Linear part ``L`` of the affine term: ``f(x) ~ L x`` far away.
+    """
+
+    def __init__(
+        self,
+        control_points: np.ndarray,
+        weights: np.ndarray,
+        offset: np.ndarray,
+        linear: np.ndarray,
+        center: np.ndarray,
+    ):
+        self.control_points = control_points
+        self.weights = weights
+        self.linear = linear
+        self._offset = offset
+        self._center = center
+        if len(control_points):
+            k = _radial_kernel(_squared_distances(control_points, control_points))
+            energy = float(np.einsum("ik,ij,jk->", weights, k, weights))
+        else:
+            energy = 0.0
+        # w^T K w is non-negative on the space P^T w = 0; clip round-off.
+        self._bending_energy = max(energy, 0.0)
+
+    # -- construction ----------------------------------------------------
+    @classmethod
+    def fit(
+        cls, src, dst, *, regularization: float = 0.0, collinear_tolerance: float = 0.05
+    ) -> "ThinPlateSpline":
+        """Thin-plate spline taking each ``src[i]`` to ``dst[i]``.
+
+        Parameters
+        ----------
+        src, dst : array_like of float, shape (n, 2)
+            Corresponding ``(row, col)`` control points, n >= 1.  ``src`` must
+            not repeat a point (``dst`` may: the map then folds).
+        regularization : float, default 0.0
+            Smoothing ``lambda >= 0`` added to the kernel diagonal; 0
+            interpolates the control points exactly, larger values trade
+            exactness for less bending.
+        collinear_tolerance : float, default 0.05
+            ``src`` points whose spread across their best-fit line is at most
+            this fraction of the spread along it count as collinear (see
+            Notes); 0 keeps only exactly collinear points.  Nearly straight
+            control sets (a gently curved path) otherwise pin the affine part
+            across the line to tiny offsets and blow it up.
+
+        Returns
+        -------
+        ThinPlateSpline
+
+        Raises
+        ------
+        ParamsError
+            Shapes differ or are not (n, 2), coordinates are not finite, n is
+            0, ``src`` repeats a point, or ``regularization`` or
+            ``collinear_tolerance`` is out of range.
+
+        Notes
+        -----
+        Degenerate control sets fall back gracefully instead of failing:
+
+        * n = 1: a translation.
+        * n = 2: the rotation + uniform scale + translation through both
+          points (exact).
+        * n >= 3 collinear ``src`` points leave the spline's affine part
+          undetermined across the line (nearly collinear ones, badly
+          determined).  One virtual control point is added
+          off the line (at the points' mean, one spread away), mapped by the
+          least-squares similarity of the real points; the spline then still
+          interpolates every real point, bends to fit them, and behaves like
+          that similarity across the line.
+
+        A spline through 3 non-collinear points is always affine (bending
+        energy 0): use :attr:`anisotropy` to also rank affine distortion.
+        """
+        src = _as_points(src, "src control points")
+        dst = _as_points(dst, "dst control points")
+        if src.shape != dst.shape:
+            raise ParamsError(f"src and dst control points must have the same shape, got {src.shape} and {dst.shape}")
+        n = len(src)
+        if n == 0:
+            raise ParamsError("a thin-plate spline needs at least 1 control point, got 0")
+        if not (regularization >= 0.0 and math.isfinite(regularization)):
+            raise ParamsError(f"regularization must be a finite value >= 0, got {regularization}")
+        if not 0.0 <= collinear_tolerance < 1.0:
+            raise ParamsError(f"collinear_tolerance must be in [0, 1), got {collinear_tolerance}")
+
+        center = src.mean(axis=0)
+        spread = float(np.sqrt(((src - center) ** 2).sum(axis=1).max()))
+        tol = _DEGENERACY_TOL * max(spread, 1.0)
+        if n > 1:
+            d2 = _squared_distances(src, src)
+            d2[np.diag_indices(n)] = np.inf
+            if d2.min() <= tol * tol:
+                i, j = np.unravel_index(np.argmin(d2), d2.shape)
+                raise ParamsError(
+                    f"src control points {i} and {j} coincide at {tuple(src[i])}; expected distinct points"
+                )
+
+        empty = np.zeros((0, 2))
+        if n == 1:
+            return cls(empty, empty, dst[0] - src[0] + center, np.eye(2), center)
+        if n == 2:
+            linear, offset = _similarity_fit(src, dst)
+            return cls(empty, empty, center @ linear.T + offset, linear, center)
+
+        # Collinear: the centred points' smaller singular value is ~ 0, or
+        # small against the larger one.
+        _, sing, vt = np.linalg.svd(src - center, full_matrices=False)
+        if sing[-1] <= max(tol * math.sqrt(n), collinear_tolerance * sing[0]):
+            linear, offset = _similarity_fit(src, dst)
+            virtual = center + spread * vt[-1]
+            src = np.vstack([src, virtual])
+            dst = np.vstack([dst, virtual @ linear.T + offset])
+            n += 1
+
+        x = src - center
+        k = _radial_kernel(_squared_distances(src, src))
+        system = np.zeros((n + 3, n + 3))
+        system[:n, :n] = k + regularization * np.eye(n)
+        system[:n, n] = 1.0
+        system[:n, n + 1 :] = x
+        system[n, :n] = 1.0
+        system[n + 1 :, :n] = x.T
+        rhs = np.zeros((n + 3, 2))
+        rhs[:n] = dst
+        sol = np.linalg.solve(system, rhs)
+        weights = sol[:n]
+        return cls(src, weights, sol[n], sol[n + 1 :].T, center)
+
+    @classmethod
+    def similarity(
+        cls,
+        *,
+        angle: float = 0.0,
+        scale: float = 1.0,
+        mirror: bool = False,
+        center=(0.0, 0.0),
+        offset=(0.0, 0.0),
+    ) -> "ThinPlateSpline":
+        """A map without bending: ``x -> center + offset + scale R M (x - center)``.
+
+        Parameters
+        ----------
+        angle : float, default 0.0
+            Rotation in radians, counter-clockwise as seen on a north-up map
+            (rows down): a quarter turn takes the ``+col`` direction to
+            ``-row``.
+        scale : float, default 1.0
+            Uniform scale, > 0.
+        mirror : bool, default False
+            Flip left-right (negate the column offset from ``center``) before
+            rotating.
+        center : (row, col), default (0, 0)
+            Fixed point of the rotation, scale and mirror.
+        offset : (row, col), default (0, 0)
+            Translation applied afterwards.
+
+        Returns
+        -------
+        ThinPlateSpline
+            With bending energy 0 and anisotropy 0.
+        """
+        if not (scale > 0.0 and math.isfinite(scale)):
+            raise ParamsError(f"similarity scale must be a finite value > 0, got {scale}")
+        cos, sin = math.cos(angle), math.sin(angle)
+        linear = scale * np.array([[cos, -sin], [sin, cos]])
+        if mirror:
+            linear = linear @ np.diag([1.0, -1.0])
+        c = np.asarray(center, dtype=np.float64)
+        empty = np.zeros((0, 2))
+        return cls(empty, empty, c + np.asarray(offset, dtype=np.float64), linear, c)
+
+    # -- evaluation ------------------------------------------------------
+    def transform(self, points) -> np.ndarray:
+        """Map points.
+
+        Parameters
+        ----------
+        points : array_like of float, shape (m, 2)
+            ``(row, col)`` positions.
+
+        Returns
+        -------
+        ndarray of float64, shape (m, 2)
+        """
+        p = _as_points(points, "points")
+        out = (p - self._center) @ self.linear.T + self._offset
+        if len(self.control_points):
+            out += _radial_kernel(_squared_distances(p, self.control_points)) @ self.weights
+        return out
+
+    @property
+    def bending_energy(self) -> float:
+        """Bending energy ``sum_k w_k^T K w_k`` over both output coordinates.
+
+        Proportional to the integral of the squared second derivatives of
+        the map (Bookstein 1989); 0 for an affine map, in cells^2 (it grows
+        with the square of the displacements).
+        """
+        return self._bending_energy
+
+    @property
+    def anisotropy(self) -> float:
+        """``1 - s_min / s_max`` of the affine part's singular values.
+
+        0 for a similarity (rotation, uniform scale, mirror), towards 1 for
+        strong stretch or shear.  Complements :attr:`bending_energy`, which
+        ignores every affine distortion.
+        """
+        s = np.linalg.svd(self.linear, compute_uv=False)
+        return float(1.0 - s[-1] / s[0]) if s[0] > 0 else 1.0
+
+
+def warp_patch(
+    source: np.ndarray,
+    tps: ThinPlateSpline,
+    top_left,
+    shape,
+    *,
+    order: int = 1,
+    mode: str = "nearest",
+    return_valid: bool = False,
+):
+    """Resample ``source`` through a spline onto an output window.
+
+    Output pixel ``(r, c)`` sits at output coordinates ``top_left + (r, c)``
+    and takes the value of ``source`` at ``tps.transform(top_left + (r, c))``:
+    the spline maps *output* (sketch) coordinates to *source* (example)
+    coordinates.
+
+    Parameters
+    ----------
+    source : ndarray, shape (rows, cols)
+        Finite heights, e.g. the example DEM (float32 kept float32).
+    tps : ThinPlateSpline
+        Output-to-source map.
+    top_left : (row, col)
+        Output coordinates of the window's first pixel.
+    shape : (h, w)
+        Window size in cells.
+    order : int, default 1
+        Spline order of the interpolation (0-5), as in
+        ``scipy.ndimage.map_coordinates``.
+    mode : {"nearest", "reflect", "mirror"}, default "nearest"
+        How samples outside ``source`` are filled.
+    return_valid : bool, default False
+        Also return the fraction of samples that fell inside ``source``.
+
+    Returns
+    -------
+    patch : ndarray of float32, shape (h, w)
+    valid_fraction : float
+        Only with ``return_valid``: share of output pixels whose source
+        position lies inside ``[0, rows-1] x [0, cols-1]``.
+
+    Notes
+    -----
+    Only the part of ``source`` around the sampled positions is passed to
+    ``map_coordinates``, so a call costs the same on a 4,000^2 DEM as on a
+    small one.  For ``order=1`` this is exact; for higher orders the spline
+    prefilter runs on the crop plus a 12-cell margin, which changes values
+    by far less than float32 precision.
+    """
+    src = np.asarray(source)
+    if src.ndim != 2 or min(src.shape) < 1:
+        raise ParamsError(f"warp source must be a 2-D array, got shape {src.shape}")
+    h, w = (int(v) for v in shape)
+    if h < 1 or w < 1:
+        raise ParamsError(f"warp window shape must be positive, got {tuple(shape)}")
+    if order not in range(6):
+        raise ParamsError(f"interpolation order must be an integer 0-5, got {order}")
+    if mode not in ("nearest", "reflect", "mirror"):
+        raise ParamsError(f"warp mode must be 'nearest', 'reflect' or 'mirror', got {mode!r}")
+    if not np.issubdtype(src.dtype, np.floating):
+        src = src.astype(np.float32)
+
+    r0, c0 = (float(v) for v in top_left)
+    rr, cc = np.mgrid[0:h, 0:w]
+    out_pts = np.column_stack([rr.ravel() + r0, cc.ravel() + c0])
+    coords = tps.transform(out_pts)
+    rows, cols = src.shape
+    inside = (
+        (coords[:, 0] >= 0.0) & (coords[:, 0] <= rows - 1) & (coords[:, 1] >= 0.0) & (coords[:, 1] <= cols - 1)
+    )
+
+    # Crop to the sampled area; "reflect"/"mirror" need the whole source as
+    # soon as a sample falls outside it, so crop only when all are inside.
+    if mode == "nearest" or inside.all():
+        margin = _CROP_MARGIN if order > 1 else 1
+        lo = np.floor(coords.min(axis=0)).astype(np.int64) - margin
+        hi = np.ceil(coords.max(axis=0)).astype(np.int64) + margin + 1
+        lo = np.clip(lo, 0, [rows - 1, cols - 1])
+        hi = np.clip(hi, lo + 1, [rows, cols])
+        src = src[lo[0] : hi[0], lo[1] : hi[1]]
+        coords = coords - lo
+
+    patch = ndimage.map_coordinates(src, coords.T, order=order, mode=mode, prefilter=order > 1)
+    patch = patch.reshape(h, w).astype(np.float32, copy=False)
+    if return_valid:
+        return patch, float(inside.mean())
+    return patch

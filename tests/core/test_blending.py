@@ -1,0 +1,175 @@
+"""Poisson seam removal and the seam-step diagnostic."""
+
+import numpy as np
+import pytest
+
+from terrasynth_core.blending import remove_seam, seam_step
+from terrasynth_core.errors import ParamsError
+
+SHAPE = (40, 48)
+SEAM_COL = 24
+STEP = 50.0
+
+
+@pytest.fixture
+def grid():
+    rr, cc = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1]]
+    return rr.astype(np.float64), cc.astype(np.float64)
+
+
+@pytest.fixture
+def take_new():
+    return np.broadcast_to(np.arange(SHAPE[1]) >= SEAM_COL, SHAPE).copy()
+
+
+def _left_column():
+    fixed = np.zeros(SHAPE, bool)
+    fixed[:, 0] = True
+    return fixed
+
+
+def _jump(h):
+    return np.abs(h[:, SEAM_COL].astype(np.float64) - h[:, SEAM_COL - 1]).max()
+
+
+def test_poisson_removes_a_step_between_two_planes(grid, take_new):
+    rr, cc = grid
+    plane = 1200.0 + 0.4 * rr + 0.05 * cc
+    composite = (plane + STEP * take_new).astype(np.float32)
+    before = composite.copy()
+    fixed = _left_column()
+    out = remove_seam(composite, take_new, np.ones(SHAPE, bool), fixed=fixed)
+
+    assert out.dtype == np.float32
+    assert _jump(composite) > STEP
+    assert _jump(out) < 0.01 * STEP
+    np.testing.assert_array_equal(out[fixed], composite[fixed])
+    np.testing.assert_array_equal(composite, before)
+    # Away from the seam the planes' own slopes survive.
+    np.testing.assert_allclose(np.diff(out[:, 30:], axis=0), 0.4, atol=1e-3)
+
+
+def test_step_is_spread_when_both_sides_are_fixed(grid, take_new):
+    rr, cc = grid
+    composite = (300.0 + 0.2 * rr + STEP * take_new).astype(np.float32)
+    fixed = np.zeros(SHAPE, bool)
+    fixed[:, [0, -1]] = True
+    out = remove_seam(composite, take_new, ~fixed, fixed=fixed)
+    np.testing.assert_array_equal(out[fixed], composite[fixed])
+    # The 50 m difference between the fixed sides becomes a ramp: no cliff.
+    # Every column step, the seam's included, is the same share of it.
+    np.testing.assert_allclose(np.diff(out.astype(np.float64), axis=1), STEP / (SHAPE[1] - 1), rtol=1e-4)
+
+
+def test_c1_keeps_slope_continuity_better_than_poisson(grid, take_new):
+    _, cc = grid
+    composite = (100.0 + 2.0 * cc + 30.0 * take_new).astype(np.float32)
+    region = np.ones(SHAPE, bool)
+    fixed = _left_column()
+    results = {mode: remove_seam(composite, take_new, region, fixed=fixed, mode=mode) for mode in ("poisson", "c1")}
+
+    def crease(h):
+        h = h.astype(np.float64)
+        return np.abs(np.diff(h[:, SEAM_COL - 3 : SEAM_COL + 3], n=2, axis=1)).max()
+
+    assert crease(results["poisson"]) > 1.5  # the paper's flat step: slope 2 -> 0 -> 2
+    assert crease(results["c1"]) < 0.01
+    for out in results.values():
+        assert _jump(out) < 0.05 * 30.0 + 2.0
+
+
+def test_pins_are_honoured(grid, take_new):
+    rr, cc = grid
+    composite = (500.0 + 0.3 * rr + 0.1 * cc + STEP * take_new).astype(np.float32)
+    border = np.zeros(SHAPE, bool)
+    border[[0, -1], :] = True
+    border[:, [0, -1]] = True
+    pins = [(20, 35, 640.0), (10, 8, 480.5), (0, 5, 9999.0)]  # the last lies on a fixed pixel
+    out = remove_seam(composite, take_new, np.ones(SHAPE, bool), fixed=border, pins=pins)
+    assert abs(out[20, 35] - 640.0) < 1e-3
+    assert abs(out[10, 8] - 480.5) < 1e-3
+    np.testing.assert_array_equal(out[border], composite[border])
+
+
+def test_a_pin_pulls_its_surroundings(grid):
+    rr, cc = grid
+    composite = (500.0 + 0.3 * rr + 0.1 * cc).astype(np.float32)
+    border = np.zeros(SHAPE, bool)
+    border[[0, -1], :] = True
+    border[:, [0, -1]] = True
+    seamless = np.ones(SHAPE, bool)
+    out = remove_seam(composite, seamless, np.ones(SHAPE, bool), fixed=border, pins=[(20, 24, 600.0)])
+    lift = out.astype(np.float64) - composite
+    assert lift[20, 24] == pytest.approx(600.0 - composite[20, 24], abs=1e-3)
+    # Harmonic falloff: positive, decreasing with distance, zero at the border.
+    assert lift[20, 25] > lift[20, 28] > lift[20, 35] > 0.0
+    np.testing.assert_array_equal(lift[border], 0.0)
+
+
+def test_pin_outside_the_window_raises(take_new):
+    heights = np.zeros(SHAPE, np.float32)
+    with pytest.raises(ParamsError, match="pin"):
+        remove_seam(heights, take_new, np.ones(SHAPE, bool), pins=[(SHAPE[0], 0, 1.0)])
+    with pytest.raises(ParamsError, match="pin"):
+        remove_seam(heights, take_new, np.ones(SHAPE, bool), pins=[(1.5, 0, 1.0)])
+
+
+def test_unanchored_region_is_returned_unchanged(grid, take_new):
+    _, cc = grid
+    composite = (cc + STEP * take_new).astype(np.float32)
+    out = remove_seam(composite, take_new, np.ones(SHAPE, bool))  # default fixed: nothing
+    np.testing.assert_array_equal(out, composite)
+
+    # Two free islands, only one touching a fixed pixel: only that one moves.
+    region = np.zeros(SHAPE, bool)
+    region[5:15, 10:40] = True
+    region[25:35, 10:40] = True
+    fixed = np.zeros(SHAPE, bool)
+    fixed[5:15, 9] = True
+    out = remove_seam(composite, take_new, region, fixed=fixed)
+    unchanged = ~region | (np.arange(SHAPE[0]) >= 20)[:, None]
+    np.testing.assert_array_equal(out[unchanged], composite[unchanged])
+    assert _jump(out[5:15]) < 0.01 * STEP
+
+
+def test_pixels_outside_region_and_fixed_are_a_neumann_border(grid, take_new):
+    rr, cc = grid
+    composite = (0.5 * rr + STEP * take_new).astype(np.float32)
+    composite[:, -4:] = np.nan  # no terrain there, neither region nor fixed
+    region = np.ones(SHAPE, bool)
+    region[:, -4:] = False
+    fixed = _left_column()
+    out = remove_seam(composite, take_new, region, fixed=fixed)
+    assert np.isnan(out[:, -4:]).all()
+    assert _jump(out) < 0.01 * STEP
+
+
+def test_cached_factorization_does_not_leak_heights(grid, take_new):
+    rr, cc = grid
+    region = np.ones(SHAPE, bool)
+    fixed = _left_column()
+    first = remove_seam((rr + STEP * take_new).astype(np.float32), take_new, region, fixed=fixed)
+    second_input = (2.0 * cc - STEP * take_new).astype(np.float32)
+    second = remove_seam(second_input, take_new, region, fixed=fixed)
+    assert not np.allclose(first, second)
+    np.testing.assert_array_equal(second[fixed], second_input[fixed])
+    assert _jump(second) < 0.01 * STEP + 2.0
+
+
+def test_bad_arguments_raise(take_new):
+    heights = np.zeros(SHAPE, np.float32)
+    with pytest.raises(ParamsError, match="mode"):
+        remove_seam(heights, take_new, np.ones(SHAPE, bool), mode="laplace")
+    with pytest.raises(ParamsError, match="region"):
+        remove_seam(heights, take_new, np.ones((3, 3), bool))
+    bad = heights.copy()
+    bad[5, 30] = np.nan
+    with pytest.raises(ParamsError, match="non-finite"):
+        remove_seam(bad, take_new, np.ones(SHAPE, bool), fixed=_left_column())
+
+
+def test_seam_step_measures_the_mean_jump(grid, take_new):
+    _, cc = grid
+    composite = (0.5 * cc + STEP * take_new).astype(np.float32)
+    assert seam_step(composite, take_new) == pytest.approx(STEP + 0.5)
+    assert seam_step(composite, np.zeros(SHAPE, bool)) == 0.0
