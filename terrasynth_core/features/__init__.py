@@ -1,0 +1,30 @@
+"""Ridges and valleys: PPA on DEMs, analysis of sketches, the feature graph.
+
+* :func:`extract_features` runs PPA on a DEM (:mod:`.ppa`);
+* :func:`read_sketch` / :func:`sketch_features` turn a red/blue sketch into
+  the same kind of graphs (:mod:`.sketch`);
+* both share the mask-to-graph pipeline of :mod:`.network`;
+* :mod:`.overlay` draws the graphs over a hillshade (import it directly:
+  it depends on :mod:`terrasynth_core.analysis`, which depends on this
+  package).
+"""
+
+from .graph import FeatureGraph, FeatureMaps, FeatureNode, FeaturePath
+from .ppa import PPAParams, extract_features, extract_ridges, extract_valleys
+from .sketch import SketchMap, SketchParams, read_sketch, save_sketch, sketch_features
+
+__all__ = [
+    "FeatureGraph",
+    "FeatureMaps",
+    "FeatureNode",
+    "FeaturePath",
+    "PPAParams",
+    "SketchMap",
+    "SketchParams",
+    "extract_features",
+    "extract_ridges",
+    "extract_valleys",
+    "read_sketch",
+    "save_sketch",
+    "sketch_features",
+]

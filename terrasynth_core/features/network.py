@@ -1,0 +1,525 @@
+"""From a mask of feature pixels to a :class:`FeatureGraph`.
+
+The pipeline shared by PPA (:mod:`terrasynth_core.features.ppa`, where the
+pixels are the profile *targets* weighted by height) and sketch analysis
+(:mod:`terrasynth_core.features.sketch`, where they are skeleton pixels
+weighted by stroke thickness):
+
+1. :func:`spanning_forest` links 8-adjacent pixels, drops the weaker of two
+   crossing diagonals and keeps a maximum spanning forest (Kruskal), which
+   breaks every closed loop at its weakest segment (PPA's "polygon breaking",
+   done in one pass as Bangay et al. 2010 suggest).
+2. :func:`compress_chains` turns the pixel forest into *chains*: maximal runs
+   of degree-2 pixels between two node pixels (degree 1 or >= 3).
+3. Branch reduction alternates with compression: short end branches (spurs)
+   are removed and small isolated components dropped, a few times over.
+4. :func:`chains_to_graph` merges branch points joined by very short chains
+   into one node, smooths the polylines with their ends fixed and builds the
+   :class:`~terrasynth_core.features.graph.FeatureGraph`.
+
+Everything is vectorized over pixels; Python only loops over iterations and,
+at the very end, over the surviving paths to build the graph objects.
+
+References
+----------
+Chang, Y.-C., Song, G.-S., Hsu, S.-K. (1998). Automatic extraction of ridge
+and valley axes using the profile recognition and polygon-breaking algorithm.
+Computers & Geosciences 24(1):83-93.
+
+Bangay, S., de Bruyn, D., Glass, K. (2010). Minimum spanning trees for valley
+and ridge characterization in digital elevation maps. AFRIGRAPH 2010.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage, sparse
+from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
+
+from .graph import FeatureGraph, FeatureKind, FeatureNode, FeaturePath
+
+#: Neighbour offsets ``(drow, dcol)`` that enumerate each 8-adjacent pair once.
+_FORWARD_OFFSETS = ((0, 1), (1, 0), (1, 1), (1, -1))
+
+
+@dataclass(frozen=True, eq=False)
+class PixelForest:
+    """An acyclic graph on pixels.
+
+    Parameters
+    ----------
+    coords : ndarray of int64, shape (n_pixels, 2)
+        ``(row, col)`` of every pixel; pixel ids index this array.
+    edges : ndarray of int64, shape (n_edges, 2)
+        Pairs of pixel ids that are linked.
+    """
+
+    coords: np.ndarray
+    edges: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Chains:
+    """Maximal pixel runs between node pixels of a :class:`PixelForest`.
+
+    Parameters
+    ----------
+    pixels : ndarray of int64, shape (n,)
+        Pixel ids of all chains, concatenated; each chain is ordered from its
+        ``start`` node to its ``end`` node, both included.
+    offsets : ndarray of int64, shape (n_chains + 1,)
+        Chain ``i`` is ``pixels[offsets[i]:offsets[i + 1]]``.
+    start, end : ndarray of int64, shape (n_chains,)
+        Node pixel ids at either end (degree 1 or >= 3 in the forest).
+    length : ndarray of float64, shape (n_chains,)
+        Polyline length in cells (steps of 1 or sqrt(2)).
+    """
+
+    pixels: np.ndarray
+    offsets: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    length: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.start)
+
+    def node_degree(self, n_pixels: int) -> np.ndarray:
+        """Number of chains at each pixel, shape (n_pixels,)."""
+        return np.bincount(np.concatenate([self.start, self.end]), minlength=n_pixels)
+
+    def chain_index(self) -> np.ndarray:
+        """Chain id of every entry of :attr:`pixels`, shape (n,)."""
+        return np.repeat(np.arange(len(self)), np.diff(self.offsets))
+
+    def edges(self, keep: np.ndarray | None = None) -> np.ndarray:
+        """Pixel links of the chains (or of the chains where ``keep``), shape (m, 2)."""
+        chain = self.chain_index()
+        same = chain[1:] == chain[:-1]
+        if keep is not None:
+            same &= keep[chain[1:]]
+        return np.stack([self.pixels[:-1][same], self.pixels[1:][same]], axis=1)
+
+
+def spanning_forest(mask: np.ndarray, strength: np.ndarray) -> PixelForest:
+    """Maximum spanning forest of the 8-adjacency graph of ``mask``.
+
+    Parameters
+    ----------
+    mask : ndarray of bool, shape (rows, cols)
+        Pixels to link.
+    strength : ndarray of float, shape (rows, cols)
+        Per-pixel strength; a link is as strong as the sum of its two ends
+        (PPA: the heights of the segment's ends).  Read only under ``mask``.
+
+    Returns
+    -------
+    PixelForest
+        The strongest acyclic subset of links; isolated pixels are kept in
+        ``coords`` but have no edge.
+
+    Notes
+    -----
+    Where both diagonals of a 2x2 block are present the weaker is dropped
+    first, so no two links cross.  Among equally strong links orthogonal ones
+    win: on a staircase of pixels that keeps the middle pixel on the line
+    instead of hanging it off as a one-pixel spur.
+    """
+    rows, cols = mask.shape
+    coords = np.argwhere(mask)
+    index = np.full(mask.shape, -1, dtype=np.int64)
+    index[mask] = np.arange(len(coords))
+    s = np.where(mask, strength, 0).astype(np.float64)
+
+    # Both diagonals of a full 2x2 block: keep only the stronger one.
+    full = mask[:-1, :-1] & mask[:-1, 1:] & mask[1:, :-1] & mask[1:, 1:]
+    se = s[:-1, :-1] + s[1:, 1:]
+    sw = s[:-1, 1:] + s[1:, :-1]
+    keep_diag = {(1, 1): ~full | (se >= sw), (1, -1): ~full | (sw > se)}
+
+    a_parts, b_parts, diag_parts = [], [], []
+    for dr, dc in _FORWARD_OFFSETS:
+        c_src = slice(max(0, -dc), cols - max(0, dc))
+        c_dst = slice(max(0, dc), cols - max(0, -dc))
+        src = index[: rows - dr, c_src]
+        dst = index[dr:, c_dst]
+        linked = (src >= 0) & (dst >= 0)
+        if (dr, dc) in keep_diag:
+            linked &= keep_diag[(dr, dc)]
+        a_parts.append(src[linked])
+        b_parts.append(dst[linked])
+        diag_parts.append(np.full(int(linked.sum()), dr != 0 and dc != 0))
+    a = np.concatenate(a_parts)
+    b = np.concatenate(b_parts)
+    if len(a) == 0:
+        return PixelForest(coords, np.empty((0, 2), dtype=np.int64))
+    pixel_strength = s[mask]
+    link_strength = pixel_strength[a] + pixel_strength[b]
+    # Kruskal only needs the order of the links, so the cost is a rank:
+    # strongest first, orthogonal before diagonal on ties; ranks start at 1
+    # because csgraph treats a zero entry as "no link".
+    order = np.lexsort((np.concatenate(diag_parts), -link_strength))
+    cost = np.empty(len(a), dtype=np.float64)
+    cost[order] = np.arange(1, len(a) + 1)
+    n = len(coords)
+    tree = minimum_spanning_tree(sparse.csr_matrix((cost, (a, b)), shape=(n, n))).tocoo()
+    edges = np.stack([tree.row, tree.col], axis=1).astype(np.int64)
+    return PixelForest(coords, edges)
+
+
+def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
+    """Split a pixel forest into chains between its node pixels.
+
+    Parameters
+    ----------
+    edges : ndarray of int64, shape (n_edges, 2)
+        Links of an acyclic pixel graph.
+    coords : ndarray of int, shape (n_pixels, 2)
+        ``(row, col)`` of each pixel id.
+
+    Returns
+    -------
+    Chains
+
+    Notes
+    -----
+    Near-linear, no per-pixel Python: every link end at a node pixel (degree
+    1 or >= 3) is replaced by a private copy of that pixel, which cuts the
+    forest into disjoint simple paths, one per chain, ending in two copies.
+    A virtual root is linked to one end copy of every path; one
+    breadth-first traversal from it ranks the pixels of each chain in order
+    along it, and a sort by (chain, rank) lists the chains one after another.
+    """
+    n = len(coords)
+    if len(edges) == 0:
+        empty = np.empty(0, dtype=np.int64)
+        return Chains(empty, np.zeros(1, dtype=np.int64), empty, empty, np.empty(0))
+    degree = np.bincount(edges.ravel(), minlength=n)
+    split = edges.copy()
+    at_node = degree[split] != 2
+    copy_of = split[at_node]
+    copies = n + np.arange(len(copy_of))
+    split[at_node] = copies
+    n_split = n + len(copies)
+
+    graph = sparse.csr_matrix(
+        (np.ones(len(split)), (split[:, 0], split[:, 1])), shape=(n_split, n_split)
+    )
+    _, label = connected_components(graph, directed=False)
+    first_copy = np.full(label.max() + 1, n_split, dtype=np.int64)
+    np.minimum.at(first_copy, label[copies], copies)
+    starts = first_copy[first_copy < n_split]
+
+    root = n_split
+    rows = np.concatenate([split[:, 0], np.full(len(starts), root)])
+    cols = np.concatenate([split[:, 1], starts])
+    rooted = sparse.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(root + 1, root + 1))
+    visited = breadth_first_order(rooted, root, directed=False, return_predecessors=False)[1:]
+    # Breadth-first rank grows along every chain, so sorting by (chain, rank)
+    # lists each chain contiguously from its first copy to its other end.
+    # (A depth-first order would need no sort, but scipy's is quadratic in
+    # the root's degree.)
+    order = visited[np.lexsort((np.arange(len(visited)), label[visited]))]
+
+    chain_label = label[order]
+    breaks = np.flatnonzero(chain_label[1:] != chain_label[:-1]) + 1
+    offsets = np.concatenate([[0], breaks, [len(order)]]).astype(np.int64)
+    pixels = order.astype(np.int64)
+    is_copy = pixels >= n
+    pixels[is_copy] = copy_of[pixels[is_copy] - n]
+
+    step = np.hypot(*np.diff(coords[pixels], axis=0).T.astype(np.float64))
+    step[chain_label[1:] != chain_label[:-1]] = 0.0
+    cumulative = np.concatenate([[0.0], np.cumsum(step)])
+    length = cumulative[offsets[1:] - 1] - cumulative[offsets[:-1]]
+    return Chains(pixels, offsets, pixels[offsets[:-1]], pixels[offsets[1:] - 1], length)
+
+
+def _spurs_to_remove(chains: Chains, n_pixels: int, prune_length: float) -> np.ndarray:
+    """Boolean mask of the short end chains to remove, shape (n_chains,).
+
+    A spur is a chain from an endpoint to a branch point.  At a branch point
+    of degree d at most d - 2 spurs go, the shortest first, so the two
+    longest lines through it always survive (a short "Y" becomes a line, it
+    does not vanish).
+    """
+    degree = chains.node_degree(n_pixels)
+    leaf_start = degree[chains.start] == 1
+    leaf_end = degree[chains.end] == 1
+    candidate = np.flatnonzero((leaf_start ^ leaf_end) & (chains.length < prune_length))
+    remove = np.zeros(len(chains), dtype=bool)
+    if len(candidate) == 0:
+        return remove
+    hub = np.where(leaf_start[candidate], chains.end[candidate], chains.start[candidate])
+    order = np.lexsort((chains.length[candidate], hub))
+    hub_sorted = hub[order]
+    group_start = np.flatnonzero(np.concatenate([[True], hub_sorted[1:] != hub_sorted[:-1]]))
+    rank = np.arange(len(order)) - np.repeat(group_start, np.diff(np.append(group_start, len(order))))
+    remove[candidate[order]] = rank < degree[hub_sorted] - 2
+    return remove
+
+
+def _small_components(chains: Chains, n_pixels: int, min_length: float) -> np.ndarray:
+    """Boolean mask of the chains whose connected component is shorter than
+    ``min_length`` cells in total, shape (n_chains,)."""
+    if len(chains) == 0:
+        return np.zeros(0, dtype=bool)
+    graph = sparse.csr_matrix(
+        (np.ones(len(chains)), (chains.start, chains.end)), shape=(n_pixels, n_pixels)
+    )
+    _, label = connected_components(graph, directed=False)
+    component_length = np.bincount(label[chains.start], weights=chains.length)
+    return component_length[label[chains.start]] < min_length
+
+
+def reduce_branches(
+    forest: PixelForest,
+    *,
+    prune_length: float,
+    prune_iterations: int,
+    min_component_length: float,
+) -> Chains:
+    """PPA's branch reduction on a pixel forest.
+
+    Parameters
+    ----------
+    forest : PixelForest
+    prune_length : float
+        End branches shorter than this many cells are removed.
+    prune_iterations : int
+        How many rounds of spur removal; each round can expose new spurs
+        (a spur on a spur).  Stops early when a round removes nothing.
+    min_component_length : float
+        Connected components shorter than this many cells in total are
+        dropped (before and after pruning).
+
+    Returns
+    -------
+    Chains
+        The chains of the reduced forest; no node pixel has degree 2.
+    """
+    n = len(forest.coords)
+    chains = compress_chains(forest.edges, forest.coords)
+    # Small components go first (PPA leaves many fragments, no need to prune
+    # them) and again last, as pruning can shrink a component below the limit.
+    chains = _drop(chains, _small_components(chains, n, min_component_length), forest.coords)
+    for _ in range(prune_iterations):
+        remove = _spurs_to_remove(chains, n, prune_length)
+        if not remove.any():
+            break
+        chains = _drop(chains, remove, forest.coords)
+    return _drop(chains, _small_components(chains, n, min_component_length), forest.coords)
+
+
+def _drop(chains: Chains, remove: np.ndarray, coords: np.ndarray) -> Chains:
+    """Chains without those marked in ``remove``, recompressed."""
+    if not remove.any():
+        return chains
+    return compress_chains(chains.edges(~remove), coords)
+
+
+def smooth_polylines(points: np.ndarray, offsets: np.ndarray, window: int) -> np.ndarray:
+    """Moving average along concatenated polylines, ends fixed.
+
+    Parameters
+    ----------
+    points : ndarray of float, shape (n, 2)
+        All polylines, concatenated.
+    offsets : ndarray of int, shape (n_lines + 1,)
+        Polyline ``i`` is ``points[offsets[i]:offsets[i + 1]]``.
+    window : int
+        Averaging window in points; 0 or 1 leave the points unchanged.
+
+    Returns
+    -------
+    ndarray of float64, shape (n, 2)
+
+    Notes
+    -----
+    The window is centred and shrinks symmetrically near the ends (to one
+    point at an end), so endpoints stay put and lines do not drift towards
+    their middle.
+    """
+    half = window // 2
+    if half < 1 or len(points) == 0:
+        return points.astype(np.float64)
+    line = np.repeat(np.arange(len(offsets) - 1), np.diff(offsets))
+    position = np.arange(len(points)) - offsets[line]
+    remaining = offsets[line + 1] - 1 - np.arange(len(points))
+    h = np.minimum(half, np.minimum(position, remaining))
+    cumulative = np.concatenate([np.zeros((1, 2)), np.cumsum(points, axis=0, dtype=np.float64)])
+    i = np.arange(len(points))
+    total = cumulative[i + h + 1] - cumulative[i - h]
+    return total / (2 * h + 1)[:, None]
+
+
+def chains_to_graph(
+    chains: Chains,
+    coords: np.ndarray,
+    *,
+    kind: FeatureKind,
+    shape: tuple[int, int],
+    junction_merge_distance: float,
+    smoothing: int,
+) -> FeatureGraph:
+    """Build the feature graph: merge close branch points, smooth, type nodes.
+
+    Parameters
+    ----------
+    chains : Chains
+        Reduced chains (no degree-2 node pixels).
+    coords : ndarray of int, shape (n_pixels, 2)
+        ``(row, col)`` of each pixel id.
+    kind : {"ridge", "valley"}
+    shape : (rows, cols)
+        Shape of the grid the graph describes.
+    junction_merge_distance : float
+        Branch points joined by a chain no longer than this many cells become
+        one node at their mean position (so a drawn "+" gives one degree-4
+        branch, not two degree-3 branches a pixel apart).
+    smoothing : int
+        Moving-average window along the paths, in points (0 = none).
+
+    Returns
+    -------
+    FeatureGraph
+    """
+    n = len(coords)
+    if len(chains) == 0:
+        return FeatureGraph(kind, tuple(shape), (), ())
+    degree = chains.node_degree(n)
+    branch = degree >= 3
+    link = branch[chains.start] & branch[chains.end] & (chains.length <= junction_merge_distance)
+    merged = sparse.csr_matrix(
+        (np.ones(int(link.sum())), (chains.start[link], chains.end[link])), shape=(n, n)
+    )
+    _, group = connected_components(merged, directed=False)
+
+    node_pixels = np.unique(np.concatenate([chains.start, chains.end]))
+    n_groups = group.max() + 1
+    count = np.bincount(group[node_pixels], minlength=n_groups)
+    position = np.stack(
+        [np.bincount(group[node_pixels], weights=coords[node_pixels, k], minlength=n_groups) for k in (0, 1)],
+        axis=1,
+    ) / np.maximum(count, 1)[:, None]
+
+    kept = np.flatnonzero(~link)
+    start_group = group[chains.start[kept]]
+    end_group = group[chains.end[kept]]
+    used, node_id = np.unique(np.concatenate([start_group, end_group]), return_inverse=True)
+    start_id, end_id = node_id[: len(kept)], node_id[len(kept) :]
+    node_degree = np.bincount(node_id, minlength=len(used))
+
+    sizes = np.diff(chains.offsets)[kept]
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+    take = np.arange(offsets[-1]) + np.repeat(chains.offsets[kept] - offsets[:-1], sizes)
+    points = coords[chains.pixels[take]].astype(np.float64)
+    points[offsets[:-1]] = position[start_group]
+    points[offsets[1:] - 1] = position[end_group]
+    points = smooth_polylines(points, offsets, smoothing)
+
+    node_position = position[used]
+    nodes = tuple(
+        FeatureNode(i, float(r), float(c), "branch" if d >= 3 else "end", int(d))
+        for i, ((r, c), d) in enumerate(zip(node_position, node_degree))
+    )
+    paths = tuple(
+        FeaturePath(int(s), int(e), points[offsets[i] : offsets[i + 1]])
+        for i, (s, e) in enumerate(zip(start_id, end_id))
+    )
+    return FeatureGraph(kind, tuple(int(v) for v in shape), nodes, paths)
+
+
+def graph_mask(graph: FeatureGraph, *, width: int = 1) -> np.ndarray:
+    """Cells passed by the paths of a graph; a vectorized
+    :meth:`FeatureGraph.rasterize`.
+
+    Parameters
+    ----------
+    graph : FeatureGraph
+    width : int, default 1
+        Line width in cells (1 = the bare polylines).
+
+    Returns
+    -------
+    ndarray of bool, shape ``graph.shape``
+    """
+    mask = np.zeros(graph.shape, dtype=bool)
+    if not graph.paths:
+        return mask
+    points = np.rint(np.concatenate([p.points for p in graph.paths])).astype(np.int64)
+    sizes = np.array([len(p.points) for p in graph.paths])
+    last = np.cumsum(sizes) - 1
+    segment = np.ones(len(points) - 1, dtype=bool)
+    segment[last[:-1]] = False  # no segment from one path's end to the next's start
+    start = points[:-1][segment]
+    delta = points[1:][segment] - start
+    steps = np.abs(delta).max(axis=1)
+    # Sample every segment at one point per cell of its longer axis.
+    seg = np.repeat(np.arange(len(start)), steps + 1)
+    k = np.arange(len(seg)) - np.repeat(np.cumsum(steps + 1) - (steps + 1), steps + 1)
+    frac = k / np.maximum(steps[seg], 1)
+    cells = start[seg] + np.rint(delta[seg] * frac[:, None]).astype(np.int64)
+    rows, cols = graph.shape
+    inside = (cells[:, 0] >= 0) & (cells[:, 0] < rows) & (cells[:, 1] >= 0) & (cells[:, 1] < cols)
+    mask[cells[inside, 0], cells[inside, 1]] = True
+    if width > 1:
+        mask = ndimage.binary_dilation(mask, iterations=width // 2)
+    return mask
+
+
+def feature_graph_from_mask(
+    mask: np.ndarray,
+    strength: np.ndarray,
+    *,
+    kind: FeatureKind,
+    prune_length: float,
+    prune_iterations: int,
+    min_component_length: float,
+    junction_merge_distance: float,
+    smoothing: int,
+) -> FeatureGraph:
+    """Run the whole pipeline: spanning forest, branch reduction, graph.
+
+    Parameters
+    ----------
+    mask : ndarray of bool, shape (rows, cols)
+        Feature pixels (PPA targets, skeleton pixels).
+    strength : ndarray of float, shape (rows, cols)
+        Per-pixel strength; loops break at their weakest link.
+    kind : {"ridge", "valley"}
+    prune_length, prune_iterations, min_component_length
+        See :func:`reduce_branches`.
+    junction_merge_distance, smoothing
+        See :func:`chains_to_graph`.
+
+    Returns
+    -------
+    FeatureGraph
+        Acyclic by construction.
+    """
+    # A component of n pixels spans at most sqrt(2) * (n - 1) cells, so the
+    # ones below min_component_length can go before the costlier steps.
+    labels, n_labels = ndimage.label(mask, structure=np.ones((3, 3), dtype=bool))
+    if n_labels:
+        size = np.bincount(labels.ravel())
+        too_small = np.sqrt(2.0) * (size - 1) < min_component_length
+        too_small[0] = True
+        mask = ~too_small[labels]
+    forest = spanning_forest(mask, strength)
+    chains = reduce_branches(
+        forest,
+        prune_length=prune_length,
+        prune_iterations=prune_iterations,
+        min_component_length=min_component_length,
+    )
+    return chains_to_graph(
+        chains,
+        forest.coords,
+        kind=kind,
+        shape=mask.shape,
+        junction_merge_distance=junction_merge_distance,
+        smoothing=smoothing,
+    )

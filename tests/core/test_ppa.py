@@ -1,0 +1,286 @@
+"""PPA ridge/valley extraction, the shared graph pipeline and overlays."""
+
+import numpy as np
+import pytest
+
+from terrasynth_core import HeightField, ParamsError
+from terrasynth_core.analysis import feature_tpi_score
+from terrasynth_core.features import FeatureGraph, PPAParams, extract_features, extract_ridges, extract_valleys
+from terrasynth_core.features.network import compress_chains, graph_mask, spanning_forest
+from terrasynth_core.features.overlay import RIDGE_COLOUR, VALLEY_COLOUR, render_overlay, save_overlay
+from terrasynth_core.features.ppa import profile_targets
+from terrasynth_core.io import load_dem
+
+ROWS, COLS = 120, 160
+SLOPE = 0.4  # crest line: row = 30 + SLOPE * col
+
+
+def _distance_to_line() -> np.ndarray:
+    rr, cc = np.mgrid[0:ROWS, 0:COLS].astype(np.float32)
+    return (rr - (30 + SLOPE * cc)) / np.hypot(1, SLOPE)
+
+
+def _offset_from_line(points: np.ndarray) -> np.ndarray:
+    return np.abs(points[:, 0] - (30 + SLOPE * points[:, 1])) / np.hypot(1, SLOPE)
+
+
+@pytest.fixture
+def gaussian_ridge() -> np.ndarray:
+    """A straight Gaussian ridge, 500 m high, with 0.5 m of noise."""
+    noise = np.random.default_rng(0).standard_normal((ROWS, COLS))
+    return (100 + 500 * np.exp(-((_distance_to_line() / 12) ** 2)) + 0.5 * noise).astype(np.float32)
+
+
+@pytest.fixture
+def v_valley() -> np.ndarray:
+    """A straight V-shaped valley, sides at 20 m per cell, tilted along its axis."""
+    cols = np.arange(COLS, dtype=np.float32)[None, :]
+    return (20 * np.abs(_distance_to_line()) + 5 * cols / COLS).astype(np.float32)
+
+
+def _real(dems_dir, name: str) -> np.ndarray:
+    file, window = REAL_CROPS[name]
+    return np.asarray(load_dem(dems_dir / file).heights)[window]
+
+
+REAL_CROPS = {
+    "bigtujunga": ("bigtujunga.tif", np.s_[0:300, 300:700]),
+    "N44W072": ("N44W072.hgt", np.s_[700:1000, 300:600]),
+    "SainteHelens": ("SainteHelens.dem", np.s_[:, :]),
+    "Mandakini": ("Mandakini.bil", np.s_[:, :]),
+}
+
+
+def _check_graph(graph: FeatureGraph) -> None:
+    """Acyclic, node types and degrees consistent with the paths."""
+    assert graph.is_acyclic()
+    ends = np.zeros(len(graph.nodes), dtype=int)
+    for path in graph.paths:
+        ends[path.start] += 1
+        ends[path.end] += 1
+        assert path.start != path.end
+        assert len(path.points) >= 2
+        start, end = graph.nodes[path.start], graph.nodes[path.end]
+        np.testing.assert_allclose(path.points[0], (start.row, start.col), atol=1e-9)
+        np.testing.assert_allclose(path.points[-1], (end.row, end.col), atol=1e-9)
+    for node in graph.nodes:
+        assert node.degree == ends[node.id]
+        assert node.degree != 2 and node.degree >= 1
+        assert node.type == ("end" if node.degree == 1 else "branch")
+
+
+# -- synthetic terrain --------------------------------------------------------
+def test_gaussian_ridge_gives_one_path_on_its_crest(gaussian_ridge):
+    maps = extract_features(gaussian_ridge)
+    ridges = maps.ridges
+    _check_graph(ridges)
+    assert len(ridges.paths) == 1
+    assert ridges.count("end") == 2 and ridges.count("branch") == 0
+    points = ridges.paths[0].points
+    assert _offset_from_line(points).max() <= 2.0
+    crest_length = COLS * np.hypot(1, SLOPE)
+    assert ridges.paths[0].length >= 0.9 * crest_length
+    assert not maps.valleys.paths
+
+
+def test_v_valley_gives_one_path_on_its_floor(v_valley):
+    maps = extract_features(v_valley)
+    valleys = maps.valleys
+    _check_graph(valleys)
+    assert len(valleys.paths) == 1
+    assert valleys.count("end") == 2 and valleys.count("branch") == 0
+    assert _offset_from_line(valleys.paths[0].points).max() <= 2.0
+    assert valleys.paths[0].length >= 0.9 * COLS * np.hypot(1, SLOPE)
+    assert not maps.ridges.paths
+
+
+def test_kind_selects_one_graph(gaussian_ridge):
+    only = extract_features(gaussian_ridge, kind="ridge")
+    assert only.ridges.paths and only.valleys.kind == "valley" and not only.valleys.paths
+    assert extract_ridges(gaussian_ridge).kind == "ridge"
+    assert extract_valleys(-gaussian_ridge).paths
+    assert not extract_features(gaussian_ridge, kind="valley").ridges.paths
+
+
+def test_heightfield_input_and_no_mutation(gaussian_ridge):
+    before = gaussian_ridge.copy()
+    from_array = extract_ridges(gaussian_ridge)
+    from_field = extract_ridges(HeightField(gaussian_ridge, cell_size=(30.0, 30.0)))
+    np.testing.assert_array_equal(gaussian_ridge, before)
+    np.testing.assert_allclose(from_array.paths[0].points, from_field.paths[0].points)
+
+
+def test_mask_limits_where_features_lie(gaussian_ridge):
+    mask = np.zeros(gaussian_ridge.shape, dtype=bool)
+    mask[:, 80:] = True
+    ridges = extract_ridges(gaussian_ridge, mask=mask)
+    assert len(ridges.paths) == 1
+    assert ridges.paths[0].points[:, 1].min() >= 79.5
+
+
+def test_integer_heights_are_accepted(gaussian_ridge):
+    ridges = extract_ridges(np.rint(gaussian_ridge).astype(np.int16))
+    assert len(ridges.paths) == 1
+
+
+# -- profile recognition -----------------------------------------------------
+def test_profile_targets_need_a_lower_cell_on_both_sides():
+    z = np.zeros((7, 7), dtype=np.float32)
+    z[3, :] = 10.0  # an E-W wall: lower cells north and south of it
+    targets = profile_targets(z, profile_length=3, min_drop=0.0)
+    assert targets[3].all() and targets.sum() == 7
+    assert not profile_targets(z, profile_length=3, min_drop=10.5).any()
+    assert profile_targets(z, profile_length=3, min_drop=10.0)[3].all()
+
+
+def test_nan_is_never_a_target_and_never_lower():
+    z = np.full((9, 9), 5.0, dtype=np.float32)
+    z[3:6, 3:6] = np.nan
+    z[4, 4] = 6.0  # a bump whose only neighbours are nodata
+    assert not profile_targets(z, profile_length=3, min_drop=0.0).any()
+    w = np.zeros((9, 9), dtype=np.float32)
+    w[4, :] = 10.0
+    w[4, 2] = np.nan
+    targets = profile_targets(w, profile_length=3, min_drop=0.0)
+    assert not targets[4, 2] and targets[4, 3]
+
+
+def test_nodata_heights_are_handled(gaussian_ridge):
+    z = gaussian_ridge.copy()
+    z[:, :20] = np.nan
+    z[50:60, 100:110] = np.nan
+    ridges = extract_ridges(z)
+    _check_graph(ridges)
+    assert ridges.paths
+    for path in ridges.paths:
+        cells = np.rint(path.points).astype(int)
+        assert not np.isnan(z[cells[:, 0], cells[:, 1]]).any()
+
+
+# -- real DEMs ---------------------------------------------------------------
+@pytest.mark.parametrize("name", sorted(REAL_CROPS))
+def test_real_dem_graphs_are_clean_forests(dems_dir, name):
+    z = _real(dems_dir, name)
+    maps = extract_features(z)
+    for graph in (maps.ridges, maps.valleys):
+        _check_graph(graph)
+        assert graph.count("branch") > 0 and graph.count("end") > 5
+        assert graph.shape == z.shape
+
+
+@pytest.mark.parametrize("name", ["bigtujunga", "N44W072", "SainteHelens"])
+def test_real_ridges_are_high_and_valleys_low(dems_dir, name):
+    z = _real(dems_dir, name)
+    maps = extract_features(z)
+    # TPI radius 12 is independent of the 7-cell profile length.
+    assert feature_tpi_score(z, maps.ridges, radius=12) > 0.7
+    assert feature_tpi_score(z, maps.valleys, radius=12) < -0.7
+
+
+# -- the shared pipeline -----------------------------------------------------
+def test_spanning_forest_breaks_loops_at_the_weakest_link():
+    mask = np.zeros((9, 9), dtype=bool)
+    mask[2, 2:7] = mask[6, 2:7] = mask[2:7, 2] = mask[2:7, 6] = True  # a square loop
+    strength = np.full(mask.shape, 10.0)
+    strength[6, 4] = 1.0  # the weak spot
+    forest = spanning_forest(mask, strength)
+    assert len(forest.edges) == mask.sum() - 1
+    weak = np.flatnonzero((forest.coords == (6, 4)).all(axis=1))[0]
+    assert np.count_nonzero(forest.edges == weak) == 1  # became an end of the line
+
+
+def test_spanning_forest_drops_the_weaker_crossing_diagonal():
+    mask = np.ones((2, 2), dtype=bool)
+    strength = np.array([[5.0, 1.0], [1.0, 5.0]])
+    forest = spanning_forest(mask, strength)
+    diagonal = {tuple(sorted(e)) for e in forest.edges if np.abs(np.diff(forest.coords[e], axis=0)).sum() == 2}
+    assert diagonal == {(0, 3)}  # (0,0)-(1,1) kept, the weak (0,1)-(1,0) never used
+
+
+def test_chains_cover_the_forest_in_order():
+    rng = np.random.default_rng(3)
+    mask = rng.random((60, 60)) < 0.55
+    strength = rng.random((60, 60))
+    forest = spanning_forest(mask, strength)
+    chains = compress_chains(forest.edges, forest.coords)
+    linked = {tuple(sorted(e)) for e in forest.edges.tolist()}
+    walked = {tuple(sorted(e)) for e in chains.edges().tolist()}
+    assert walked == linked  # every link in exactly the chains' walks
+    assert len(chains.edges()) == len(forest.edges)
+    degree = np.bincount(forest.edges.ravel(), minlength=len(forest.coords))
+    assert (degree[chains.start] != 2).all() and (degree[chains.end] != 2).all()
+    for i in range(len(chains)):
+        inner = chains.pixels[chains.offsets[i] + 1 : chains.offsets[i + 1] - 1]
+        assert (degree[inner] == 2).all()
+
+
+def test_graph_mask_matches_rasterize(gaussian_ridge):
+    graph = extract_ridges(gaussian_ridge)
+    mask = graph_mask(graph)
+    reference = graph.rasterize()
+    assert mask.sum() > 100
+    assert (mask ^ reference).sum() <= 0.02 * reference.sum()
+
+
+# -- parameters --------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("profile_length", 6),
+        ("profile_length", 1),
+        ("profile_length", 17),
+        ("profile_length", 7.0),
+        ("min_drop", -1.0),
+        ("min_drop", float("nan")),
+        ("relative_drop", 1.5),
+        ("prune_length", -2),
+        ("prune_iterations", -1),
+        ("prune_iterations", True),
+        ("min_component_length", "10"),
+        ("smoothing", 2.5),
+        ("junction_merge_distance", float("inf")),
+    ],
+)
+def test_params_validation_names_the_field(field, value):
+    with pytest.raises(ParamsError, match=f"PPAParams.{field}"):
+        PPAParams(**{field: value})
+
+
+def test_defaults_are_valid_and_documented():
+    params = PPAParams()
+    assert params.profile_length % 2 == 1 and params.min_drop is None
+    assert PPAParams.__doc__ and all(name in PPAParams.__doc__ for name in params.__dataclass_fields__)
+
+
+def test_bad_arguments_raise_params_error(gaussian_ridge):
+    with pytest.raises(ParamsError, match="kind"):
+        extract_features(gaussian_ridge, kind="ridges")
+    with pytest.raises(ParamsError, match="mask"):
+        extract_features(gaussian_ridge, mask=np.ones((3, 3), bool))
+    with pytest.raises(ParamsError, match="2-D"):
+        extract_features(np.zeros(10))
+    with pytest.raises(ParamsError, match="infinite"):
+        extract_features(np.full((5, 5), np.inf))
+    with pytest.raises(ParamsError, match="PPAParams"):
+        extract_features(gaussian_ridge, params={"profile_length": 5})
+
+
+# -- overlay -----------------------------------------------------------------
+def test_render_overlay_draws_features(tmp_path):
+    cols = np.arange(COLS, dtype=np.float32)
+    z = np.repeat(100 * np.sin(cols / 4)[None, :], ROWS, axis=0)  # N-S ridges and valleys
+    z[:5, :5] = np.nan
+    maps = extract_features(z)
+    rgb = render_overlay(z, maps, cell_size=30.0, line_width=1, show_nodes=False)
+    assert rgb.shape == z.shape + (3,) and rgb.dtype == np.uint8
+    ridge_cells = graph_mask(maps.ridges)
+    assert (rgb[ridge_cells] == RIDGE_COLOUR).all(axis=1).mean() > 0.9
+    assert (rgb == VALLEY_COLOUR).all(axis=2).any()
+    with pytest.raises(ParamsError, match="shape"):
+        render_overlay(z[:50], maps)
+    path = save_overlay(np.repeat(rgb, 8, axis=1), tmp_path / "overlay.png", max_width=300)
+    from PIL import Image
+
+    with Image.open(path) as image:
+        assert image.size == (300, round(ROWS * 300 / (COLS * 8)))
+    assert [p.name for p in tmp_path.iterdir()] == ["overlay.png"]
