@@ -8,7 +8,13 @@ import pytest
 DEMS_DIR = Path(__file__).parents[2] / "resources" / "dems"
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def dems_dir() -> Path:
     """Directory of the built-in DEMs (resources/dems)."""
     return DEMS_DIR
+
+
+@pytest.fixture(scope="session")
+def sketch_dir() -> Path:
+    """The built-in sketch maps (resources/sketches)."""
+    return Path(__file__).resolve().parents[2] / "resources" / "sketches"

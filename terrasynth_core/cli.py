@@ -1,0 +1,351 @@
+"""``terrasynth-cli``: DEM information, conversion, feature extraction, synthesis.
+
+Exit status: 0 on success, 2 on bad input (one line on stderr naming the
+problem), 130 when interrupted.  Progress goes to stderr so stdout stays
+clean for ``--json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from .errors import TerraSynthError
+
+EXIT_OK = 0
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+
+
+def _parse_size(text: str) -> tuple[int, int]:
+    """``ROWSxCOLS`` (or a single ``N`` for a square) -> (rows, cols)."""
+    parts = text.lower().split("x")
+    try:
+        dims = tuple(int(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size {text!r} is not ROWSxCOLS, e.g. 1000x1000") from None
+    if len(dims) == 1:
+        dims = (dims[0], dims[0])
+    if len(dims) != 2 or min(dims) < 2:
+        raise argparse.ArgumentTypeError(f"size {text!r} is not ROWSxCOLS with both at least 2")
+    return dims  # type: ignore[return-value]
+
+
+class _Stages:
+    """A stage-by-stage progress bar on stderr; tqdm keeps it silent when stderr
+    is not a terminal, so logs and pipes stay clean."""
+
+    def __init__(self, total: int, desc: str):
+        from tqdm import tqdm
+
+        self._bar = tqdm(total=total, desc=desc, file=sys.stderr, unit="step", leave=False,
+                         disable=None, bar_format="{desc}: {n_fmt}/{total_fmt} {postfix} [{elapsed}]")
+
+    def step(self, what: str) -> None:
+        self._bar.set_postfix_str(what)
+        self._bar.update(1)
+
+    def close(self) -> None:
+        self._bar.close()
+
+
+# -- info ---------------------------------------------------------------------
+def cmd_info(args: argparse.Namespace) -> int:
+    from .examples import resolve_dem
+
+    field = resolve_dem(args.dem, size=args.size)
+    info = {
+        "file": str(args.dem),
+        "format": field.format,
+        "shape": list(field.shape),
+        "min": round(field.min, 3),
+        "max": round(field.max, 3),
+        "nodata": field.nodata_count,
+        "cell_size": None if field.cell_size is None else [round(v, 4) for v in field.cell_size],
+        "epsg": None if field.georef is None else field.georef.epsg,
+    }
+    if args.json:
+        print(json.dumps(info))
+        return EXIT_OK
+    rows, cols = field.shape
+    cell = "unknown" if field.cell_size is None else "{:.2f} m x {:.2f} m (dy x dx)".format(*field.cell_size)
+    print(f"{args.dem}: {info['format']}, {rows} x {cols} cells")
+    print(f"  heights   {info['min']} .. {info['max']} m")
+    print(f"  nodata    {info['nodata']} cells ({100 * info['nodata'] / (rows * cols):.1f} %)")
+    print(f"  cell size {cell}")
+    if info["epsg"]:
+        print(f"  CRS       EPSG:{info['epsg']}")
+    return EXIT_OK
+
+
+# -- convert ------------------------------------------------------------------
+def cmd_convert(args: argparse.Namespace) -> int:
+    from .examples import resolve_dem
+    from .io import MESH_EXTENSIONS, save_dem, save_mesh
+
+    field = resolve_dem(args.input, size=args.size)
+    out = Path(args.output)
+    if out.suffix.lower() in MESH_EXTENSIONS:
+        save_mesh(field, out, vertical_scale=args.vertical_scale)
+    else:
+        save_dem(field, out)
+    print(f"wrote {out} ({field.shape[0]} x {field.shape[1]})", file=sys.stderr)
+    return EXIT_OK
+
+
+# -- features -----------------------------------------------------------------
+def cmd_features(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from .features import FeatureMaps, extract_features, read_sketch, sketch_features
+    from .features.overlay import render_overlay, save_overlay
+
+    stages = _Stages(3, "features")
+    try:
+        if args.sketch:
+            sketch = read_sketch(args.input)
+            stages.step("read sketch")
+            maps = sketch_features(sketch)
+            heights = np.where(sketch.ridge_mask, 1.0, np.where(sketch.valley_mask, -1.0, 0.0)).astype(np.float32)
+            cell_size = None
+        else:
+            from .examples import resolve_dem
+
+            field = resolve_dem(args.input, size=args.size)
+            stages.step("read DEM")
+            maps = extract_features(field, kind=args.kind)
+            heights, cell_size = field.heights, field.cell_size
+        stages.step("extracted")
+        if args.kind != "both":
+            empty = maps.valleys if args.kind == "ridge" else maps.ridges
+            empty = type(empty)(empty.kind, empty.shape, (), ())
+            maps = FeatureMaps(maps.ridges, empty) if args.kind == "ridge" else FeatureMaps(empty, maps.valleys)
+        if args.json:
+            _write_json_atomic(Path(args.json), maps.to_dict())
+        if args.overlay:
+            save_overlay(render_overlay(heights, maps, cell_size=cell_size), args.overlay)
+        stages.step("written")
+    finally:
+        stages.close()
+    for g in (maps.ridges, maps.valleys):
+        if args.kind in ("both", g.kind):
+            print(
+                f"{g.kind}s: {g.count('branch')} branch points, {g.count('end')} endpoints, "
+                f"{len(g.paths)} paths, {g.total_length():.0f} cells long",
+                file=sys.stderr,
+            )
+    return EXIT_OK
+
+
+# -- synth / demo -------------------------------------------------------------
+def cmd_synth(args: argparse.Namespace) -> int:
+    from .examples import resolve_dem
+    from .features import read_sketch
+    from .synthesis import SynthesisParams
+
+    if not args.example:
+        raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY)")
+    examples = [resolve_dem(e) for e in args.example]
+    sketch = read_sketch(args.sketch)
+    params = SynthesisParams(
+        patch_size=args.patch_size, seed=args.seed, order=args.order, seam=args.seam, blend=args.blend,
+        **({"overlap": args.overlap} if args.overlap is not None else {}),
+    )
+    return _synthesize(examples, sketch, args.size, params, args)
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from .examples import DEFAULT_EXAMPLE, DEFAULT_SKETCH, builtin_example, resource_path
+    from .features import read_sketch
+    from .synthesis import SynthesisParams
+
+    examples = [builtin_example(DEFAULT_EXAMPLE).load()]
+    sketch = read_sketch(resource_path("sketches", DEFAULT_SKETCH))
+    return _synthesize(examples, sketch, None, SynthesisParams(seed=args.seed), args)
+
+
+def _synthesize(examples, sketch, size, params, args) -> int:
+    from tqdm import tqdm
+
+    from .heightfield import HeightField
+    from .io import MESH_EXTENSIONS, WRITE_EXTENSIONS, save_dem
+    from .synthesis import PatchPlaced, Session, StageStarted, SynthesisFinished
+
+    out = Path(args.out)
+    if out.suffix.lower() not in WRITE_EXTENSIONS + MESH_EXTENSIONS:
+        raise TerraSynthError(
+            f"cannot write {out}: unknown extension {out.suffix!r}; expected one of "
+            + ", ".join(WRITE_EXTENSIONS + MESH_EXTENSIONS)
+        )
+    session = Session(examples, sketch, shape=size, params=params)
+    for w in session.warnings:
+        print(f"terrasynth-cli: note: {w}", file=sys.stderr)
+    bar = tqdm(total=0, desc="analyse", unit="patch", file=sys.stderr, disable=None, leave=False)
+    result = None
+    try:
+        for event in session.iter_run():
+            if isinstance(event, StageStarted):
+                bar.set_description(event.stage)
+            elif isinstance(event, PatchPlaced):
+                bar.total = event.total
+                bar.update(event.index + 1 - bar.n)
+            elif isinstance(event, SynthesisFinished):
+                result = event.result
+    finally:
+        bar.close()
+    cell = examples[0].cell_size if isinstance(examples[0], HeightField) else None
+    field = HeightField(result.heights, cell_size=cell, source=str(out), format=None)
+    if out.suffix.lower() in MESH_EXTENSIONS:
+        from .io import save_mesh
+
+        save_mesh(field, out)
+    else:
+        save_dem(field, out)
+    if args.report:
+        report = result.report()
+        report["examples"] = [getattr(e, "source", None) for e in examples]
+        _write_json_atomic(Path(args.report), report)
+    if getattr(args, "debug_dir", None):
+        _write_debug(result, Path(args.debug_dir))
+    counts = ", ".join(f"{v} {k}" for k, v in result.counts().items())
+    print(f"wrote {out}: {result.heights.shape[0]}x{result.heights.shape[1]} in {result.total_seconds:.1f} s "
+          f"({counts} patches)", file=sys.stderr)
+    for w in result.warnings:
+        if w not in session.warnings:
+            print(f"terrasynth-cli: note: {w}", file=sys.stderr)
+    return EXIT_OK
+
+
+def _write_debug(result, folder: Path) -> None:
+    """Patch ids, seams and the sketch's features as pictures and arrays."""
+    import numpy as np
+    from PIL import Image
+
+    from .analysis import hillshade
+    from .features.overlay import render_overlay, save_overlay
+
+    folder.mkdir(parents=True, exist_ok=True)
+    np.save(folder / "patch_id.npy", result.patch_id)
+    np.save(folder / "seam_mask.npy", result.seam_mask)
+    rng = np.random.default_rng(0)
+    colours = rng.integers(40, 256, size=(max(len(result.patches), 1) + 1, 3), dtype=np.uint8)
+    ids = np.where(result.patch_id >= 0, result.patch_id, len(result.patches))
+    Image.fromarray(colours[ids]).save(folder / "patch_id.png")
+    shade = (hillshade(result.heights) * 255).astype(np.uint8)
+    rgb = np.repeat(shade[..., None], 3, axis=2)
+    rgb[result.seam_mask] = (255, 200, 0)
+    Image.fromarray(rgb).save(folder / "seams.png")
+    save_overlay(render_overlay(result.heights, result.sketch_features), folder / "sketch_features.png")
+    _write_json_atomic(folder / "patches.json", {"patches": [
+        {"kind": p.kind, "feature": p.feature, "bbox": list(p.bbox), "example": p.example,
+         "source": list(p.source), "mirrored": p.mirrored, "deformation": p.deformation,
+         "ssd": p.ssd, "seam_cost": p.seam_cost, "cost": p.cost}
+        for p in result.patches]})
+
+
+def _write_json_atomic(path: Path, data: dict) -> None:
+    import os
+    import tempfile
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(data, f)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+# -- entry point --------------------------------------------------------------
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="terrasynth-cli",
+        description="Example-based terrain synthesis from real DEMs. "
+        "A DEM argument is a file or builtin:KEY (see 'terrasynth-cli examples').",
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("info", help="shape, height range, nodata and cell size of a DEM")
+    p.add_argument("dem")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.add_argument("--size", type=_parse_size, help="ROWSxCOLS of a headerless .r16/.r32")
+    p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("convert", help="convert a DEM between formats (by extension), or to a mesh")
+    p.add_argument("input")
+    p.add_argument("output")
+    p.add_argument("--size", type=_parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
+    p.add_argument("--vertical-scale", type=float, default=1.0, help="height multiplier for meshes")
+    p.set_defaults(func=cmd_convert)
+
+    p = sub.add_parser("features", help="ridges and valleys (PPA) of a DEM or a sketch")
+    p.add_argument("input", help="a DEM, or a sketch PNG with --sketch")
+    p.add_argument("--sketch", action="store_true", help="INPUT is a sketch map (red ridges, blue valleys)")
+    p.add_argument("--kind", choices=("ridge", "valley", "both"), default="both")
+    p.add_argument("--json", metavar="OUT.json", help="write the feature graphs as JSON")
+    p.add_argument("--overlay", metavar="OUT.png", help="write a hillshade with ridges red, valleys blue")
+    p.add_argument("--size", type=_parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
+    p.set_defaults(func=cmd_features)
+
+    p = sub.add_parser("synth", help="synthesize a terrain from example DEMs and a sketch")
+    p.add_argument("--example", action="append", metavar="DEM", help="example DEM (repeatable)")
+    p.add_argument("--sketch", required=True, help="sketch PNG: red ridges, blue valleys")
+    p.add_argument("--out", required=True, help="output file; the format follows the extension")
+    p.add_argument("--size", type=_parse_size, help="output ROWSxCOLS (default: the sketch's; it is scaled)")
+    p.add_argument("--patch-size", type=int, default=80)
+    p.add_argument("--overlap", type=int, default=None, help="overlap in cells (default a third of the patch)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--order", choices=("bfs", "raster"), default="bfs")
+    p.add_argument("--seam", choices=("cut", "paste"), default="cut")
+    p.add_argument("--blend", choices=("poisson", "c1", "none"), default="c1")
+    p.add_argument("--report", metavar="REPORT.json", help="parameters, patch counts and timings as JSON")
+    p.add_argument("--debug-dir", metavar="DIR", help="write patch ids, seams and features there")
+    p.set_defaults(func=cmd_synth)
+
+    p = sub.add_parser("demo", help="synthesize the built-in example with the built-in sketch")
+    p.add_argument("--out", required=True)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--report", metavar="REPORT.json")
+    p.add_argument("--debug-dir", metavar="DIR")
+    p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("examples", help="list the built-in example DEMs and sketches")
+    p.set_defaults(func=cmd_examples)
+    return parser
+
+
+def cmd_examples(args: argparse.Namespace) -> int:
+    from .examples import BUILTIN_EXAMPLES, builtin_sketches
+
+    for ex in BUILTIN_EXAMPLES:
+        print(f"builtin:{ex.key:<16} {ex.name}: {ex.style}")
+    for path in builtin_sketches():
+        print(f"sketch  {path}")
+    return EXIT_OK
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except TerraSynthError as exc:
+        print(f"terrasynth-cli: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except FileNotFoundError as exc:
+        print(f"terrasynth-cli: error: {exc.filename or exc}: no such file", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as exc:
+        print(f"terrasynth-cli: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("terrasynth-cli: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+if __name__ == "__main__":
+    sys.exit(main())
