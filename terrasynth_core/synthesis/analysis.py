@@ -1,0 +1,129 @@
+"""Per-example preparation: valid heights, feature networks, relief scale.
+
+Extracting an example's ridges and valleys is the slowest part of starting a
+run, and the same examples are used run after run (the app re-synthesizes
+after every edit), so the analysis is memoised per (heights, patch size).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from collections import OrderedDict
+
+import numpy as np
+from scipy import ndimage
+
+from ..errors import ParamsError
+from ..analysis import topographic_position_index
+from ..features import FeatureMaps, extract_features
+from ..heightfield import HeightField
+from .samples import FeatureSample, example_samples
+
+
+@dataclass(frozen=True, eq=False)
+class ExampleAnalysis:
+    """An example ready for synthesis.
+
+    Parameters
+    ----------
+    heights : ndarray of float32, shape (H, W)
+        Valid heights (nodata cropped or filled).
+    features : FeatureMaps
+    samples : dict kind -> list of FeatureSample
+        Candidate feature patch centres.
+    strong_mask : ndarray of bool, shape (H, W)
+        Cells on long features, kept out of fill patches.
+    relief : float
+        Typical height spread within a patch (median local standard
+        deviation, metres): the unit costs are measured in.
+    note : str or None
+        What was done about nodata, for the run's warnings.
+    """
+
+    heights: np.ndarray
+    features: FeatureMaps
+    samples: dict
+    strong_mask: np.ndarray
+    relief: float
+    note: str | None
+
+
+def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: str = "example") -> ExampleAnalysis:
+    """Make an example ready: handle nodata, check its size, analyse it.
+
+    Raises
+    ------
+    ParamsError
+        When the example (after removing nodata) is smaller than a patch.
+    """
+    if not isinstance(field, HeightField):
+        field = HeightField(np.asarray(field, dtype=np.float32), source=name)
+    note = None
+    if field.nodata_count:
+        cropped = field.crop_valid()
+        if min(cropped.shape) >= 2 * patch_size:
+            note = f"{name}: cropped to its largest valid rectangle {cropped.shape[0]}x{cropped.shape[1]} (nodata)"
+            field = cropped
+        else:
+            note = f"{name}: {field.nodata_count} nodata cells filled from their neighbours"
+            field = field.fill_nodata()
+    if min(field.shape) < patch_size + 4:
+        raise ParamsError(
+            f"{name} is {field.shape[0]}x{field.shape[1]} cells (valid part), smaller than a patch of "
+            f"{patch_size}x{patch_size}: use a larger example or a smaller patch size"
+        )
+    heights = np.ascontiguousarray(field.heights, dtype=np.float32)
+    key = (hashlib.sha1(heights.tobytes()).hexdigest(), heights.shape, patch_size)
+    if key not in _CACHE:
+        _CACHE[key] = _analyse(heights, patch_size)
+        while len(_CACHE) > _CACHE_SIZE:
+            _CACHE.popitem(last=False)
+    _CACHE.move_to_end(key)
+    features, samples, strong, relief = _CACHE[key]
+    return ExampleAnalysis(heights, features, samples, strong, relief, note)
+
+
+#: Example feature samples weaker than this quantile of their kind are dropped...
+STRONG_QUANTILE = 0.5
+#: ...unless they stand out by at least this many standard deviations of TPI.
+MIN_STRENGTH = 1.0
+
+_CACHE: OrderedDict = OrderedDict()
+_CACHE_SIZE = 8
+
+
+def _analyse(heights: np.ndarray, patch_size: int) -> tuple:
+    features = extract_features(heights)
+    radius = patch_size / 2
+    # Sample centres must leave room for the patch (and a little warp) inside.
+    margin = radius * 1.1
+    H, W = heights.shape
+    # How far a sample's centre stands above (ridge) or below (valley) the
+    # patch around it, in standard deviations: PPA finds every little spur,
+    # but a sketched stroke asks for a real ridge or valley.
+    tpi = topographic_position_index(heights, radius=radius)
+    tpi /= float(np.nanstd(tpi)) or 1.0
+    samples = {}
+    for graph, sign in ((features.ridges, 1.0), (features.valleys, -1.0)):
+        pool = [
+            s for s in example_samples(graph, radius, spacing=radius / 2)
+            if margin <= s.center[0] <= H - 1 - margin and margin <= s.center[1] <= W - 1 - margin
+        ]
+        if pool:
+            rc = np.rint([s.center for s in pool]).astype(int)
+            strength = sign * tpi[rc[:, 0], rc[:, 1]]
+            keep = strength >= min(np.quantile(strength, STRONG_QUANTILE), MIN_STRENGTH)
+            pool = [s for s, k in zip(pool, keep) if k]
+        samples[graph.kind] = pool
+    strong = np.zeros(heights.shape, dtype=bool)
+    for graph in (features.ridges, features.valleys):
+        long_paths = tuple(p for p in graph.paths if p.length >= patch_size)
+        if long_paths:
+            strong |= type(graph)(graph.kind, graph.shape, graph.nodes, long_paths).rasterize()
+    strong = ndimage.binary_dilation(strong, iterations=2)
+    mean = ndimage.uniform_filter(heights.astype(np.float64), patch_size)
+    mean2 = ndimage.uniform_filter(heights.astype(np.float64) ** 2, patch_size)
+    local_std = np.sqrt(np.maximum(mean2 - mean**2, 0.0))
+    relief = float(np.median(local_std)) or 1.0
+    return features, samples, strong, relief

@@ -1,0 +1,120 @@
+"""The output being built: heights, what is filled, and the merge of a patch
+(graph-cut seam, then seam removal), paper §5."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..blending import remove_seam
+from ..seams import graph_cut_seam
+from .params import SynthesisParams
+
+
+@dataclass(frozen=True, eq=False)
+class Cut:
+    """Where a new patch goes in its window, and what the seam costs.
+
+    ``normalized_cost`` is the graph-cut cost in units of the example's relief
+    per patch side, so it adds to the normalised SSD.
+    """
+
+    take_new: np.ndarray
+    seam: np.ndarray
+    normalized_cost: float
+
+
+class Canvas:
+    """Output arrays and patch merging.
+
+    Parameters
+    ----------
+    shape : (rows, cols)
+    params : SynthesisParams
+    relief : float
+        Typical height spread within a patch, metres (cost unit).
+    """
+
+    def __init__(self, shape: tuple[int, int], params: SynthesisParams, relief: float):
+        self.shape = shape
+        self.params = params
+        self.relief = relief
+        self.heights = np.zeros(shape, dtype=np.float32)
+        self.filled = np.zeros(shape, dtype=bool)
+        # Centres of feature patches: later patches must not cut them away.
+        self.protected = np.zeros(shape, dtype=bool)
+        self.patch_id = np.full(shape, -1, dtype=np.int32)
+        self.seams = np.zeros(shape, dtype=bool)
+        self._pending = None
+
+    def cut(self, bbox, patch: np.ndarray, *, keep_new: np.ndarray | None = None) -> Cut:
+        """The seam for ``patch`` in window ``bbox`` (nothing is changed yet)."""
+        r0, r1, c0, c1 = bbox
+        filled = self.filled[r0:r1, c0:c1]
+        if self.params.seam == "paste" or not filled.any():
+            return Cut(np.ones(patch.shape, dtype=bool), np.zeros(patch.shape, dtype=bool), 0.0)
+        keep_existing = self.protected[r0:r1, c0:c1]
+        if keep_new is not None:
+            keep_existing = keep_existing & ~keep_new
+        res = graph_cut_seam(self.heights[r0:r1, c0:c1], patch, filled,
+                             keep_new=keep_new, keep_existing=keep_existing)
+        norm = res.cost / (2.0 * self.relief * self.params.patch_size)
+        return Cut(res.take_new, res.seam, float(norm))
+
+    def place(self, bbox, patch: np.ndarray, cut: Cut, index: int, *, protect: np.ndarray | None = None) -> None:
+        """Merge ``patch`` into the output along ``cut`` (then call :meth:`blend`)."""
+        r0, r1, c0, c1 = bbox
+        take = cut.take_new
+        # Remembered for blend(): which cells are new, and whether terrain was
+        # there before (in or around the window) to blend with.
+        self._pending = (bbox, take, not take.all() or self._touches(bbox))
+        win = self.heights[r0:r1, c0:c1]
+        win[take] = patch[take]
+        self.filled[r0:r1, c0:c1] = True
+        self.patch_id[r0:r1, c0:c1][take] = index
+        self.seams[r0:r1, c0:c1] |= cut.seam
+        if protect is not None:
+            self.protected[r0:r1, c0:c1] |= protect
+
+    def blend(self, bbox) -> None:
+        """Remove the seam of the patch last placed in ``bbox`` by a local
+        Poisson solve (mode from the params).
+
+        The solve runs on the window plus a one-cell ring: ring cells that
+        hold terrain are its fixed boundary, so the window meets the terrain
+        around it without a step; empty ring cells leave the border free.
+        """
+        placed_bbox, take, has_seam = self._pending
+        if tuple(placed_bbox) != tuple(bbox):
+            raise RuntimeError("blend() must follow place() for the same window")
+        if self.params.blend != "none" and has_seam:
+            self._blend(bbox, take)
+
+    def _touches(self, bbox) -> bool:
+        """Whether filled terrain lies just outside the window."""
+        R0, R1, C0, C1 = self._ring(bbox)
+        ring = self.filled[R0:R1, C0:C1].copy()
+        r0, r1, c0, c1 = bbox
+        ring[r0 - R0:r1 - R0, c0 - C0:c1 - C0] = False
+        return bool(ring.any())
+
+    def _ring(self, bbox):
+        r0, r1, c0, c1 = bbox
+        rows, cols = self.shape
+        return max(r0 - 1, 0), min(r1 + 1, rows), max(c0 - 1, 0), min(c1 + 1, cols)
+
+    def _blend(self, bbox, take: np.ndarray) -> None:
+        r0, r1, c0, c1 = bbox
+        R0, R1, C0, C1 = self._ring(bbox)
+        heights = self.heights[R0:R1, C0:C1]
+        inner = np.zeros(heights.shape, dtype=bool)
+        inner[r0 - R0:r1 - R0, c0 - C0:c1 - C0] = True
+        take_new = np.zeros(heights.shape, dtype=bool)
+        take_new[r0 - R0:r1 - R0, c0 - C0:c1 - C0] = take
+        fixed = ~inner & self.filled[R0:R1, C0:C1]
+        solved = remove_seam(heights, take_new, inner, fixed=fixed, mode=self.params.blend)
+        self.heights[r0:r1, c0:c1] = solved[inner].reshape(r1 - r0, c1 - c0)
+
+    def finish(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self.heights.copy(), self.patch_id.copy(), self.seams.copy()

@@ -1,0 +1,68 @@
+"""Progress events yielded by :meth:`Session.iter_run`.
+
+Small frozen records: a GUI turns each into a signal, the CLI into a progress
+bar tick.  Every event is also a cancellation checkpoint.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+#: Stages of a run, in order.
+STAGES = ("analyse", "features", "fill", "finish")
+
+PatchKind = Literal["branch", "end", "path", "fill"]
+
+
+@dataclass(frozen=True)
+class StageStarted:
+    """A stage begins; ``total`` is how many patches it will place (0 if none)."""
+
+    stage: str
+    total: int
+
+
+@dataclass(frozen=True, eq=False)
+class PatchPlaced:
+    """One patch is in the output.
+
+    Parameters
+    ----------
+    index : int
+        Patch number, from 0, over the whole run.
+    total : int
+        Patches the run will place in all (fill counts are an estimate until
+        the fill stage starts).
+    kind : {"branch", "end", "path", "fill"}
+    bbox : (r0, r1, c0, c1)
+        Half-open output window the patch changed (after Poisson blending).
+    heights : ndarray of float32, shape (r1 - r0, c1 - c0)
+        The output heights in ``bbox`` after placing the patch, a copy: a
+        viewer can paste it into its own buffer without sharing memory with
+        the worker.
+    cost : float
+        The chosen candidate's total cost.
+    """
+
+    index: int
+    total: int
+    kind: PatchKind
+    bbox: tuple[int, int, int, int]
+    heights: np.ndarray
+    cost: float
+
+
+@dataclass(frozen=True)
+class StageFinished:
+    stage: str
+    seconds: float
+
+
+@dataclass(frozen=True, eq=False)
+class SynthesisFinished:
+    """The last event; ``result`` is a :class:`SynthesisResult`."""
+
+    result: object

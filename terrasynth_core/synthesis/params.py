@@ -1,0 +1,110 @@
+"""Every knob of a synthesis run, in one frozen, validated object."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import asdict, dataclass, fields
+from typing import Literal
+
+from ..errors import ParamsError
+
+
+@dataclass(frozen=True)
+class SynthesisParams:
+    """Parameters of :class:`~terrasynth_core.synthesis.Session`.
+
+    Parameters
+    ----------
+    patch_size : int, default 80
+        Side of a square patch in output cells (the paper's 80).
+    overlap : int or None, default None
+        Width in cells of the band a fill patch shares with its neighbours;
+        ``None`` is a third of the patch, as in the paper.
+    k : int, default 4
+        Candidates that get the full evaluation: after the cheap ranking
+        (thin-plate deformation for feature patches, of which the best ``3k``
+        are warped and compared with the overlap; coarse FFT SSD for fill
+        patches), the best ``k`` by overlap SSD get a graph cut and the pick
+        is the least SSD plus seam cost (plus deformation).
+    seed : int, default 0
+        Seeds every random choice; the same seed gives the same bytes.
+    order : {"bfs", "raster"}, default "bfs"
+        Feature patch placement order: breadth-first over the sketch's
+        feature tree (the paper) or top-to-bottom, left-to-right.
+    seam : {"cut", "paste"}, default "cut"
+        ``"cut"``: graph-cut seam in the overlap; ``"paste"``: the new patch
+        simply covers the overlap (for comparison).
+    blend : {"poisson", "c1", "none"}, default "c1"
+        Seam removal after the cut: the paper's Poisson solve with zero
+        gradient across the seam, the same solve with the slope carried across
+        the seam (first-derivative continuity), or nothing.
+    mirror : bool, default True
+        Add each example feature patch's mirror image to the candidate pool.
+    coarse_factor : int, default 2
+        Down-sampling of the example for the FFT search of fill patches; the
+        best positions are then refined at full resolution.
+    workers : int, default 0
+        Threads for FFTs and candidate evaluation; 0 uses every core.
+    feature_weight : float, default 1.0
+        Weight of the deformation cost against the overlap SSD when picking
+        among feature candidates.
+    """
+
+    patch_size: int = 80
+    overlap: int | None = None
+    k: int = 4
+    seed: int = 0
+    order: Literal["bfs", "raster"] = "bfs"
+    seam: Literal["cut", "paste"] = "cut"
+    blend: Literal["poisson", "c1", "none"] = "c1"
+    mirror: bool = True
+    coarse_factor: int = 2
+    workers: int = 0
+    feature_weight: float = 1.0
+
+    def __post_init__(self):
+        def bad(name, expected):
+            raise ParamsError(f"parameter {name}={getattr(self, name)!r}: expected {expected}")
+
+        if not isinstance(self.patch_size, int) or not 16 <= self.patch_size <= 512:
+            bad("patch_size", "an integer from 16 to 512 cells")
+        if self.overlap is not None and (
+            not isinstance(self.overlap, int) or not 2 <= self.overlap <= self.patch_size // 2
+        ):
+            bad("overlap", f"an integer from 2 to {self.patch_size // 2} (half the patch) or None")
+        if not isinstance(self.k, int) or not 1 <= self.k <= 64:
+            bad("k", "an integer from 1 to 64")
+        if not isinstance(self.seed, int) or self.seed < 0:
+            bad("seed", "a non-negative integer")
+        if self.order not in ("bfs", "raster"):
+            bad("order", "'bfs' or 'raster'")
+        if self.seam not in ("cut", "paste"):
+            bad("seam", "'cut' or 'paste'")
+        if self.blend not in ("poisson", "c1", "none"):
+            bad("blend", "'poisson', 'c1' or 'none'")
+        if not isinstance(self.coarse_factor, int) or not 1 <= self.coarse_factor <= 8:
+            bad("coarse_factor", "an integer from 1 to 8")
+        if not isinstance(self.workers, int) or self.workers < 0:
+            bad("workers", "a non-negative integer (0 = all cores)")
+        if not (self.feature_weight >= 0):
+            bad("feature_weight", "a non-negative number")
+
+    @property
+    def overlap_cells(self) -> int:
+        """The overlap actually used: ``overlap`` or a third of the patch."""
+        return self.overlap if self.overlap is not None else max(2, self.patch_size // 3)
+
+    @property
+    def thread_count(self) -> int:
+        return self.workers or (os.cpu_count() or 1)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "SynthesisParams":
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ParamsError(f"unknown synthesis parameter(s): {', '.join(unknown)}")
+        return cls(**data)

@@ -1,0 +1,193 @@
+"""The feature candidate pool and its cheap ranking (paper §4.1).
+
+For one sketch sample of degree d, every example sample of the same kind and
+degree is tried under each of its d cyclic alignments, and under the d
+alignments of its mirror image when mirrors are on.  A candidate's
+deformation cost is
+
+* the residual of the best rotation that carries the sketch's control points
+  onto the candidate's (both relative to their centres, in units of the
+  inscribed radius), per control point, plus
+* for d >= 3, the thin-plate-spline bending energy (Bookstein 1989) of the map
+  between the two point sets, which is what the paper ranks branch points by
+  (for d <= 2 the spline is affine and bends nothing).
+
+Rotation itself is free: heights do not care which way a ridge runs, and the
+sketch may ask for any direction, so every candidate is turned to the sketch's
+direction by the warp.  Mirrors double the pool (paper §4.1.1).  All of it is
+batched over candidates with numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .samples import FeatureSample
+
+
+@dataclass(frozen=True, eq=False)
+class Candidate:
+    """One way to use one example sample for one sketch sample.
+
+    Parameters
+    ----------
+    example : int
+        Index of the example DEM.
+    center : ndarray (2,)
+        Example sample centre ``(row, col)``.
+    control : ndarray (d + 1, 2)
+        Example control points (absolute), ordered to correspond one to one
+        with the sketch sample's control points.
+    target : ndarray (d + 1, 2)
+        The sketch sample's control points (absolute output coordinates) the
+        ``control`` points are to be carried onto.
+    mirrored : bool
+    deformation : float
+        Cost described in the module docstring.
+    """
+
+    example: int
+    center: np.ndarray
+    control: np.ndarray
+    target: np.ndarray
+    mirrored: bool
+    deformation: float
+
+
+def _tps_kernel(d2: np.ndarray) -> np.ndarray:
+    """U(r) = r^2 log r^2 on squared distances, 0 at r = 0."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(d2 > 0, d2 * np.log(np.where(d2 > 0, d2, 1.0)), 0.0)
+
+
+class FeaturePool:
+    """Example feature samples of one kind, grouped by degree.
+
+    Parameters
+    ----------
+    samples : list of (example index, list of FeatureSample)
+    radius : float
+        Inscribed-circle radius in cells, used to normalise coordinates.
+    mirror : bool
+        Also offer the mirror image of every sample.
+    """
+
+    def __init__(self, samples: list[tuple[int, list[FeatureSample]]], radius: float, *, mirror: bool):
+        self.radius = float(radius)
+        self.mirror = mirror
+        by_degree: dict[int, list[tuple[int, FeatureSample]]] = {}
+        for ex, lst in samples:
+            for s in lst:
+                by_degree.setdefault(s.degree, []).append((ex, s))
+        self._groups = {}
+        for d, items in by_degree.items():
+            self._groups[d] = (
+                np.array([ex for ex, _ in items], dtype=np.int32),
+                np.array([s.center for _, s in items], dtype=float),
+                np.array([s.crossings for _, s in items], dtype=float),  # (N, d, 2)
+            )
+
+    @property
+    def degrees(self) -> list[int]:
+        return sorted(self._groups)
+
+    def size(self, degree: int | None = None) -> int:
+        if degree is None:
+            return sum(len(g[0]) for g in self._groups.values())
+        return len(self._groups.get(degree, ((),))[0])
+
+    def nearest_degree(self, degree: int) -> int | None:
+        """The pool's degree closest to ``degree`` (higher wins a tie), or None."""
+        if not self._groups:
+            return None
+        return min(self._groups, key=lambda d: (abs(d - degree), -d))
+
+    def rank(self, sample: FeatureSample, count: int, rng: np.random.Generator) -> list[Candidate]:
+        """The ``count`` candidates of least deformation for ``sample``.
+
+        Uses the pool's nearest degree when the exact one is missing (the
+        session reports it).  Ties (e.g. all endpoints cost nothing) are
+        broken at random with ``rng`` so seeds give different terrains.
+        """
+        degree = self.nearest_degree(sample.degree)
+        if degree is None:
+            return []
+        ex_idx, centers, crossings = self._groups[degree]
+        src = (sample.crossings - sample.center) / self.radius  # (d_s, 2)
+        rel = (crossings - centers[:, None, :]) / self.radius  # (N, d, 2)
+        if degree != sample.degree:
+            src, rel = _match_counts(src, rel)
+        d = src.shape[0]
+        # All alignments: cyclic shifts, and of the mirrored order.
+        shifts = np.array([np.roll(np.arange(d), -a) for a in range(d)])  # (d, d)
+        aligned = rel[:, shifts, :]  # (N, d_align, d, 2)
+        mirrored = np.zeros(aligned.shape[:2], dtype=bool)
+        if self.mirror:
+            mshifts = np.array([np.roll(np.arange(d)[::-1], -a) for a in range(d)])
+            maligned = rel[:, mshifts, :]
+            aligned = np.concatenate([aligned, maligned], axis=1)
+            mirrored = np.concatenate([mirrored, np.ones_like(mirrored)], axis=1)
+        n_cand, n_align = aligned.shape[:2]
+        flat = aligned.reshape(-1, d, 2)
+        mflat = mirrored.reshape(-1)
+        cost = _rotation_residual(src, flat, mflat) / (d + 1)
+        if d >= 3:
+            cost = cost + _bending_energy(src, flat)
+        cost = cost + rng.random(cost.shape) * 1e-6  # random tie-break, seeded
+        take = np.argsort(cost, kind="stable")[:count]
+        target = np.vstack([[0.0, 0.0], src]) * self.radius + sample.center
+        out = []
+        for t in take:
+            ci, ai = divmod(int(t), n_align)
+            ctrl = np.vstack([[0.0, 0.0], flat[t]]) * self.radius + centers[ci]
+            out.append(Candidate(int(ex_idx[ci]), centers[ci].copy(), ctrl, target, bool(mflat[t]), float(cost[t])))
+        return out
+
+
+def _match_counts(src: np.ndarray, rel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Trim the longer of sketch/example crossings to the shorter's count,
+    keeping the most evenly spread subset (used only for degree fallback)."""
+    ds, de = src.shape[0], rel.shape[1]
+    d = min(ds, de)
+    if ds > d:
+        src = src[np.linspace(0, ds, d, endpoint=False).astype(int)]
+    if de > d:
+        rel = rel[:, np.linspace(0, de, d, endpoint=False).astype(int)]
+    return src, rel
+
+
+def _rotation_residual(src: np.ndarray, dst: np.ndarray, mirrored: np.ndarray) -> np.ndarray:
+    """Sum of squared distances after the best rotation of ``src`` onto each
+    ``dst`` (about the common centre), reflecting first where ``mirrored``.
+
+    src : (d, 2); dst : (M, d, 2); mirrored : (M,) -> (M,)
+    """
+    s = np.broadcast_to(src, dst.shape).copy()
+    s[mirrored, :, 1] *= -1.0
+    dot = np.einsum("mdk,mdk->m", s, dst)
+    cross = np.einsum("md,md->m", s[..., 0], dst[..., 1]) - np.einsum("md,md->m", s[..., 1], dst[..., 0])
+    total = np.einsum("mdk,mdk->m", s, s) + np.einsum("mdk,mdk->m", dst, dst)
+    return np.maximum(total - 2.0 * np.hypot(dot, cross), 0.0)
+
+
+def _bending_energy(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """Thin-plate bending energy of the spline through ``src`` (centre plus d
+    crossings) -> each ``dst``; src : (d, 2), dst : (M, d, 2) -> (M,)."""
+    pts = np.vstack([[0.0, 0.0], src])  # (m, 2)
+    m = pts.shape[0]
+    d2 = ((pts[:, None, :] - pts[None, :, :]) ** 2).sum(-1)
+    K = _tps_kernel(d2)
+    P = np.hstack([np.ones((m, 1)), pts])
+    L = np.zeros((m + 3, m + 3))
+    L[:m, :m] = K
+    L[:m, m:] = P
+    L[m:, :m] = P.T
+    try:
+        Linv = np.linalg.inv(L)
+    except np.linalg.LinAlgError:
+        return np.zeros(dst.shape[0])
+    Y = np.concatenate([np.zeros((dst.shape[0], 1, 2)), dst], axis=1)  # (M, m, 2)
+    W = np.einsum("ij,mjk->mik", Linv[:m, :m], Y)  # non-affine weights (M, m, 2)
+    return np.maximum(np.einsum("mik,ij,mjk->m", W, K, W), 0.0)
