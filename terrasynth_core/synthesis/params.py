@@ -20,7 +20,7 @@ class SynthesisParams:
     overlap : int or None, default None
         Width in cells of the band a fill patch shares with its neighbours;
         ``None`` is a third of the patch, as in the paper.
-    k : int, default 4
+    k : int, default 3
         Candidates that get the full evaluation: after the cheap ranking
         (thin-plate deformation for feature patches, of which the best ``3k``
         are warped and compared with the overlap; coarse FFT SSD for fill
@@ -40,9 +40,10 @@ class SynthesisParams:
         the seam (first-derivative continuity), or nothing.
     mirror : bool, default True
         Add each example feature patch's mirror image to the candidate pool.
-    coarse_factor : int, default 2
+    coarse_factor : int, default 0
         Down-sampling of the example for the FFT search of fill patches; the
-        best positions are then refined at full resolution.
+        best positions are then refined at full resolution.  0 chooses it
+        from the example's size (about 160,000 cells searched per example).
     workers : int, default 0
         Threads for FFTs and candidate evaluation; 0 uses every core.
     feature_weight : float, default 1.0
@@ -52,13 +53,13 @@ class SynthesisParams:
 
     patch_size: int = 80
     overlap: int | None = None
-    k: int = 4
+    k: int = 3
     seed: int = 0
     order: Literal["bfs", "raster"] = "bfs"
     seam: Literal["cut", "paste"] = "cut"
     blend: Literal["poisson", "c1", "none"] = "c1"
     mirror: bool = True
-    coarse_factor: int = 2
+    coarse_factor: int = 0
     workers: int = 0
     feature_weight: float = 1.0
 
@@ -82,8 +83,8 @@ class SynthesisParams:
             bad("seam", "'cut' or 'paste'")
         if self.blend not in ("poisson", "c1", "none"):
             bad("blend", "'poisson', 'c1' or 'none'")
-        if not isinstance(self.coarse_factor, int) or not 1 <= self.coarse_factor <= 8:
-            bad("coarse_factor", "an integer from 1 to 8")
+        if not isinstance(self.coarse_factor, int) or not 0 <= self.coarse_factor <= 8:
+            bad("coarse_factor", "an integer from 0 (automatic) to 8")
         if not isinstance(self.workers, int) or self.workers < 0:
             bad("workers", "a non-negative integer (0 = all cores)")
         if not (self.feature_weight >= 0):
@@ -93,6 +94,13 @@ class SynthesisParams:
     def overlap_cells(self) -> int:
         """The overlap actually used: ``overlap`` or a third of the patch."""
         return self.overlap if self.overlap is not None else max(2, self.patch_size // 3)
+
+    def coarse_factor_for(self, example_shape: tuple[int, int]) -> int:
+        """The FFT search down-sampling used for an example of this shape."""
+        if self.coarse_factor:
+            return self.coarse_factor
+        rows, cols = example_shape
+        return max(1, min(8, round((rows * cols / 160_000) ** 0.5)))
 
     @property
     def thread_count(self) -> int:

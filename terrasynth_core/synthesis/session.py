@@ -282,7 +282,7 @@ class _Run:
         yield StageStarted("fill", len(windows))
         searches = [
             FillSearch(ex.heights, (self.p.patch_size, self.p.patch_size), feature_mask=ex.strong_mask,
-                       coarse_factor=self.p.coarse_factor, workers=self.p.thread_count)
+                       coarse_factor=self.p.coarse_factor_for(ex.heights.shape), workers=self.p.thread_count)
             for ex in self.s.examples
         ]
         self.timings["fill_setup"] = time.perf_counter() - t
