@@ -2,23 +2,26 @@
 
 Extracting an example's ridges and valleys is the slowest part of starting a
 run, and the same examples are used run after run (the app re-synthesizes
-after every edit), so the analysis is memoised per (heights, patch size).
+after every edit), so the analysis is memoised per (heights, patch size), in
+memory and on disk (:mod:`.analysis_cache`).
 """
 
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
+import threading
 from collections import OrderedDict
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
 
-from ..errors import ParamsError
 from ..analysis import topographic_position_index
+from ..errors import ParamsError
 from ..features import FeatureMaps, extract_features
 from ..heightfield import HeightField
-from .samples import FeatureSample, example_samples
+from . import analysis_cache
+from .samples import example_samples
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,13 +77,20 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
             f"{patch_size}x{patch_size}: use a larger example or a smaller patch size"
         )
     heights = np.ascontiguousarray(field.heights, dtype=np.float32)
-    key = (hashlib.sha1(heights.tobytes()).hexdigest(), heights.shape, patch_size)
-    if key not in _CACHE:
-        _CACHE[key] = _analyse(heights, patch_size)
-        while len(_CACHE) > _CACHE_SIZE:
-            _CACHE.popitem(last=False)
-    _CACHE.move_to_end(key)
-    features, samples, strong, relief = _CACHE[key]
+    digest = hashlib.sha1(heights.tobytes()).hexdigest()
+    key = f"{digest}-{heights.shape[0]}x{heights.shape[1]}-p{patch_size}"
+    with _CACHE_LOCK:
+        cached = _CACHE.get(key)
+    if cached is None:
+        cached = analysis_cache.load(key)
+        if cached is None:
+            cached = _analyse(heights, patch_size)
+            analysis_cache.save(key, *cached)
+        with _CACHE_LOCK:
+            _CACHE[key] = cached
+            while len(_CACHE) > _CACHE_SIZE:
+                _CACHE.popitem(last=False)
+    features, samples, strong, relief = cached
     return ExampleAnalysis(heights, features, samples, strong, relief, note)
 
 
@@ -89,7 +99,9 @@ STRONG_QUANTILE = 0.5
 #: ...unless they stand out by at least this many standard deviations of TPI.
 MIN_STRENGTH = 1.0
 
+# In memory too: the app re-synthesizes after every edit.
 _CACHE: OrderedDict = OrderedDict()
+_CACHE_LOCK = threading.Lock()
 _CACHE_SIZE = 8
 
 

@@ -18,3 +18,9 @@ def dems_dir() -> Path:
 def sketch_dir() -> Path:
     """The built-in sketch maps (resources/sketches)."""
     return Path(__file__).resolve().parents[2] / "resources" / "sketches"
+
+
+@pytest.fixture(autouse=True)
+def _private_analysis_cache(tmp_path_factory, monkeypatch):
+    """Keep the example-analysis disk cache out of the user's home."""
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "analysis-cache"))

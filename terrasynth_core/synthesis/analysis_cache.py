@@ -1,0 +1,120 @@
+"""An on-disk cache of example analyses, so that a second run on the same
+example (the CLI, a restarted app) starts placing patches at once.
+
+One ``.npz`` file per (heights, patch size, version), in
+``$TERRASYNTH_CACHE_DIR`` or ``$XDG_CACHE_HOME/terrasynth`` (default
+``~/.cache/terrasynth``).  Files are written atomically and read with
+``allow_pickle=False``; an unreadable or stale file is ignored and rewritten,
+never an error.  Set ``TERRASYNTH_CACHE_DIR`` to an empty string to turn the
+cache off.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..features import FeatureGraph, FeatureMaps
+from ..features.graph import FeatureNode, FeaturePath
+from .samples import FeatureSample
+
+#: Bump when the analysis changes, so old files are not reused.
+CACHE_VERSION = 1
+_KINDS = ("ridge", "valley")
+
+
+def cache_dir() -> Path | None:
+    """Folder of the cache, or None when it is turned off."""
+    env = os.environ.get("TERRASYNTH_CACHE_DIR")
+    if env is not None:
+        return Path(env) if env else None
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "terrasynth"
+
+
+def _path(key: str) -> Path | None:
+    folder = cache_dir()
+    return None if folder is None else folder / f"example-v{CACHE_VERSION}-{key}.npz"
+
+
+def load(key: str):
+    """The cached ``(features, samples, strong_mask, relief)`` or None."""
+    path = _path(key)
+    if path is None or not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            shape = tuple(int(v) for v in z["shape"])
+            graphs = [_graph_from(z, kind, shape) for kind in _KINDS]
+            samples = {kind: _samples_from(z, kind) for kind in _KINDS}
+            strong = np.unpackbits(z["strong"], count=shape[0] * shape[1]).reshape(shape).astype(bool)
+            relief = float(z["relief"])
+        return FeatureMaps(*graphs), samples, strong, relief
+    except Exception:  # a damaged or foreign file: recompute
+        return None
+
+
+def save(key: str, features: FeatureMaps, samples: dict, strong: np.ndarray, relief: float) -> None:
+    """Store an analysis; failures (read-only home, full disk) are ignored."""
+    path = _path(key)
+    if path is None:
+        return
+    arrays = {"shape": np.array(strong.shape), "strong": np.packbits(strong), "relief": np.array(relief)}
+    for graph in (features.ridges, features.valleys):
+        arrays.update(_graph_arrays(graph))
+    for kind in _KINDS:
+        arrays.update(_sample_arrays(kind, samples[kind]))
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz.tmp")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                np.savez(f, **arrays)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+    except OSError:
+        pass
+
+
+def _graph_arrays(graph: FeatureGraph) -> dict:
+    k = graph.kind
+    pts = [p.points for p in graph.paths]
+    return {
+        f"{k}_nodes": np.array([[n.row, n.col] for n in graph.nodes], dtype=float).reshape(-1, 2),
+        f"{k}_node_branch": np.array([n.type == "branch" for n in graph.nodes], dtype=bool),
+        f"{k}_node_degree": np.array([n.degree for n in graph.nodes], dtype=np.int32),
+        f"{k}_ends": np.array([[p.start, p.end] for p in graph.paths], dtype=np.int64).reshape(-1, 2),
+        f"{k}_counts": np.array([len(p) for p in pts], dtype=np.int64),
+        f"{k}_points": np.concatenate(pts) if pts else np.zeros((0, 2)),
+    }
+
+
+def _graph_from(z, kind: str, shape) -> FeatureGraph:
+    nodes = tuple(
+        FeatureNode(i, float(r), float(c), "branch" if b else "end", int(d))
+        for i, ((r, c), b, d) in enumerate(zip(z[f"{kind}_nodes"], z[f"{kind}_node_branch"], z[f"{kind}_node_degree"]))
+    )
+    splits = np.cumsum(z[f"{kind}_counts"])[:-1]
+    points = np.split(z[f"{kind}_points"], splits) if len(z[f"{kind}_counts"]) else []
+    paths = tuple(FeaturePath(int(a), int(b), p) for (a, b), p in zip(z[f"{kind}_ends"], points))
+    return FeatureGraph(kind, shape, nodes, paths)
+
+
+def _sample_arrays(kind: str, samples: list[FeatureSample]) -> dict:
+    return {
+        f"{kind}_s_centers": np.array([s.center for s in samples], dtype=float).reshape(-1, 2),
+        f"{kind}_s_degree": np.array([s.degree for s in samples], dtype=np.int64),
+        f"{kind}_s_crossings": (np.concatenate([s.crossings for s in samples]) if samples
+                                else np.zeros((0, 2))),
+    }
+
+
+def _samples_from(z, kind: str) -> list[FeatureSample]:
+    degrees = z[f"{kind}_s_degree"]
+    crossings = np.split(z[f"{kind}_s_crossings"], np.cumsum(degrees)[:-1]) if len(degrees) else []
+    return [FeatureSample(c.copy(), kind, x) for c, x in zip(z[f"{kind}_s_centers"], crossings)]
