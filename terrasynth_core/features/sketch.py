@@ -200,7 +200,28 @@ def read_sketch(path) -> SketchMap:
         raise SketchError(f"cannot read sketch {path}: not a readable image ({exc})") from None
     if min(rgb.shape[:2]) < 2:
         raise SketchError(f"sketch {path} is only {rgb.shape[1]}x{rgb.shape[0]} pixels; expected at least 2x2")
-    return SketchMap.from_rgb(rgb)
+    sketch = SketchMap.from_rgb(rgb)
+    if not sketch.has_strokes:
+        _refuse_other_colours(rgb[..., :3], path)
+    return sketch
+
+
+def _refuse_other_colours(rgb: np.ndarray, path: Path) -> None:
+    """A sketch without red or blue but with drawing in other colours was
+    almost surely painted in the wrong colours: say so instead of silently
+    synthesizing terrain without features.  A blank canvas passes."""
+    flat = rgb.reshape(-1, 3)
+    colours, counts = np.unique(flat, axis=0, return_counts=True)
+    background = colours[np.argmax(counts)]
+    drawn = np.abs(flat.astype(np.int16) - background).max(axis=1) > 32
+    share = drawn.mean()
+    if share > 0.001:
+        example = "#{:02x}{:02x}{:02x}".format(*flat[np.flatnonzero(drawn)[0]])
+        raise SketchError(
+            f"sketch {path} has no red or blue strokes but {100 * share:.1f} % of its pixels are drawn in "
+            f"other colours (e.g. {example}): paint ridges red (R>=128, G<128, B<128) and valleys blue "
+            "(B>=128, R<128, G<128)"
+        )
 
 
 def save_sketch(sketch: SketchMap, path) -> Path:

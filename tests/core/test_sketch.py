@@ -336,3 +336,16 @@ def test_sketch_features_rejects_wrong_types():
         sketch_features(np.zeros((10, 10), bool))
     with pytest.raises(ParamsError, match="SketchParams"):
         sketch_features(SketchMap.empty((10, 10)), params=None)
+
+
+def test_sketch_in_other_colours_is_refused_but_a_blank_canvas_is_not(tmp_path):
+    """The paper's convention (white ridges, black valleys on grey) or any
+    other colours: a clear error naming the colours expected."""
+    grey = np.full((120, 120, 3), 128, np.uint8)
+    grey[60, 10:110] = 255
+    grey[10:110, 30] = 0
+    Image.fromarray(grey).save(tmp_path / "paper_style.png")
+    with pytest.raises(SketchError, match=r"paper_style.png has no red or blue strokes.*paint ridges red"):
+        read_sketch(tmp_path / "paper_style.png")
+    Image.fromarray(np.full((50, 50, 3), 255, np.uint8)).save(tmp_path / "blank.png")
+    assert not read_sketch(tmp_path / "blank.png").has_strokes
