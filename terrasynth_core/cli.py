@@ -179,6 +179,9 @@ def _synthesize(examples, sketch, size, params, args) -> int:
             f"cannot write {out}: unknown extension {out.suffix!r}; expected one of "
             + ", ".join(WRITE_EXTENSIONS + MESH_EXTENSIONS)
         )
+    # Checked before the run so a typo in the path does not cost a whole synthesis.
+    if not out.parent.is_dir():
+        raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
     session = Session(examples, sketch, shape=size, params=params)
     for w in session.warnings:
         print(f"terrasynth-cli: note: {w}", file=sys.stderr)
