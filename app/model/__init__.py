@@ -1,0 +1,35 @@
+"""The app's document model: plain Python, no Qt.
+
+:class:`Document` holds the :class:`Sketch` (with undo history), the chosen
+:class:`ExampleRef` list, the synthesis parameters and the last
+:class:`TerrainResult`; :func:`save_project` / :func:`load_project` write and
+read it as one file; :class:`RecoveryStore` autosaves it.
+"""
+
+from .document import Document, SynthesisRequest
+from .events import Event
+from .examples import ExampleRef, builtin_refs
+from .history import SketchEdit, SketchHistory
+from .project import PROJECT_EXTENSION, ProjectError, load_project, save_project
+from .recovery import RecoveryStore
+from .result import TerrainResult
+from .sketch import TOOLS, Sketch, capsule_coverage
+
+__all__ = [
+    "PROJECT_EXTENSION",
+    "TOOLS",
+    "Document",
+    "Event",
+    "ExampleRef",
+    "ProjectError",
+    "RecoveryStore",
+    "Sketch",
+    "SketchEdit",
+    "SketchHistory",
+    "SynthesisRequest",
+    "TerrainResult",
+    "builtin_refs",
+    "capsule_coverage",
+    "load_project",
+    "save_project",
+]

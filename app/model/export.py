@@ -1,0 +1,87 @@
+"""Writing the synthesized terrain: DEM formats and meshes, at any size."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+from scipy import ndimage
+
+from terrasynth_core.errors import ParamsError
+from terrasynth_core.heightfield import HeightField
+from terrasynth_core.io import MESH_EXTENSIONS, WRITE_EXTENSIONS, save_dem, save_mesh
+
+from .result import TerrainResult
+
+#: Extensions :func:`export_terrain` writes: DEM formats, then meshes.
+EXPORT_EXTENSIONS: tuple[str, ...] = tuple(WRITE_EXTENSIONS) + tuple(MESH_EXTENSIONS)
+
+
+def resampled_field(result: TerrainResult, size: tuple[int, int] | None = None) -> HeightField:
+    """The result as a :class:`HeightField`, bilinearly resampled to ``size``.
+
+    Parameters
+    ----------
+    result : TerrainResult
+    size : (rows, cols), optional
+        Output grid; default the result's.  The ground extent is kept, so
+        the cell size scales inversely.
+
+    Raises
+    ------
+    ParamsError
+        For a size below 2x2 or above 64 million cells.
+    """
+    rows, cols = result.shape
+    if size is None or tuple(size) == (rows, cols):
+        return HeightField(result.heights, cell_size=result.cell_size, source="synthesized terrain")
+    new_rows, new_cols = (int(v) for v in size)
+    if min(new_rows, new_cols) < 2 or new_rows * new_cols > 64_000_000:
+        raise ParamsError(f"export size {new_rows}x{new_cols}: expected 2x2 to 64 million cells")
+    # Map the centres of the new grid's corner cells to the old corners so
+    # both grids span the same ground.
+    rr = np.linspace(0, rows - 1, new_rows, dtype=np.float32)
+    cc = np.linspace(0, cols - 1, new_cols, dtype=np.float32)
+    coords = np.meshgrid(rr, cc, indexing="ij")
+    heights = ndimage.map_coordinates(result.heights, coords, order=1, mode="nearest").astype(np.float32)
+    cell_size = None
+    if result.cell_size is not None:
+        dy, dx = result.cell_size
+        cell_size = (dy * (rows - 1) / (new_rows - 1), dx * (cols - 1) / (new_cols - 1))
+    return HeightField(heights, cell_size=cell_size, source="synthesized terrain")
+
+
+def export_terrain(result: TerrainResult, path: str | os.PathLike, *, size: tuple[int, int] | None = None,
+                   vertical_scale: float = 1.0, step: int = 1) -> Path:
+    """Write ``result`` as a DEM or a mesh, chosen by the extension of ``path``.
+
+    Parameters
+    ----------
+    result : TerrainResult
+    path : str or path-like
+        One of :data:`EXPORT_EXTENSIONS`.
+    size : (rows, cols), optional
+        Resample to this grid first (see :func:`resampled_field`).
+    vertical_scale : float, default 1.0
+        Height exaggeration, meshes only.
+    step : int, default 1
+        Keep every ``step``-th row and column, meshes only.
+
+    Returns
+    -------
+    Path
+        The file written (DEM formats may add a JSON sidecar beside it).
+
+    Raises
+    ------
+    DEMFormatError, ParamsError
+        Unsupported extension, unwritable file or bad options, one line each.
+    """
+    path = Path(path)
+    field = resampled_field(result, size)
+    if path.suffix.lower() in MESH_EXTENSIONS:
+        save_mesh(field, path, vertical_scale=vertical_scale, step=step)
+    else:
+        save_dem(field, path)
+    return path

@@ -1,0 +1,200 @@
+"""Project files: one ``.tsproj`` zip holding a whole document.
+
+Layout of the zip::
+
+    project.json        format, version, examples, params, sketch shape,
+                        result metadata (cell size, report, feature graphs)
+    sketch_ridge.npy    uint8 (rows, cols) stroke intensities
+    sketch_valley.npy   uint8 (rows, cols)
+    result_heights.npy  float32 (rows, cols), when there is a result
+    result_patch_id.npy int32
+    result_seams.npy    bool
+
+Writes go to a temporary file in the target's folder that then replaces the
+target, so a crash mid-save never leaves a truncated project.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from terrasynth_core.errors import TerraSynthError
+from terrasynth_core.features import FeatureGraph, FeatureMaps
+from terrasynth_core.synthesis import SynthesisParams
+
+from .document import Document
+from .examples import ExampleRef
+from .result import TerrainResult
+from .sketch import Sketch
+
+#: Extension of project files.
+PROJECT_EXTENSION = ".tsproj"
+FORMAT_NAME = "terrasynth-project"
+FORMAT_VERSION = 1
+
+
+class ProjectError(TerraSynthError):
+    """A project file cannot be read or written."""
+
+
+def save_project(document: Document, path: str | os.PathLike, *, mark_saved: bool = True) -> Path:
+    """Write ``document`` to ``path`` atomically.
+
+    Parameters
+    ----------
+    document : Document
+    path : str or path-like
+        Target file; ``.tsproj`` is the usual extension.
+    mark_saved : bool, default True
+        Record ``path`` as the document's file and clear its unsaved flag
+        (False for autosave copies).
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Raises
+    ------
+    ProjectError
+        When the file cannot be written.
+    """
+    path = Path(path)
+    arrays = {"sketch_ridge": np.asarray(document.sketch.ridge), "sketch_valley": np.asarray(document.sketch.valley)}
+    meta: dict = {
+        "format": FORMAT_NAME,
+        "version": FORMAT_VERSION,
+        "examples": [_example_entry(ref, path.parent) for ref in document.examples],
+        "params": document.params.to_dict(),
+        "sketch": {"shape": list(document.sketch.shape)},
+        "result": None,
+    }
+    result = document.result
+    if result is not None:
+        arrays.update(result_heights=result.heights, result_patch_id=result.patch_id, result_seams=result.seam_mask)
+        meta["result"] = {
+            "shape": list(result.shape),
+            "cell_size": list(result.cell_size) if result.cell_size is not None else None,
+            "report": result.report,
+            "sketch_features": result.sketch_features.to_dict() if result.sketch_features is not None else None,
+        }
+    _write_zip(path, meta, arrays)
+    if mark_saved:
+        document.mark_saved(path)
+    return path
+
+
+def load_project(path: str | os.PathLike) -> Document:
+    """Read a project file into a new, clean :class:`Document`.
+
+    Raises
+    ------
+    ProjectError
+        When the file is missing, not a TerraSynth project, of a newer
+        version, or damaged.
+    """
+    path = Path(path)
+    try:
+        with zipfile.ZipFile(path) as zf:
+            meta = json.loads(zf.read("project.json"))
+            if meta.get("format") != FORMAT_NAME:
+                raise ProjectError(f"{path} is not a TerraSynth project (format {meta.get('format')!r})")
+            if int(meta.get("version", 0)) > FORMAT_VERSION:
+                raise ProjectError(
+                    f"{path} is a version {meta['version']} project; this TerraSynth reads up to version "
+                    f"{FORMAT_VERSION}"
+                )
+            sketch = Sketch(_array(zf, "sketch_ridge"), _array(zf, "sketch_valley"))
+            result = None
+            if meta.get("result") is not None:
+                info = meta["result"]
+                features = info.get("sketch_features")
+                shape = tuple(info["shape"])
+                result = TerrainResult(
+                    _array(zf, "result_heights"),
+                    _array(zf, "result_patch_id"),
+                    _array(zf, "result_seams"),
+                    sketch_features=_feature_maps(features, shape) if features is not None else None,
+                    cell_size=tuple(info["cell_size"]) if info.get("cell_size") is not None else None,
+                    report=info.get("report") or {},
+                )
+        examples = [_example_ref(entry, path.parent) for entry in meta["examples"]]
+        params = SynthesisParams.from_dict(meta["params"])
+    except ProjectError:
+        raise
+    except TerraSynthError as exc:
+        raise ProjectError(f"{path}: {exc}") from None
+    except FileNotFoundError:
+        raise ProjectError(f"project file {path} does not exist") from None
+    except (OSError, zipfile.BadZipFile, KeyError, ValueError, TypeError) as exc:
+        raise ProjectError(f"{path} is damaged or not a TerraSynth project: {exc}") from None
+    document = Document(sketch, examples, params=params, result=result, path=path)
+    document.mark_saved(path)
+    return document
+
+
+# -- helpers --------------------------------------------------------------------
+def _write_zip(path: Path, meta: dict, arrays: dict[str, np.ndarray]) -> None:
+    directory = path.parent if str(path.parent) else Path(".")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    except OSError as exc:
+        raise ProjectError(f"cannot write project {path}: {exc.strerror or exc}") from None
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            # Level 1: strokes and seam masks shrink a lot, heights little, and
+            # speed matters more (autosave runs while the user works).
+            with zipfile.ZipFile(fh, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=1) as zf:
+                zf.writestr("project.json", json.dumps(meta, indent=1))
+                for name, array in arrays.items():
+                    buf = io.BytesIO()
+                    np.save(buf, np.ascontiguousarray(array), allow_pickle=False)
+                    zf.writestr(f"{name}.npy", buf.getvalue())
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise ProjectError(f"cannot write project {path}: {exc.strerror or exc}") from None
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _array(zf: zipfile.ZipFile, name: str) -> np.ndarray:
+    return np.load(io.BytesIO(zf.read(f"{name}.npy")), allow_pickle=False)
+
+
+def _example_entry(ref: ExampleRef, folder: Path) -> dict:
+    entry = ref.to_dict()
+    if ref.path is not None:
+        # Both forms: the absolute path survives moving the project alone,
+        # the relative one moving the project together with its DEMs.
+        entry["path"] = os.path.abspath(ref.path)
+        try:
+            entry["relative_path"] = os.path.relpath(entry["path"], folder.resolve())
+        except ValueError:  # another drive on Windows
+            pass
+    return entry
+
+
+def _example_ref(entry: dict, folder: Path) -> ExampleRef:
+    entry = dict(entry)
+    relative = entry.pop("relative_path", None)
+    if entry.get("path") and not os.path.exists(entry["path"]) and relative is not None:
+        candidate = folder / relative
+        if candidate.exists():
+            entry["path"] = str(candidate)
+    return ExampleRef.from_dict(entry)
+
+
+def _feature_maps(data: dict, shape: tuple[int, int]) -> FeatureMaps:
+    return FeatureMaps(FeatureGraph.from_dict(data["ridges"], "ridge", shape),
+                       FeatureGraph.from_dict(data["valleys"], "valley", shape))

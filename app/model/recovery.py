@@ -1,0 +1,77 @@
+"""Crash recovery: the document autosaved to a file beside the user's settings."""
+
+from __future__ import annotations
+
+import json
+import os
+from datetime import datetime
+from pathlib import Path
+
+from .document import Document
+from .project import load_project, save_project
+from .sketch import Sketch
+
+RECOVERY_NAME = "recovery.tsproj"
+_INFO_NAME = "recovery.json"
+
+
+class RecoveryStore:
+    """Where unsaved work is autosaved and found again after a crash.
+
+    Parameters
+    ----------
+    directory : path-like
+        Folder for the recovery files (created on first save).
+    """
+
+    def __init__(self, directory: str | os.PathLike) -> None:
+        self.directory = Path(directory)
+        self.path = self.directory / RECOVERY_NAME
+        self._info = self.directory / _INFO_NAME
+
+    def save(self, document: Document) -> None:
+        """Autosave ``document`` without touching its file or unsaved flag."""
+        self.directory.mkdir(parents=True, exist_ok=True)
+        save_project(document, self.path, mark_saved=False)
+        info = {"original": str(document.path) if document.path is not None else None,
+                "saved_at": datetime.now().isoformat(timespec="seconds")}
+        tmp = self._info.with_suffix(".tmp")
+        tmp.write_text(json.dumps(info))
+        os.replace(tmp, self._info)
+
+    def exists(self) -> bool:
+        return self.path.is_file()
+
+    def describe(self) -> str:
+        """One line for the recovery prompt: when, and which project."""
+        try:
+            info = json.loads(self._info.read_text())
+        except (OSError, ValueError):
+            info = {}
+        what = Path(info["original"]).name if info.get("original") else "an untitled project"
+        when = info.get("saved_at", "an unknown time").replace("T", " ")
+        return f"Unsaved work on {what}, autosaved at {when}"
+
+    def load(self) -> Document:
+        """The recovered document: unsaved, attached to its original file if any.
+
+        Raises
+        ------
+        ProjectError
+            When the recovery file is damaged.
+        """
+        document = load_project(self.path)
+        try:
+            original = json.loads(self._info.read_text()).get("original")
+        except (OSError, ValueError):
+            original = None
+        recovered = Document(Sketch(document.sketch.ridge, document.sketch.valley), document.examples, params=document.params,
+                             result=document.result, path=Path(original) if original else None)
+        recovered.mark_unsaved()
+        return recovered
+
+    def discard(self) -> None:
+        """Delete the recovery files (after a clean save or exit)."""
+        self.path.unlink(missing_ok=True)
+        self._info.unlink(missing_ok=True)
+

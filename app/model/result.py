@@ -1,0 +1,65 @@
+"""The last synthesis result as the document keeps it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from terrasynth_core.features import FeatureMaps
+
+
+@dataclass(frozen=True, eq=False)
+class TerrainResult:
+    """A synthesized terrain with the debug maps the views overlay.
+
+    Built from a core ``SynthesisResult`` after a run, or read back from a
+    project file (which keeps no per-patch records).
+
+    Parameters
+    ----------
+    heights : ndarray of float32, shape (rows, cols)
+        Heights in metres.
+    patch_id : ndarray of int32, shape (rows, cols)
+        Patch each cell came from, -1 for none.
+    seam_mask : ndarray of bool, shape (rows, cols)
+        Cells next to a seam between patches.
+    sketch_features : FeatureMaps or None
+        The ridge and valley networks the run followed.
+    cell_size : (dy, dx) or None
+        Ground size of a cell in metres (that of the first example).
+    report : dict
+        The run's JSON-ready summary (parameters, counts, timings, warnings).
+    """
+
+    heights: np.ndarray
+    patch_id: np.ndarray
+    seam_mask: np.ndarray
+    sketch_features: FeatureMaps | None = None
+    cell_size: tuple[float, float] | None = None
+    report: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        heights = np.asarray(self.heights, dtype=np.float32)
+        if heights.ndim != 2:
+            raise ValueError(f"result heights must be 2-D, got shape {heights.shape}")
+        for name in ("patch_id", "seam_mask"):
+            if np.shape(getattr(self, name)) != heights.shape:
+                raise ValueError(f"result {name} has shape {np.shape(getattr(self, name))}, expected {heights.shape}")
+        object.__setattr__(self, "heights", heights)
+        object.__setattr__(self, "patch_id", np.asarray(self.patch_id, dtype=np.int32))
+        object.__setattr__(self, "seam_mask", np.asarray(self.seam_mask, dtype=bool))
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.heights.shape
+
+    @property
+    def warnings(self) -> list[str]:
+        return list(self.report.get("warnings", []))
+
+    @classmethod
+    def from_synthesis(cls, result, *, cell_size: tuple[float, float] | None = None) -> "TerrainResult":
+        """Keep what the app needs of a core ``SynthesisResult``."""
+        return cls(result.heights, result.patch_id, result.seam_mask, result.sketch_features,
+                   cell_size, result.report())

@@ -1,0 +1,117 @@
+"""The export dialog: every DEM format and mesh, with size and vertical scale."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import (QComboBox, QDialog, QDialogButtonBox, QDoubleSpinBox, QFileDialog, QFormLayout,
+                               QHBoxLayout, QLineEdit, QPushButton, QSpinBox, QWidget)
+
+from terrasynth_core.io import MESH_EXTENSIONS
+
+from ..model.export import EXPORT_EXTENSIONS
+
+_NAMES = {
+    ".tif": "GeoTIFF, float32", ".tiff": "GeoTIFF, float32", ".asc": "ESRI ASCII grid",
+    ".png": "16-bit PNG + JSON sidecar", ".npy": "NumPy float32 + JSON sidecar", ".ter": "Terragen",
+    ".r16": "RAW 16-bit + JSON sidecar", ".r32": "RAW 32-bit float", ".obj": "Wavefront OBJ mesh",
+    ".stl": "STL mesh (binary)", ".ply": "PLY mesh (binary)",
+}
+
+
+class ExportDialog(QDialog):
+    """Choose file, format, size and mesh options for exporting the terrain.
+
+    Parameters
+    ----------
+    shape : (rows, cols)
+        The result's size, the default export size.
+    directory : str
+        Folder proposed for the file.
+
+    Signals
+    -------
+    screenshot_requested()
+        The user asked for a 3D screenshot instead.
+    """
+
+    screenshot_requested = Signal()
+
+    def __init__(self, shape: tuple[int, int], *, directory: str = "", screenshot_available: bool = True,
+                 parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Export terrain")
+        self.format = QComboBox()
+        for ext in EXPORT_EXTENSIONS:
+            self.format.addItem(f"{_NAMES.get(ext, ext)} ({ext})", ext)
+        self.path = QLineEdit(str(Path(directory or ".") / "terrain.tif"))
+        browse = QPushButton("Browse…")
+        browse.clicked.connect(self._browse)
+        path_row = QHBoxLayout()
+        path_row.addWidget(self.path, 1)
+        path_row.addWidget(browse)
+        self.rows = QSpinBox(minimum=2, maximum=8000, value=shape[0], suffix=" rows")
+        self.cols = QSpinBox(minimum=2, maximum=8000, value=shape[1], suffix=" cols")
+        size_row = QHBoxLayout()
+        size_row.addWidget(self.rows)
+        size_row.addWidget(self.cols)
+        self.vertical_scale = QDoubleSpinBox(minimum=0.01, maximum=100.0, value=1.0, singleStep=0.5, decimals=2)
+        self.vertical_scale.setToolTip("Height exaggeration of the mesh")
+        self.step = QSpinBox(minimum=1, maximum=64, value=1)
+        self.step.setToolTip("Keep every n-th row and column of the mesh")
+        self.screenshot_button = QPushButton("Save 3D screenshot…")
+        self.screenshot_button.setEnabled(screenshot_available)
+        self.screenshot_button.clicked.connect(self._screenshot)
+
+        form = QFormLayout(self)
+        form.addRow("Format", self.format)
+        form.addRow("File", path_row)
+        form.addRow("Size", size_row)
+        form.addRow("Mesh vertical scale", self.vertical_scale)
+        form.addRow("Mesh step", self.step)
+        form.addRow(self.screenshot_button)
+        buttons = QDialogButtonBox(QDialogButtonBox.Save | QDialogButtonBox.Cancel)
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        form.addRow(buttons)
+        self.format.currentIndexChanged.connect(self._format_changed)
+        self.path.textEdited.connect(self._path_edited)
+        self._format_changed()
+
+    def options(self) -> dict:
+        """``export_terrain`` arguments: path, size, vertical_scale, step."""
+        return {
+            "path": self.path.text(),
+            "size": (self.rows.value(), self.cols.value()),
+            "vertical_scale": self.vertical_scale.value(),
+            "step": self.step.value(),
+        }
+
+    def _format_changed(self) -> None:
+        ext = self.format.currentData()
+        path = Path(self.path.text())
+        self.path.setText(str(path.with_suffix(ext)))
+        is_mesh = ext in MESH_EXTENSIONS
+        self.vertical_scale.setEnabled(is_mesh)
+        self.step.setEnabled(is_mesh)
+
+    def _path_edited(self, text: str) -> None:
+        index = self.format.findData(Path(text).suffix.lower())
+        if index >= 0:
+            self.format.blockSignals(True)
+            self.format.setCurrentIndex(index)
+            self.format.blockSignals(False)
+            is_mesh = self.format.currentData() in MESH_EXTENSIONS
+            self.vertical_scale.setEnabled(is_mesh)
+            self.step.setEnabled(is_mesh)
+
+    def _browse(self) -> None:
+        ext = self.format.currentData()
+        path, _ = QFileDialog.getSaveFileName(self, "Export terrain", self.path.text(), f"{ext} files (*{ext})")
+        if path:
+            self.path.setText(path)
+            self._path_edited(path)
+
+    def _screenshot(self) -> None:
+        self.screenshot_requested.emit()

@@ -1,0 +1,266 @@
+"""The 2D view of the terrain: shaded heights, live patches, result overlays.
+
+During a run each placed patch is pasted into a GUI-side buffer and only its
+window is recoloured; the image is pushed to the screen by a timer (about 25
+times a second) so a burst of small patches never floods the event loop.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtCore import QTimer, Signal
+from PySide6.QtGui import QColor, QPen
+from PySide6.QtWidgets import QCheckBox, QGraphicsRectItem, QHBoxLayout, QLabel, QVBoxLayout, QWidget
+
+from terrasynth_core.features import extract_features
+
+from ..model.result import TerrainResult
+from ..workers import run_in_background
+from .feature_overlay import FeatureGraphOverlay, legend_text
+from .terrain_colors import height_range, shaded_terrain, shaded_window
+
+#: Screen refresh period during a run, in ms.
+REFRESH_MS = 40
+
+
+class HeightmapView(QWidget):
+    """Shaded relief of the live or last synthesized terrain.
+
+    Signals
+    -------
+    refreshed()
+        The image on screen was updated from the buffer.
+    result_shown()
+        A finished terrain (or none) is fully drawn, overlays included.
+    terrain_features_ready(object)
+        Ridges and valleys extracted from the shown result.
+    """
+
+    refreshed = Signal()
+    result_shown = Signal()
+    terrain_features_ready = Signal(object)
+
+    def __init__(self, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.heights: np.ndarray | None = None  # GUI-side buffer, NaN = not yet synthesized
+        self._rgba: np.ndarray | None = None
+        self._cell_size: tuple[float, float] | None = None
+        self._vrange = (0.0, 1.0)
+        self._result: TerrainResult | None = None
+        self._dirty = False
+        # Bumped by every new result or run; late background work for an
+        # older one is dropped.
+        self._features_generation = 0
+        self.last_bbox: tuple[int, int, int, int] | None = None
+        self.patches_pasted = 0
+
+        self.view = pg.GraphicsView()
+        self.view.setBackground((40, 40, 40))
+        self.view_box = pg.ViewBox(invertY=True, lockAspect=True, enableMenu=False)
+        self.view.setCentralItem(self.view_box)
+        self.image = pg.ImageItem()
+        self.view_box.addItem(self.image)
+        self.patch_image = pg.ImageItem(opacity=0.45)
+        self.seam_image = pg.ImageItem()
+        for z, item in enumerate((self.patch_image, self.seam_image), start=5):
+            item.setZValue(z)
+            item.setVisible(False)
+            self.view_box.addItem(item)
+        self.sketch_overlay = FeatureGraphOverlay(self.view_box)
+        self.terrain_overlay = FeatureGraphOverlay(self.view_box)
+        self.outline = QGraphicsRectItem()
+        pen = QPen(QColor(255, 235, 0), 2)
+        pen.setCosmetic(True)
+        self.outline.setPen(pen)
+        self.outline.setZValue(50)
+        self.outline.setVisible(False)
+        self.view_box.addItem(self.outline)
+        self.placeholder = pg.TextItem("Press Synthesize to make a terrain", color=(220, 220, 220), anchor=(0.5, 0.5))
+        self.view_box.addItem(self.placeholder)
+
+        self.overlay_checks: dict[str, QCheckBox] = {}
+        bar = QHBoxLayout()
+        bar.addWidget(QLabel("Overlays:"))
+        for name, text, tip in (
+            ("patch_ids", "Patches", "Colour each cell by the patch it came from"),
+            ("seams", "Seams", "Mark the graph-cut seams between patches"),
+            ("sketch_features", "Sketch graph", "The ridge and valley graph the run followed"),
+            ("terrain_features", "Terrain graph", "Ridges and valleys extracted from the result"),
+        ):
+            check = QCheckBox(text, toolTip=tip)
+            check.toggled.connect(self._update_overlays)
+            self.overlay_checks[name] = check
+            bar.addWidget(check)
+        bar.addStretch(1)
+        self.legend = QLabel(legend_text())
+        self.legend.setVisible(False)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(self.view, 1)
+        layout.addLayout(bar)
+        layout.addWidget(self.legend)
+
+        self._timer = QTimer(self, interval=REFRESH_MS)
+        self._timer.timeout.connect(self._refresh)
+
+    # -- live run ---------------------------------------------------------------------------
+    def begin_run(self, shape: tuple[int, int], *, cell_size: tuple[float, float] | None,
+                  vrange: tuple[float, float]) -> None:
+        """Start showing a new run on an empty canvas of ``shape``.
+
+        ``vrange`` (metres) fixes the colours for the run, so pasting a patch
+        never needs recolouring the whole image.
+        """
+        reshaped = self.heights is None or self.heights.shape != tuple(shape)
+        self._features_generation += 1
+        self.heights = np.full(shape, np.nan, np.float32)
+        self._rgba = np.zeros(tuple(shape) + (4,), np.uint8)
+        self._cell_size = cell_size
+        self._vrange = vrange
+        self.last_bbox = None
+        self.patches_pasted = 0
+        self.outline.setVisible(False)
+        self.placeholder.setVisible(False)
+        for item in (self.patch_image, self.seam_image):
+            item.setVisible(False)
+        self.sketch_overlay.set_visible(False)
+        self.terrain_overlay.set_visible(False)
+        self._dirty = True
+        self._refresh()
+        if reshaped:
+            self.view_box.autoRange(padding=0.02)
+        self._timer.start()
+
+    def paste_patch(self, event) -> None:
+        """Paste a core ``PatchPlaced`` event into the buffer and outline it."""
+        if self.heights is None:
+            return
+        r0, r1, c0, c1 = event.bbox
+        self.heights[r0:r1, c0:c1] = event.heights
+        # Recolour the window and a one-cell ring: the ring's slopes changed too.
+        rows, cols = self.heights.shape
+        ring = (max(r0 - 1, 0), min(r1 + 1, rows), max(c0 - 1, 0), min(c1 + 1, cols))
+        R0, R1, C0, C1 = ring
+        self._rgba[R0:R1, C0:C1] = shaded_window(self.heights, ring, cell_size=self._cell_size, vrange=self._vrange)
+        self.outline.setRect(c0, r0, c1 - c0, r1 - r0)
+        self.outline.setVisible(True)
+        self.last_bbox = (r0, r1, c0, c1)
+        self.patches_pasted += 1
+        self._dirty = True
+
+    def end_run(self) -> None:
+        """Stop live refreshing (the result or the previous one is shown next)."""
+        self._timer.stop()
+        self.outline.setVisible(False)
+
+    def _refresh(self) -> None:
+        if not self._dirty or self._rgba is None:
+            return
+        self._dirty = False
+        self.image.setImage(self._rgba, autoLevels=False, levels=None)
+        self.refreshed.emit()
+
+    # -- result ----------------------------------------------------------------------------
+    def show_result(self, result: TerrainResult | None) -> None:
+        """Show a finished terrain with its overlays (None shows nothing).
+
+        The heights buffer is set at once; the shaded image and overlay
+        images of a large terrain take a while to compute, so they are made
+        on the thread pool and :attr:`result_shown` tells when they are up.
+        """
+        self.end_run()
+        self._result = result
+        self._features_generation += 1
+        self.terrain_overlay.set_maps(None)
+        self.patch_image.clear()
+        self.seam_image.clear()
+        if result is None:
+            self.heights = None
+            self._rgba = None
+            self.image.clear()
+            self.placeholder.setVisible(True)
+            self._update_overlays()
+            self.result_shown.emit()
+            return
+        self.heights = result.heights  # never written: a new run makes a new buffer
+        self._cell_size = result.cell_size
+        self._vrange = height_range(result.heights)
+        self.placeholder.setVisible(False)
+        self.sketch_overlay.set_maps(result.sketch_features)
+        self._update_overlays()
+        generation = self._features_generation
+        run_in_background(lambda: (generation, result_images(result, self._vrange)), self._result_images_ready,
+                          self._result_images_failed)
+
+    def _result_images_ready(self, value) -> None:
+        generation, (rgba, patches, seams) = value
+        if generation != self._features_generation:
+            return  # another result or run came meanwhile
+        reshaped = self._rgba is None or self._rgba.shape != rgba.shape
+        self._rgba = rgba
+        self._dirty = True
+        self._refresh()
+        self.patch_image.setImage(patches, autoLevels=False, levels=None)
+        self.seam_image.setImage(seams, autoLevels=False, levels=None)
+        if reshaped:
+            self.view_box.autoRange(padding=0.02)
+        self._update_overlays()
+        self.result_shown.emit()
+
+    def _result_images_failed(self, message: str) -> None:
+        self.legend.setText(f"Cannot draw the terrain: {message}")
+        self.legend.setVisible(True)
+
+    def overlay_enabled(self, name: str) -> bool:
+        return self.overlay_checks[name].isChecked()
+
+    def set_overlay(self, name: str, on: bool) -> None:
+        self.overlay_checks[name].setChecked(on)
+
+    def _update_overlays(self) -> None:
+        have = self._result is not None and self._timer.isActive() is False
+        self.patch_image.setVisible(have and self.overlay_enabled("patch_ids"))
+        self.seam_image.setVisible(have and self.overlay_enabled("seams"))
+        self.sketch_overlay.set_visible(have and self.overlay_enabled("sketch_features"))
+        terrain = have and self.overlay_enabled("terrain_features")
+        self.terrain_overlay.set_visible(terrain)
+        self.legend.setVisible(have and (self.overlay_enabled("sketch_features") or terrain))
+        if terrain and self.terrain_overlay.maps is None:
+            self._extract_terrain_features()
+
+    def _extract_terrain_features(self) -> None:
+        generation = self._features_generation
+        heights = self._result.heights
+        run_in_background(lambda: (generation, extract_features(heights)), self._terrain_features_done,
+                          self._terrain_features_failed)
+
+    def _terrain_features_done(self, value) -> None:
+        generation, maps = value
+        if generation != self._features_generation:
+            return
+        self.terrain_overlay.set_maps(maps)
+        self.terrain_features_ready.emit(maps)
+
+    def _terrain_features_failed(self, message: str) -> None:
+        self.legend.setText(f"Terrain features unavailable: {message}")
+        self.legend.setVisible(True)
+
+
+def result_images(result: TerrainResult, vrange: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Shaded terrain, patch-id colours and seam marks of a result, RGBA uint8 each."""
+    rgba = shaded_terrain(result.heights, cell_size=result.cell_size, vrange=vrange)
+    seams = np.zeros(result.shape + (4,), np.uint8)
+    seams[result.seam_mask] = (255, 40, 40, 230)
+    return rgba, _patch_colors(result.patch_id), seams
+
+
+def _patch_colors(patch_id: np.ndarray) -> np.ndarray:
+    """RGBA image with a distinct, stable colour per patch id (-1 transparent)."""
+    rng = np.random.default_rng(12345)
+    palette = np.concatenate([rng.integers(40, 256, size=(256, 3)), np.full((256, 1), 255)], axis=1).astype(np.uint8)
+    rgba = palette[np.mod(patch_id, 256)]
+    rgba[patch_id < 0] = 0
+    return rgba
+
+

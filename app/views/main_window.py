@@ -1,0 +1,552 @@
+"""The main window: sketch, examples, parameters, live 2D and 3D terrain.
+
+The window only wires things together: the document holds the state, the
+panels translate user actions into document edits, and a
+:class:`~terrasynth_app.workers.SynthesisRunner` runs the core off the GUI
+thread.  Every error a worker reports lands in a dialog and the status bar;
+a failed or cancelled run leaves the previous result and the sketch as they
+were.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from PySide6.QtCore import QSettings, Qt, QTimer, Signal
+from PySide6.QtGui import QAction, QKeySequence
+from PySide6.QtWidgets import (QDockWidget, QFileDialog, QLabel, QMainWindow, QMessageBox, QProgressBar, QSplitter,
+                               QTabWidget)
+
+from terrasynth_core.errors import TerraSynthError
+from terrasynth_core.features import read_sketch, save_sketch
+from terrasynth_core.io import READ_EXTENSIONS, load_dem
+
+from ..model.dem_features import dem_feature_layers
+from ..model.document import Document, SynthesisRequest
+from ..model.export import export_terrain
+from ..model.project import PROJECT_EXTENSION, load_project, save_project
+from ..model.recovery import RecoveryStore
+from ..model.result import TerrainResult
+from ..workers import SynthesisRunner, run_in_background
+from .dialogs import NewSketchDialog
+from .example_panel import ExamplePanel
+from .export_dialog import ExportDialog
+from .heightmap_view import HeightmapView
+from .params_panel import ParamsPanel
+from .sketch_canvas import SketchCanvas
+from .terrain_view_3d import TerrainView3D
+
+log = logging.getLogger(__name__)
+
+APP_NAME = "TerraSynth"
+#: Autosave period while there are unsaved changes, in ms.
+AUTOSAVE_MS = 30_000
+#: Shortest period between progress bar updates, in ms.
+PROGRESS_MS = 100
+RECENT_KEY = "recent_files"
+MAX_RECENT = 8
+_PROJECT_FILTER = f"TerraSynth projects (*{PROJECT_EXTENSION})"
+
+
+@dataclass(frozen=True)
+class RunInfo:
+    """What the views need before the first patch arrives (made on the worker)."""
+
+    shape: tuple[int, int]
+    cell_size: tuple[float, float] | None
+    vrange: tuple[float, float]
+
+
+def run_info(request: SynthesisRequest) -> RunInfo:
+    """Cell size of the first example and the examples' joint height range."""
+    fields = [ref.load() for ref in request.examples]
+    low = min(f.min for f in fields)
+    high = max(f.max for f in fields)
+    # Patches are shifted to match their neighbours, so the output may leave
+    # the examples' range a little; a margin keeps its tints from clipping.
+    margin = 0.1 * (high - low)
+    return RunInfo(request.shape, fields[0].cell_size, (low - margin, high + margin))
+
+
+class MainWindow(QMainWindow):
+    """TerraSynth's main window.
+
+    Parameters
+    ----------
+    document : Document, optional
+        Default: the built-in default example and sketch, ready to run.
+    settings : QSettings, optional
+        Where recent files are kept; default the user's TerraSynth settings.
+    recovery : RecoveryStore or None, optional
+        Autosave target; None disables autosave.
+    autosave_ms : int
+        Autosave period.
+
+    Signals
+    -------
+    export_finished(str)
+        A file was exported; carries its path.
+    """
+
+    export_finished = Signal(str)
+
+    def __init__(self, document: Document | None = None, *, settings: QSettings | None = None,
+                 recovery: RecoveryStore | None = None, autosave_ms: int = AUTOSAVE_MS) -> None:
+        super().__init__()
+        self.document = document if document is not None else Document.default()
+        self.settings = settings if settings is not None else QSettings(APP_NAME, APP_NAME)
+        self.recovery = recovery
+        self.runner = SynthesisRunner(self)
+        self._run_info: RunInfo | None = None
+        self._run_started = 0.0
+        self._progress: tuple[int, int] | None = None  # (done, total) not shown yet
+        self._progress_timer = QTimer(self, singleShot=True, interval=PROGRESS_MS)
+        self._progress_timer.timeout.connect(self._show_progress)
+        self._autosaved_generation = -1
+        self.resize(1500, 900)
+
+        self.canvas = SketchCanvas(self.document.sketch)
+        self.heightmap = HeightmapView()
+        self.view3d = TerrainView3D()
+        self.result_tabs = QTabWidget()
+        self.result_tabs.addTab(self.heightmap, "2D terrain")
+        self.result_tabs.addTab(self.view3d, "3D terrain")
+        splitter = QSplitter(Qt.Horizontal)
+        splitter.addWidget(self.canvas)
+        splitter.addWidget(self.result_tabs)
+        splitter.setSizes([650, 650])
+        self.setCentralWidget(splitter)
+
+        self.examples = ExamplePanel(self.document)
+        self.params = ParamsPanel(self.document)
+        for title, widget, name in (("Examples", self.examples, "examples_dock"),
+                                    ("Parameters", self.params, "params_dock")):
+            dock = QDockWidget(title, self)
+            dock.setObjectName(name)
+            dock.setWidget(widget)
+            dock.setFeatures(QDockWidget.DockWidgetMovable | QDockWidget.DockWidgetFloatable)
+            self.addDockWidget(Qt.LeftDockWidgetArea, dock)
+
+        self.stage_label = QLabel("Ready")
+        self.progress = QProgressBar(maximumWidth=260, textVisible=True)
+        self.progress.setFormat("%v / %m patches")
+        self.progress.setValue(0)
+        self.time_label = QLabel("")
+        self.statusBar().addPermanentWidget(self.stage_label)
+        self.statusBar().addPermanentWidget(self.progress)
+        self.statusBar().addPermanentWidget(self.time_label)
+
+        self._build_actions()
+        self._connect_runner()
+        self.document.changed.connect(self._document_changed)
+        self.examples.load_failed.connect(self._example_failed)
+        self.examples.item_unreadable.connect(self._example_unreadable)
+        self._update_title()
+        self.heightmap.show_result(self.document.result)
+        self.view3d.show_result(self.document.result)
+
+        self._autosave_timer = QTimer(self, interval=autosave_ms)
+        self._autosave_timer.timeout.connect(self.autosave)
+        if self.recovery is not None:
+            self._autosave_timer.start()
+
+    # -- actions and menus ------------------------------------------------------------------------
+    def _action(self, text: str, slot, *, shortcut=None, tip: str = "") -> QAction:
+        action = QAction(text, self, toolTip=tip or text, statusTip=tip)
+        if shortcut is not None:
+            action.setShortcut(shortcut)
+        action.triggered.connect(slot)
+        return action
+
+    def _build_actions(self) -> None:
+        self.synthesize_action = self._action("Synthesize", self.synthesize, shortcut=QKeySequence("Ctrl+R"),
+                                              tip="Synthesize a terrain from the sketch and examples (Ctrl+R)")
+        self.cancel_action = self._action("Cancel", self.cancel_synthesis, tip="Stop the running synthesis")
+        self.cancel_action.setEnabled(False)
+        self.randomize_action = self._action("Randomize seed", self.params.randomize_seed,
+                                             tip="Pick a new random seed")
+        self.export_action = self._action("Export terrain…", self.export_terrain, shortcut=QKeySequence("Ctrl+E"),
+                                          tip="Write the terrain as a DEM or a mesh")
+        new_project = self._action("New project", self.new_project, shortcut=QKeySequence.New)
+        open_project = self._action("Open project…", lambda: self.open_project(), shortcut=QKeySequence.Open)
+        self.save_action = self._action("Save project", self.save, shortcut=QKeySequence.Save)
+        save_as = self._action("Save project as…", self.save_as, shortcut=QKeySequence.SaveAs)
+        new_sketch = self._action("New sketch…", self.new_sketch, tip="Start an empty sketch of a chosen size")
+        open_sketch = self._action("Open sketch PNG…", lambda: self.open_sketch(),
+                                   tip="Red strokes are ridges, blue strokes valleys")
+        save_sketch_action = self._action("Save sketch PNG…", lambda: self.save_sketch())
+        import_features = self._action("Import DEM features as sketch…", lambda: self.import_dem_features(),
+                                       tip="Trace the ridges and valleys of a DEM into the sketch")
+        quit_action = self._action("Quit", self.close, shortcut=QKeySequence.Quit)
+
+        file_menu = self.menuBar().addMenu("&File")
+        for action in (new_project, open_project):
+            file_menu.addAction(action)
+        self.recent_menu = file_menu.addMenu("Open recent")
+        self._update_recent_menu()
+        file_menu.addActions([self.save_action, save_as])
+        file_menu.addSeparator()
+        file_menu.addActions([new_sketch, open_sketch, save_sketch_action, import_features])
+        file_menu.addSeparator()
+        file_menu.addAction(self.export_action)
+        file_menu.addSeparator()
+        file_menu.addAction(quit_action)
+
+        edit_menu = self.menuBar().addMenu("&Edit")
+        edit_menu.addActions([self.canvas.undo_action, self.canvas.redo_action, self.canvas.clear_action])
+        synth_menu = self.menuBar().addMenu("&Synthesis")
+        synth_menu.addActions([self.synthesize_action, self.cancel_action, self.randomize_action])
+
+        toolbar = self.addToolBar("Main")
+        toolbar.setObjectName("main_toolbar")
+        toolbar.addActions([self.synthesize_action, self.cancel_action, self.randomize_action, self.export_action])
+
+    # -- synthesis ------------------------------------------------------------------------------------
+    def _connect_runner(self) -> None:
+        r = self.runner
+        r.session_ready.connect(self._session_ready)
+        r.stage_started.connect(self._stage_started)
+        r.patch_placed.connect(self._patch_placed)
+        r.synthesis_finished.connect(self._synthesis_finished)
+        r.synthesis_failed.connect(self._synthesis_failed)
+        r.synthesis_cancelled.connect(self._synthesis_cancelled)
+        r.running_changed.connect(self._running_changed)
+
+    def synthesize(self) -> None:
+        """Start a run with the document as it is now (cancelling a running one)."""
+        try:
+            request = self.document.synthesis_request()
+        except TerraSynthError as exc:
+            self.report_error("Cannot synthesize", str(exc))
+            return
+        self.stage_label.setText("Reading examples…")
+        self.progress.setRange(0, 0)  # busy until the first stage says how many patches
+        self.time_label.clear()
+        self.runner.start(request.make_session, lambda: run_info(request))
+
+    def cancel_synthesis(self) -> None:
+        self.runner.cancel()
+        self.stage_label.setText("Cancelling…")
+
+    def _session_ready(self, info: RunInfo) -> None:
+        self._run_info = info
+        self._run_started = time.perf_counter()
+        self.heightmap.begin_run(info.shape, cell_size=info.cell_size, vrange=info.vrange)
+        self.view3d.begin_run(info.shape, cell_size=info.cell_size, vrange=info.vrange)
+
+    def _stage_started(self, stage: str, total: int) -> None:
+        names = {"analyse": "Analysing the sketch", "features": "Placing feature patches",
+                 "fill": "Filling the rest", "finish": "Finishing"}
+        self.stage_label.setText(names.get(stage, stage))
+
+    def _patch_placed(self, event) -> None:
+        self.heightmap.paste_patch(event)
+        self.view3d.paste_patch(event)
+        self._progress = (event.index + 1, event.total)
+        if not self._progress_timer.isActive():
+            self._progress_timer.start()
+
+    def _show_progress(self) -> None:
+        # QProgressBar.setValue repaints at once; with an OpenGL widget in the
+        # window every repaint composites the whole window, so progress is
+        # shown at most PROGRESS_MS apart rather than once per patch.
+        if self._progress is None:
+            return
+        done, total = self._progress
+        self._progress = None
+        self.progress.setRange(0, max(total, done))
+        self.progress.setValue(done)
+        elapsed = time.perf_counter() - self._run_started
+        left = elapsed / done * max(total - done, 0)
+        self.time_label.setText(f"about {left:.0f} s left" if left >= 1 else "almost done")
+
+    def _synthesis_finished(self, result) -> None:
+        self._progress_timer.stop()
+        self._progress = None
+        cell_size = self._run_info.cell_size if self._run_info is not None else None
+        terrain = TerrainResult.from_synthesis(result, cell_size=cell_size)
+        self.progress.setValue(self.progress.maximum())
+        self.time_label.setText(f"{result.total_seconds:.1f} s")
+        self.document.set_result(terrain)
+        warnings = "; ".join(result.warnings)
+        self.stage_label.setText("Done")
+        self.statusBar().showMessage(
+            f"Synthesized {terrain.shape[0]} x {terrain.shape[1]} in {result.total_seconds:.1f} s"
+            + (f" - {warnings}" if warnings else ""), 20_000)
+
+    def _synthesis_failed(self, message: str) -> None:
+        self.stage_label.setText("Failed")
+        self._restore_result()
+        self.report_error("Synthesis failed", message)
+
+    def _synthesis_cancelled(self) -> None:
+        self.stage_label.setText("Cancelled")
+        self.statusBar().showMessage("Synthesis cancelled; the previous terrain is shown", 10_000)
+        self._restore_result()
+
+    def _restore_result(self) -> None:
+        self._progress_timer.stop()
+        self._progress = None
+        self.progress.setRange(0, 1)
+        self.progress.setValue(0)
+        self.time_label.clear()
+        self.heightmap.show_result(self.document.result)
+        self.view3d.show_result(self.document.result)
+
+    def _running_changed(self, running: bool) -> None:
+        self.cancel_action.setEnabled(running)
+
+    # -- errors ------------------------------------------------------------------------------------------
+    def report_error(self, title: str, message: str) -> None:
+        """Show an error in the status bar and a dialog."""
+        log.info("%s: %s", title, message)
+        self.statusBar().showMessage(message, 30_000)
+        QMessageBox.critical(self, title, message)
+
+    def _example_failed(self, message: str) -> None:
+        self.report_error("Cannot read DEM", message)
+
+    def _example_unreadable(self, message: str) -> None:
+        self.statusBar().showMessage(message, 30_000)
+
+    # -- document events -------------------------------------------------------------------------------
+    def _document_changed(self, what: str) -> None:
+        if what == "result":
+            self.heightmap.show_result(self.document.result)
+            self.view3d.show_result(self.document.result)
+        elif what in ("path", "dirty"):
+            self._update_title()
+
+    def _update_title(self) -> None:
+        self.setWindowTitle(f"{APP_NAME} - {self.document.title}[*]")
+        self.setWindowModified(self.document.dirty)
+
+    # -- sketch files -------------------------------------------------------------------------------------
+    def new_sketch(self) -> None:
+        dialog = NewSketchDialog(self.document.sketch.shape, self)
+        if dialog.exec():
+            shape = dialog.shape
+            self.document.sketch.replace(np.zeros(shape, np.uint8), np.zeros(shape, np.uint8))
+
+    def open_sketch(self, path: str | None = None) -> None:
+        if path is None:
+            path, _ = QFileDialog.getOpenFileName(self, "Open sketch", "", "Sketch PNG (*.png)")
+            if not path:
+                return
+        try:
+            sketch_map = read_sketch(path)
+        except TerraSynthError as exc:
+            self.report_error("Cannot open sketch", str(exc))
+            return
+        self.document.sketch.replace_with_map(sketch_map)
+        self.statusBar().showMessage(f"Opened sketch {path}", 5000)
+
+    def save_sketch(self, path: str | None = None) -> None:
+        if path is None:
+            path, _ = QFileDialog.getSaveFileName(self, "Save sketch", "sketch.png", "Sketch PNG (*.png)")
+            if not path:
+                return
+        try:
+            save_sketch(self.document.sketch.to_sketch_map(), path)
+        except TerraSynthError as exc:
+            self.report_error("Cannot save sketch", str(exc))
+            return
+        self.statusBar().showMessage(f"Saved sketch {path}", 5000)
+
+    def import_dem_features(self, path: str | None = None) -> None:
+        if path is None:
+            patterns = " ".join(f"*{ext}" for ext in READ_EXTENSIONS)
+            path, _ = QFileDialog.getOpenFileName(self, "Import DEM features", "", f"DEM files ({patterns})")
+            if not path:
+                return
+        shape = self.document.sketch.shape
+        self.statusBar().showMessage(f"Tracing ridges and valleys of {path}…")
+        run_in_background(lambda: dem_feature_layers(load_dem(path), shape), self._features_imported,
+                          self._features_import_failed)
+
+    def _features_imported(self, layers) -> None:
+        self.document.sketch.replace(*layers)
+        self.statusBar().showMessage("Imported the DEM's ridges and valleys as a sketch (undo reverts)", 8000)
+
+    def _features_import_failed(self, message: str) -> None:
+        self.report_error("Cannot import DEM features", message)
+
+    # -- projects ---------------------------------------------------------------------------------------
+    def maybe_save(self) -> bool:
+        """Ask about unsaved changes; False when the user cancels."""
+        if not self.document.dirty:
+            return True
+        answer = QMessageBox.question(
+            self, APP_NAME, f"Save the changes to {self.document.title}?",
+            QMessageBox.Save | QMessageBox.Discard | QMessageBox.Cancel, QMessageBox.Save)
+        if answer == QMessageBox.Save:
+            return self.save()
+        return answer == QMessageBox.Discard
+
+    def new_project(self) -> None:
+        if self.maybe_save():
+            self.runner.cancel()
+            self.document.assign(Document.default())
+
+    def open_project(self, path: str | None = None) -> bool:
+        if not self.maybe_save():
+            return False
+        if path is None:
+            path, _ = QFileDialog.getOpenFileName(self, "Open project", "", _PROJECT_FILTER)
+            if not path:
+                return False
+        try:
+            loaded = load_project(path)
+        except TerraSynthError as exc:
+            self.report_error("Cannot open project", str(exc))
+            return False
+        self.runner.cancel()
+        self.document.assign(loaded)
+        self._add_recent(path)
+        self.statusBar().showMessage(f"Opened {path}", 5000)
+        return True
+
+    def save(self) -> bool:
+        if self.document.path is None:
+            return self.save_as()
+        return self.save_to(self.document.path)
+
+    def save_as(self) -> bool:
+        path, _ = QFileDialog.getSaveFileName(self, "Save project", f"terrain{PROJECT_EXTENSION}", _PROJECT_FILTER)
+        if not path:
+            return False
+        if not path.endswith(PROJECT_EXTENSION):
+            path += PROJECT_EXTENSION
+        return self.save_to(path)
+
+    def save_to(self, path) -> bool:
+        """Write the project to ``path``; errors go to a dialog (returns False)."""
+        try:
+            save_project(self.document, path)
+        except TerraSynthError as exc:
+            self.report_error("Cannot save project", str(exc))
+            return False
+        if self.recovery is not None:
+            self.recovery.discard()
+        self._add_recent(str(path))
+        self.statusBar().showMessage(f"Saved {path}", 5000)
+        return True
+
+    # -- recent files -------------------------------------------------------------------------------------
+    def recent_files(self) -> list[str]:
+        value = self.settings.value(RECENT_KEY, [])
+        if isinstance(value, str):  # QSettings returns a lone string for a one-item list
+            value = [value]
+        return [str(v) for v in value or []]
+
+    def _add_recent(self, path: str) -> None:
+        path = str(Path(path).resolve())
+        files = [path] + [p for p in self.recent_files() if p != path]
+        self.settings.setValue(RECENT_KEY, files[:MAX_RECENT])
+        self._update_recent_menu()
+
+    def _update_recent_menu(self) -> None:
+        self.recent_menu.clear()
+        files = self.recent_files()
+        for path in files:
+            action = self.recent_menu.addAction(Path(path).name)
+            action.setToolTip(path)
+            action.setData(path)
+            action.triggered.connect(self._open_recent)
+        self.recent_menu.setEnabled(bool(files))
+
+    def _open_recent(self) -> None:
+        self.open_project(self.sender().data())
+
+    # -- export ------------------------------------------------------------------------------------------
+    def export_terrain(self) -> None:
+        result = self.document.result
+        if result is None:
+            self.report_error("Nothing to export", "Synthesize a terrain first.")
+            return
+        folder = str(self.document.path.parent) if self.document.path is not None else ""
+        dialog = ExportDialog(result.shape, directory=folder, parent=self)
+        dialog.screenshot_requested.connect(self.save_screenshot)
+        if not dialog.exec():
+            return
+        options = dialog.options()
+        path = options.pop("path")
+        self.statusBar().showMessage(f"Exporting {path}…")
+        run_in_background(lambda: str(export_terrain(result, path, **options)), self._exported,
+                          self._export_failed)
+
+    def _exported(self, path: str) -> None:
+        self.statusBar().showMessage(f"Exported {path}", 8000)
+        self.export_finished.emit(path)
+
+    def _export_failed(self, message: str) -> None:
+        self.report_error("Export failed", message)
+
+    def save_screenshot(self, path: str | None = None) -> None:
+        """Save the 3D view as a PNG (the 3D tab is shown to start it)."""
+        self.result_tabs.setCurrentWidget(self.view3d)
+        if not self.view3d.start():
+            self.report_error("No 3D view", self.view3d.unavailable_reason)
+            return
+        if path is None:
+            path, _ = QFileDialog.getSaveFileName(self, "Save 3D screenshot", "terrain_3d.png", "PNG (*.png)")
+            if not path:
+                return
+        try:
+            self.view3d.screenshot(path)
+        except (OSError, RuntimeError) as exc:
+            self.report_error("Cannot save screenshot", str(exc))
+            return
+        self.statusBar().showMessage(f"Saved {path}", 5000)
+
+    # -- autosave and recovery ------------------------------------------------------------------------------
+    def autosave(self) -> None:
+        """Write unsaved work to the recovery file, on the thread pool."""
+        if self.recovery is None or not self.document.dirty:
+            return
+        if self.document.generation == self._autosaved_generation:
+            return
+        self._autosaved_generation = self.document.generation
+        snapshot = self.document.snapshot()
+        recovery = self.recovery
+        run_in_background(lambda: recovery.save(snapshot), self._autosaved, self._autosave_failed)
+
+    def _autosaved(self, _value) -> None:
+        self.statusBar().showMessage("Autosaved", 2000)
+
+    def _autosave_failed(self, message: str) -> None:
+        self.statusBar().showMessage(f"Autosave failed: {message}", 10_000)
+
+    def offer_recovery(self) -> bool:
+        """If a previous session left unsaved work, offer to restore it; True if restored."""
+        if self.recovery is None or not self.recovery.exists():
+            return False
+        answer = QMessageBox.question(self, APP_NAME, f"{self.recovery.describe()}.\nRecover it?",
+                                      QMessageBox.Yes | QMessageBox.No, QMessageBox.Yes)
+        if answer != QMessageBox.Yes:
+            self.recovery.discard()
+            return False
+        try:
+            self.document.assign(self.recovery.load())
+        except TerraSynthError as exc:
+            self.report_error("Cannot recover", str(exc))
+            return False
+        return True
+
+    # -- closing --------------------------------------------------------------------------------------------
+    def closeEvent(self, event) -> None:
+        if not self.maybe_save():
+            event.ignore()
+            return
+        self._autosave_timer.stop()
+        self.runner.wait()
+        if self.recovery is not None:
+            self.recovery.discard()
+        if self.view3d.plotter is not None:
+            self.view3d.plotter.close()
+        event.accept()
+

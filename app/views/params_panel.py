@@ -1,0 +1,189 @@
+"""The synthesis parameters, one widget per field of ``SynthesisParams``."""
+
+from __future__ import annotations
+
+import secrets
+
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QHBoxLayout, QLabel, QPushButton,
+                               QSpinBox, QWidget)
+
+from terrasynth_core.errors import ParamsError
+from terrasynth_core.synthesis import SynthesisParams
+
+from ..model.document import Document
+
+#: Largest seed the spin box takes (Qt spin boxes are 32-bit).
+MAX_SEED = 2**31 - 1
+
+_TIPS = {
+    "patch_size": "Side of a square patch in output cells (the paper uses 80). Larger patches copy "
+                  "bigger landforms; smaller ones follow the sketch more closely.",
+    "overlap": "Width of the band a fill patch shares with its neighbours, in cells. "
+               "Auto is a third of the patch, as in the paper.",
+    "k": "Candidates kept after the cheap ranking; the final pick among them adds the overlap "
+         "mismatch and the seam cost. More is slower and usually smoother.",
+    "seed": "Seeds every random choice: the same seed and inputs give the same terrain.",
+    "order": "Feature patch order: breadth-first along the sketch's feature tree (the paper) "
+             "or top-to-bottom raster.",
+    "seam": "cut: a graph-cut seam through the overlap (Kwatra 2003); paste: the new patch simply "
+            "covers the overlap (for comparison).",
+    "blend": "Seam removal: poisson (the paper's Poisson solve), c1 (also carries the slope across "
+             "the seam) or none.",
+    "mirror": "Also consider the mirror image of each example feature patch.",
+    "coarse_factor": "Down-sampling of the example for the fast search of fill patches; the best "
+                     "positions are refined at full resolution. auto: from the example's size.",
+    "workers": "Threads for FFTs and candidate evaluation; 0 uses every core.",
+    "feature_weight": "Weight of the feature deformation cost against the overlap mismatch when "
+                      "picking feature patches.",
+}
+
+
+class ParamsPanel(QWidget):
+    """Edits the document's :class:`SynthesisParams`; invalid combinations are
+    shown in red and not applied.
+
+    Signals
+    -------
+    params_rejected(str)
+        The widgets hold an invalid combination; carries the core's message.
+    """
+
+    params_rejected = Signal(str)
+
+    def __init__(self, document: Document, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.document = document
+        self._updating = False
+        form = QFormLayout(self)
+
+        self.patch_size = QSpinBox(minimum=16, maximum=512, suffix=" cells")
+        self.overlap_auto = QCheckBox("auto")
+        self.overlap = QSpinBox(minimum=2, maximum=256, suffix=" cells")
+        overlap_row = QHBoxLayout()
+        overlap_row.addWidget(self.overlap_auto)
+        overlap_row.addWidget(self.overlap, 1)
+        self.k = QSpinBox(minimum=1, maximum=64)
+        self.seed = QSpinBox(minimum=0, maximum=MAX_SEED)
+        self.randomize_button = QPushButton("Randomize")
+        self.randomize_button.setToolTip("Pick a new random seed")
+        self.randomize_button.clicked.connect(self.randomize_seed)
+        seed_row = QHBoxLayout()
+        seed_row.addWidget(self.seed, 1)
+        seed_row.addWidget(self.randomize_button)
+        self.order = QComboBox()
+        self.order.addItems(["bfs", "raster"])
+        self.seam = QComboBox()
+        self.seam.addItems(["cut", "paste"])
+        self.blend = QComboBox()
+        self.blend.addItems(["poisson", "c1", "none"])
+        self.mirror = QCheckBox("use mirrored patches")
+        self.coarse_factor = QSpinBox(minimum=0, maximum=8, specialValueText="auto")
+        self.workers = QSpinBox(minimum=0, maximum=256, specialValueText="all cores")
+        self.feature_weight = QDoubleSpinBox(minimum=0.0, maximum=100.0, singleStep=0.1, decimals=2)
+        self.output_label = QLabel()
+        self.error_label = QLabel(wordWrap=True)
+        self.error_label.setStyleSheet("color: #c00000")
+
+        for label, widget, name in (
+            ("Patch size", self.patch_size, "patch_size"),
+            ("Overlap", overlap_row, "overlap"),
+            ("Candidates (k)", self.k, "k"),
+            ("Seed", seed_row, "seed"),
+            ("Order", self.order, "order"),
+            ("Seam", self.seam, "seam"),
+            ("Blend", self.blend, "blend"),
+            ("Mirror", self.mirror, "mirror"),
+            ("Coarse factor", self.coarse_factor, "coarse_factor"),
+            ("Threads", self.workers, "workers"),
+            ("Feature weight", self.feature_weight, "feature_weight"),
+        ):
+            form.addRow(label, widget)
+            tip = _TIPS[name]
+            form.labelForField(widget).setToolTip(tip)
+            for child in ([widget] if isinstance(widget, QWidget) else
+                          [widget.itemAt(i).widget() for i in range(widget.count())]):
+                if child is not None and not child.toolTip():
+                    child.setToolTip(tip)
+        form.addRow("Output", self.output_label)
+        form.addRow(self.error_label)
+
+        for spin in (self.patch_size, self.overlap, self.k, self.seed, self.coarse_factor, self.workers):
+            spin.valueChanged.connect(self._apply)
+        self.feature_weight.valueChanged.connect(self._apply)
+        for combo in (self.order, self.seam, self.blend):
+            combo.currentTextChanged.connect(self._apply)
+        for check in (self.overlap_auto, self.mirror):
+            check.toggled.connect(self._apply)
+
+        self._show(document.params)
+        self._show_output()
+        document.changed.connect(self._document_changed)
+        document.sketch.changed.connect(self._sketch_changed)
+
+    # -- document to widgets -------------------------------------------------------------------
+    def _document_changed(self, what: str) -> None:
+        if what == "params":
+            self._show(self.document.params)
+
+    def _show(self, params: SynthesisParams) -> None:
+        self._updating = True
+        try:
+            self.patch_size.setValue(params.patch_size)
+            self.overlap_auto.setChecked(params.overlap is None)
+            self.overlap.setValue(params.overlap_cells)
+            self.overlap.setEnabled(params.overlap is not None)
+            self.k.setValue(params.k)
+            self.seed.setValue(min(params.seed, MAX_SEED))
+            self.order.setCurrentText(params.order)
+            self.seam.setCurrentText(params.seam)
+            self.blend.setCurrentText(params.blend)
+            self.mirror.setChecked(params.mirror)
+            self.coarse_factor.setValue(params.coarse_factor)
+            self.workers.setValue(params.workers)
+            self.feature_weight.setValue(params.feature_weight)
+        finally:
+            self._updating = False
+        self.error_label.clear()
+
+    def _sketch_changed(self, bbox) -> None:
+        if bbox is None:  # the whole sketch was replaced, maybe resized
+            self._show_output()
+
+    def _show_output(self) -> None:
+        rows, cols = self.document.output_shape
+        self.output_label.setText(f"{rows} x {cols} cells (the sketch's size)")
+
+    # -- widgets to document ----------------------------------------------------------------------
+    def values(self) -> dict:
+        """The widgets' values as ``SynthesisParams`` keyword arguments."""
+        return {
+            "patch_size": self.patch_size.value(),
+            "overlap": None if self.overlap_auto.isChecked() else self.overlap.value(),
+            "k": self.k.value(),
+            "seed": self.seed.value(),
+            "order": self.order.currentText(),
+            "seam": self.seam.currentText(),
+            "blend": self.blend.currentText(),
+            "mirror": self.mirror.isChecked(),
+            "coarse_factor": self.coarse_factor.value(),
+            "workers": self.workers.value(),
+            "feature_weight": self.feature_weight.value(),
+        }
+
+    def _apply(self) -> None:
+        if self._updating:
+            return
+        self.overlap.setEnabled(not self.overlap_auto.isChecked())
+        try:
+            params = SynthesisParams(**self.values())
+        except ParamsError as exc:
+            self.error_label.setText(str(exc))
+            self.params_rejected.emit(str(exc))
+            return
+        self.error_label.clear()
+        self.document.set_params(params)
+
+    def randomize_seed(self) -> None:
+        """Set a new random seed (applied to the document at once)."""
+        self.seed.setValue(secrets.randbelow(MAX_SEED + 1))

@@ -1,0 +1,309 @@
+"""The sketch canvas: paint ridges and valleys, draw polylines, erase, zoom and pan.
+
+Left button paints with the current tool; Shift+click draws a straight line
+from the end of the last stroke; in polyline mode clicks add vertices and a
+double-click or Enter finishes the line (Esc drops it).  The wheel zooms and
+the middle button pans.  The feature graph the synthesis will follow
+(ridges, valleys, branch points and endpoints) can be overlaid; it is
+recomputed off the GUI thread when the strokes settle.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtCore import QEvent, QObject, QPointF, Qt, QTimer, Signal
+from PySide6.QtGui import QAction, QActionGroup, QKeySequence, QPen, QColor
+from PySide6.QtWidgets import (QCheckBox, QDoubleSpinBox, QGraphicsEllipseItem, QLabel, QSpinBox,
+                               QToolBar, QVBoxLayout, QWidget)
+
+from terrasynth_core.features import sketch_features
+
+from ..model.sketch import Sketch
+from ..workers import run_in_background
+from .feature_overlay import FeatureGraphOverlay, legend_text
+
+#: Delay after the last edit before the feature graph is recomputed, in ms.
+GRAPH_DELAY_MS = 400
+#: Coalescing delay of image refreshes while painting, in ms (about 60/s).
+REFRESH_MS = 16
+
+
+class SketchCanvas(QWidget):
+    """Editor of a :class:`~terrasynth_app.model.Sketch`.
+
+    Parameters
+    ----------
+    sketch : Sketch
+        The document's sketch; the canvas follows its ``changed`` event.
+
+    Signals
+    -------
+    feature_graph_updated(object)
+        The overlay's new ``FeatureMaps`` after a background recompute.
+    """
+
+    feature_graph_updated = Signal(object)
+
+    def __init__(self, sketch: Sketch, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.sketch = sketch
+        self._stroking = False
+        self._last_point: tuple[float, float] | None = None
+        self._poly_points: list[tuple[float, float]] = []
+        self._graph_generation = 0
+        self._rgb = sketch.to_rgb()
+
+        self.view = pg.GraphicsView()
+        self.view_box = pg.ViewBox(invertY=True, lockAspect=True, enableMenu=False)
+        self.view.setCentralItem(self.view_box)
+        self.view.setBackground((70, 70, 70))
+        self.image = pg.ImageItem()
+        self.image.setImage(self._rgb, autoLevels=False, levels=None)
+        self.view_box.addItem(self.image)
+        self.overlay = FeatureGraphOverlay(self.view_box)
+        self._poly_preview = pg.PlotCurveItem(pen=pg.mkPen((30, 30, 30), width=1, style=Qt.DashLine))
+        self._poly_preview.setZValue(30)
+        self.view_box.addItem(self._poly_preview)
+        self._cursor = QGraphicsEllipseItem()
+        pen = QPen(QColor(20, 20, 20))
+        pen.setCosmetic(True)
+        self._cursor.setPen(pen)
+        self._cursor.setZValue(40)
+        self._cursor.setVisible(False)
+        self.view_box.addItem(self._cursor)
+        self.view_box.autoRange(padding=0.02)
+
+        self._build_toolbar()
+        self.legend = QLabel(legend_text())
+        self.legend.setVisible(False)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(self.toolbar)
+        layout.addWidget(self.options_bar)
+        layout.addWidget(self.view, 1)
+        layout.addWidget(self.legend)
+
+        self._refresh_timer = QTimer(self, singleShot=True, interval=REFRESH_MS)
+        self._refresh_timer.timeout.connect(self._refresh_image)
+        self._graph_timer = QTimer(self, singleShot=True, interval=GRAPH_DELAY_MS)
+        self._graph_timer.timeout.connect(self._update_graph)
+
+        self.view.viewport().installEventFilter(self)
+        self.view.installEventFilter(self)
+        self.view.viewport().setMouseTracking(True)
+        sketch.changed.connect(self._sketch_changed)
+        sketch.history_changed.connect(self._update_history_actions)
+        self._update_history_actions()
+
+    # -- toolbar --------------------------------------------------------------------
+    def _build_toolbar(self) -> None:
+        self.toolbar = QToolBar("Sketch tools")
+        self.toolbar.setToolButtonStyle(Qt.ToolButtonTextOnly)
+        self.tool_group = QActionGroup(self)
+        self.tool_actions: dict[str, QAction] = {}
+        for tool, text, tip in (
+            ("ridge", "Ridge", "Paint ridges (red)"),
+            ("valley", "Valley", "Paint valleys (blue)"),
+            ("erase", "Eraser", "Erase ridges and valleys"),
+        ):
+            action = QAction(text, self, checkable=True, toolTip=tip)
+            self.tool_group.addAction(action)
+            self.toolbar.addAction(action)
+            self.tool_actions[tool] = action
+        self.tool_actions["ridge"].setChecked(True)
+        self.polyline_action = QAction("Polyline", self, checkable=True,
+                                       toolTip="Click vertices; double-click or Enter finishes, Esc cancels")
+        self.polyline_action.toggled.connect(lambda _on: self.cancel_polyline())
+        self.toolbar.addAction(self.polyline_action)
+        self.toolbar.addSeparator()
+
+        self.size_spin = QSpinBox(minimum=1, maximum=200, value=9, suffix=" px")
+        self.size_spin.setToolTip("Brush diameter in sketch cells")
+        self.hardness_spin = QDoubleSpinBox(minimum=0.0, maximum=1.0, singleStep=0.1, value=0.8, decimals=2)
+        self.hardness_spin.setToolTip("Share of the brush radius painted at full strength; "
+                                      "the rest fades out (0 = soft, 1 = hard)")
+        self.options_bar = QToolBar("Brush options")
+        self.options_bar.addWidget(QLabel(" Size "))
+        self.options_bar.addWidget(self.size_spin)
+        self.options_bar.addWidget(QLabel(" Hardness "))
+        self.options_bar.addWidget(self.hardness_spin)
+        self.options_bar.addSeparator()
+
+        self.undo_action = QAction("Undo", self, shortcut=QKeySequence.Undo, toolTip="Undo the last stroke (Ctrl+Z)")
+        self.undo_action.triggered.connect(self.sketch.undo)
+        self.redo_action = QAction("Redo", self, toolTip="Redo the stroke undone (Ctrl+Shift+Z)")
+        self.redo_action.setShortcuts([QKeySequence("Ctrl+Shift+Z"), QKeySequence("Ctrl+Y")])
+        self.redo_action.triggered.connect(self.sketch.redo)
+        self.clear_action = QAction("Clear", self, toolTip="Remove every stroke (undoable)")
+        self.clear_action.triggered.connect(self.sketch.clear)
+        self.fit_action = QAction("Fit", self, toolTip="Zoom to the whole sketch")
+        self.fit_action.triggered.connect(lambda: self.view_box.autoRange(padding=0.02))
+        for action in (self.undo_action, self.redo_action, self.clear_action, self.fit_action):
+            self.toolbar.addAction(action)
+        self.graph_check = QCheckBox("Feature graph")
+        self.graph_check.setToolTip("Overlay the ridge and valley graph the synthesis follows, "
+                                    "with branch points and endpoints")
+        self.graph_check.toggled.connect(self._graph_toggled)
+        self.options_bar.addWidget(self.graph_check)
+
+    # -- tool state ----------------------------------------------------------------------
+    @property
+    def tool(self) -> str:
+        for tool, action in self.tool_actions.items():
+            if action.isChecked():
+                return tool
+        return "ridge"
+
+    def set_tool(self, tool: str) -> None:
+        self.tool_actions[tool].setChecked(True)
+
+    @property
+    def brush_radius(self) -> float:
+        return self.size_spin.value() / 2.0
+
+    @property
+    def polyline_points(self) -> list[tuple[float, float]]:
+        return list(self._poly_points)
+
+    # -- mouse and keys -----------------------------------------------------------------
+    def cell_at(self, widget_pos: QPointF) -> tuple[float, float]:
+        """``(row, col)`` in sketch cells under a viewport position."""
+        scene = self.view.mapToScene(widget_pos.toPoint())
+        point = self.view_box.mapSceneToView(scene)
+        # Pixel (i, j) covers [j, j+1] x [i, i+1]; its centre is cell (i, j).
+        return point.y() - 0.5, point.x() - 0.5
+
+    def eventFilter(self, obj: QObject, event: QEvent) -> bool:
+        kind = event.type()
+        if obj is self.view.viewport():
+            if kind == QEvent.MouseButtonPress and event.button() == Qt.LeftButton:
+                self._press(self.cell_at(event.position()), event.modifiers())
+                return True
+            if kind == QEvent.MouseButtonDblClick and event.button() == Qt.LeftButton:
+                if self.polyline_action.isChecked():
+                    self._add_poly_point(self.cell_at(event.position()))
+                    self.finish_polyline()
+                return True
+            if kind == QEvent.MouseMove:
+                self._move(self.cell_at(event.position()))
+                return self._stroking
+            if kind == QEvent.MouseButtonRelease and event.button() == Qt.LeftButton:
+                self._release(self.cell_at(event.position()))
+                return True
+            if kind == QEvent.Leave:
+                self._cursor.setVisible(False)
+        elif obj is self.view and kind == QEvent.KeyPress:
+            if event.key() in (Qt.Key_Return, Qt.Key_Enter) and self._poly_points:
+                self.finish_polyline()
+                return True
+            if event.key() == Qt.Key_Escape and self._poly_points:
+                self.cancel_polyline()
+                return True
+        return super().eventFilter(obj, event)
+
+    def _press(self, cell: tuple[float, float], modifiers) -> None:
+        self.view.setFocus()
+        if self.polyline_action.isChecked():
+            self._add_poly_point(cell)
+            return
+        options = dict(radius=self.brush_radius, hardness=self.hardness_spin.value())
+        if modifiers & Qt.ShiftModifier and self._last_point is not None:
+            self.sketch.draw_polyline([self._last_point, cell], self.tool, **options)
+            self._last_point = cell
+            return
+        self.sketch.begin_stroke(self.tool, *cell, **options)
+        self._stroking = True
+
+    def _move(self, cell: tuple[float, float]) -> None:
+        r = self.brush_radius
+        self._cursor.setRect(cell[1] + 0.5 - r, cell[0] + 0.5 - r, 2 * r, 2 * r)
+        self._cursor.setVisible(True)
+        if self._stroking:
+            self.sketch.stroke_to(*cell)
+        elif self._poly_points:
+            self._show_poly_preview(cell)
+
+    def _release(self, cell: tuple[float, float]) -> None:
+        if not self._stroking:
+            return
+        self.sketch.stroke_to(*cell)
+        self.sketch.end_stroke()
+        self._stroking = False
+        self._last_point = cell
+
+    # -- polyline -----------------------------------------------------------------------
+    def _add_poly_point(self, cell: tuple[float, float]) -> None:
+        if not self._poly_points or np.hypot(*np.subtract(cell, self._poly_points[-1])) > 0.5:
+            self._poly_points.append(cell)
+        self._show_poly_preview(None)
+
+    def _show_poly_preview(self, hover: tuple[float, float] | None) -> None:
+        pts = self._poly_points + ([hover] if hover is not None else [])
+        if not pts:
+            self._poly_preview.setData([], [])
+            return
+        arr = np.asarray(pts, dtype=float)
+        self._poly_preview.setData(arr[:, 1] + 0.5, arr[:, 0] + 0.5)
+
+    def finish_polyline(self) -> None:
+        """Draw the polyline clicked so far as one stroke."""
+        points, self._poly_points = self._poly_points, []
+        self._poly_preview.setData([], [])
+        if points:
+            self.sketch.draw_polyline(points, self.tool, radius=self.brush_radius,
+                                      hardness=self.hardness_spin.value())
+            self._last_point = points[-1]
+
+    def cancel_polyline(self) -> None:
+        self._poly_points = []
+        self._poly_preview.setData([], [])
+
+    # -- model events ---------------------------------------------------------------------
+    def _sketch_changed(self, bbox) -> None:
+        if bbox is None:
+            reshaped = self._rgb.shape[:2] != self.sketch.shape
+            self._rgb = self.sketch.to_rgb()
+            self._refresh_image()
+            if reshaped:
+                self.view_box.autoRange(padding=0.02)
+        else:
+            r0, r1, c0, c1 = bbox
+            self._rgb[r0:r1, c0:c1] = self.sketch.to_rgb(bbox)
+            if not self._refresh_timer.isActive():
+                self._refresh_timer.start()
+        self._graph_generation += 1
+        if self.graph_check.isChecked():
+            self._graph_timer.start()
+
+    def _refresh_image(self) -> None:
+        self.image.setImage(self._rgb, autoLevels=False, levels=None)
+
+    def _update_history_actions(self) -> None:
+        self.undo_action.setEnabled(self.sketch.can_undo)
+        self.redo_action.setEnabled(self.sketch.can_redo)
+
+    # -- feature graph overlay --------------------------------------------------------------
+    def _graph_toggled(self, on: bool) -> None:
+        self.overlay.set_visible(on)
+        self.legend.setVisible(on)
+        if on:
+            self._update_graph()
+
+    def _update_graph(self) -> None:
+        if self.sketch.stroking:
+            self._graph_timer.start()
+            return
+        generation = self._graph_generation
+        sketch_map = self.sketch.to_sketch_map()
+        run_in_background(lambda: (generation, sketch_features(sketch_map)), self._graph_ready, self._graph_failed)
+
+    def _graph_ready(self, value) -> None:
+        generation, maps = value
+        if generation != self._graph_generation:
+            return  # the sketch changed meanwhile; a newer computation is queued
+        self.overlay.set_maps(maps)
+        self.feature_graph_updated.emit(maps)
+
+    def _graph_failed(self, message: str) -> None:
+        self.legend.setText(f"Feature graph unavailable: {message}")

@@ -1,0 +1,302 @@
+"""The 3D view of the terrain (pyvistaqt), or a message where it cannot run.
+
+The mesh is built once per output size, decimated to at most
+:data:`MAX_SIDE` vertices a side; patches update its heights in place and a
+timer redraws at most 10 times a second.  Rendering happens on the GUI
+thread, so when the view starts it times a frame: if this OpenGL (e.g. a
+software renderer) is too slow for live updates, the terrain is drawn only
+when a run ends, and the view says so, rather than freezing the window.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+from PySide6.QtCore import Qt, QTimer, Signal
+from PySide6.QtGui import QGuiApplication
+from PySide6.QtWidgets import QDoubleSpinBox, QHBoxLayout, QLabel, QStackedLayout, QVBoxLayout, QWidget
+
+from ..model.result import TerrainResult
+from .terrain_colors import height_range
+
+log = logging.getLogger(__name__)
+
+#: Most vertices along a side of the displayed mesh.
+MAX_SIDE = 160
+#: Longest frame, in ms, that still allows live updates during a run (the
+#: GUI thread must never stall for 100 ms).
+LIVE_FRAME_BUDGET_MS = 60.0
+#: Shortest redraw period while heights change, in ms (10 redraws a second).
+REDRAW_MS = 100
+#: Redraws may take at most this share of the GUI thread's time; slow OpenGL
+#: stretches the period instead.
+MAX_RENDER_SHARE = 0.3
+#: Cell size assumed when the examples do not tell one, in metres.
+DEFAULT_CELL_M = 30.0
+#: Qt platforms that have no OpenGL window to render into.
+_HEADLESS_PLATFORMS = {"offscreen", "minimal", "vnc"}
+
+
+class TerrainView3D(QWidget):
+    """A shaded 3D surface of the live or last terrain.
+
+    The VTK widget is created the first time the view is shown; if that is
+    impossible (no display, no OpenGL, pyvistaqt missing) a message takes its
+    place and every method quietly only keeps the heights.
+
+    Signals
+    -------
+    rendered()
+        A redraw happened.
+    """
+
+    rendered = Signal()
+
+    def __init__(self, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.plotter = None  # pyvistaqt QtInteractor once started
+        self._starting = False
+        self.unavailable_reason: str | None = None
+        self.heights: np.ndarray | None = None  # full-resolution buffer
+        self._cell_size = (DEFAULT_CELL_M, DEFAULT_CELL_M)
+        self._vrange = (0.0, 1.0)
+        self._grid = None
+        self._grid_key = None
+        self._actor = None
+        self._dirty = False
+        self.redraws = 0
+
+        self.message = QLabel("The 3D view starts when shown.", alignment=Qt.AlignCenter, wordWrap=True)
+        self._stack = QStackedLayout()
+        holder = QWidget()
+        holder.setLayout(self._stack)
+        self._stack.addWidget(self.message)
+        self.scale_spin = QDoubleSpinBox(minimum=0.1, maximum=20.0, singleStep=0.5, value=2.0, decimals=1,
+                                         suffix=" x")
+        self.scale_spin.setToolTip("Vertical exaggeration of the 3D surface")
+        self.scale_spin.valueChanged.connect(self._scale_changed)
+        bar = QHBoxLayout()
+        bar.addWidget(QLabel("Vertical scale"))
+        bar.addWidget(self.scale_spin)
+        self.notice = QLabel()
+        bar.addWidget(self.notice, 1)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(holder, 1)
+        layout.addLayout(bar)
+
+        self._timer = QTimer(self, singleShot=True, interval=REDRAW_MS)
+        self._timer.timeout.connect(self._redraw)
+        self.render_ms = 0.0
+        self._live = False
+        #: False when a frame is too slow for live updates during runs.
+        self.live_updates = True
+
+    # -- start-up ----------------------------------------------------------------------------
+    @property
+    def available(self) -> bool:
+        return self.plotter is not None
+
+    def showEvent(self, event) -> None:
+        super().showEvent(event)
+        if self.plotter is None and self.unavailable_reason is None and not self._starting:
+            self.start()
+
+    def start(self) -> bool:
+        """Create the VTK widget; False (and a message shown) when it cannot run."""
+        if self.plotter is not None:
+            return True
+        platform = QGuiApplication.platformName()
+        if platform in _HEADLESS_PLATFORMS:
+            return self._unavailable(f"The 3D view needs a display with OpenGL; the Qt platform "
+                                     f"'{platform}' has none. The 2D view shows the terrain.")
+        # Making the VTK widget shows it, which re-enters showEvent.
+        self._starting = True
+        try:
+            from pyvistaqt import QtInteractor
+
+            plotter = QtInteractor(self, auto_update=False)
+            plotter.set_background("#2b2b2b", top="#6d7f99")
+            plotter.enable_terrain_style(mouse_wheel_zooms=True)
+        except Exception as exc:  # VTK reports missing OpenGL in many ways
+            log.warning("3D view unavailable: %s", exc)
+            return self._unavailable(f"The 3D view could not start ({type(exc).__name__}: {exc}). "
+                                     "The 2D view shows the terrain.")
+        finally:
+            self._starting = False
+        self.plotter = plotter
+        self._stack.addWidget(plotter)
+        self._stack.setCurrentWidget(plotter)
+        self._time_frames()
+        return True
+
+    def _time_frames(self) -> None:
+        """Draw the terrain (or a flat test mesh) twice and decide whether live
+        updates can keep up.
+
+        The first frame pays for compiling shaders; the second is the typical
+        cost of a redraw.
+        """
+        shown = self.heights
+        if shown is None:
+            self.heights = np.zeros((MAX_SIDE, MAX_SIDE), np.float32)
+        for _ in range(2):
+            self._dirty = True
+            self._redraw(now=True)
+        self.live_updates = self.render_ms <= LIVE_FRAME_BUDGET_MS
+        log.info("3D frame: %.0f ms; live 3D updates %s", self.render_ms, "on" if self.live_updates else "off")
+        if not self.live_updates:
+            self.notice.setText(f"Live 3D off: a frame takes {self.render_ms:.0f} ms with this OpenGL; "
+                                "the terrain shows when a run ends.")
+        if shown is None:
+            self.heights = None
+            self._clear_mesh()
+
+    def _clear_mesh(self) -> None:
+        self.plotter.clear()
+        self._grid = None
+        self._grid_key = None
+        self.plotter.render()
+
+    def _unavailable(self, reason: str) -> bool:
+        self.unavailable_reason = reason
+        self.message.setText(reason)
+        self._stack.setCurrentWidget(self.message)
+        return False
+
+    # -- data ---------------------------------------------------------------------------------
+    def begin_run(self, shape: tuple[int, int], *, cell_size: tuple[float, float] | None,
+                  vrange: tuple[float, float]) -> None:
+        """A new run of ``shape``: start from a flat floor and redraw as patches come."""
+        self.heights = np.full(shape, np.nan, np.float32)
+        self._cell_size = cell_size or (DEFAULT_CELL_M, DEFAULT_CELL_M)
+        self._vrange = vrange
+        self._dirty = True
+        self._live = True
+        self._schedule()
+
+    def paste_patch(self, event) -> None:
+        """Paste a core ``PatchPlaced`` event; the next timer tick redraws."""
+        if self.heights is None:
+            return
+        r0, r1, c0, c1 = event.bbox
+        self.heights[r0:r1, c0:c1] = event.heights
+        self._dirty = True
+        self._schedule()
+
+    def end_run(self) -> None:
+        self._timer.stop()
+        self._live = False
+
+    def show_result(self, result: TerrainResult | None) -> None:
+        """Show a finished terrain (None clears the view)."""
+        self.end_run()
+        if result is None:
+            self.heights = None
+            if self.plotter is not None:
+                self._clear_mesh()
+            return
+        self.heights = result.heights.copy()
+        self._cell_size = result.cell_size or (DEFAULT_CELL_M, DEFAULT_CELL_M)
+        self._vrange = height_range(result.heights)
+        self._dirty = True
+        self._redraw()
+
+    def screenshot(self, path: str) -> None:
+        """Save the 3D view as a PNG.
+
+        Raises
+        ------
+        RuntimeError
+            When the 3D view is not running.
+        """
+        if self.plotter is None:
+            raise RuntimeError(self.unavailable_reason or "the 3D view is not running")
+        self._redraw(now=True)
+        self.plotter.screenshot(str(path))
+
+    def mesh_heights(self) -> np.ndarray | None:
+        """Heights of the displayed mesh vertices (metres, decimated), for tests."""
+        if self._grid is None:
+            return None
+        rows, cols = self._grid_key[0]
+        return np.asarray(self._grid["elevation"]).reshape(rows, cols)
+
+    # -- drawing ----------------------------------------------------------------------------------
+    def _scale_changed(self) -> None:
+        self._dirty = True
+        self._redraw()
+
+    def _schedule(self) -> None:
+        if self._live and not self.live_updates:
+            return
+        if self.plotter is not None and not self._timer.isActive():
+            self._timer.start(max(REDRAW_MS, int(self.render_ms / MAX_RENDER_SHARE)))
+
+    def _redraw(self, *, now: bool = False) -> None:
+        """Update the mesh from the heights and draw it.
+
+        ``now`` renders synchronously and measures the frame; otherwise the
+        widget is only marked for repaint, where VTK renders once (an
+        explicit render would be followed by a second one in the repaint).
+        """
+        if not self._dirty or self.plotter is None or self.heights is None:
+            return
+        self._dirty = False
+        started = time.perf_counter()
+        import pyvista as pv
+
+        step = max(1, int(np.ceil(max(self.heights.shape) / MAX_SIDE)))
+        small = self.heights[::step, ::step]
+        valid = np.isfinite(small)
+        # Not yet synthesized cells sit flat at the lowest height so far.
+        floor = float(small[valid].min()) if valid.any() else self._vrange[0]
+        z = np.where(valid, small, floor).astype(np.float32)
+        key = (small.shape, step, self._cell_size)
+        if self._grid is None or key != self._grid_key:
+            rows, cols = small.shape
+            dy, dx = self._cell_size
+            yy, xx = np.meshgrid(-np.arange(rows) * dy * step, np.arange(cols) * dx * step, indexing="ij")
+            grid = pv.StructuredGrid()
+            grid.points = np.column_stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)]).astype(np.float32)
+            grid.dimensions = (cols, rows, 1)
+            grid["elevation"] = z.ravel()
+            self._grid = grid
+            self._grid_key = key
+            self._apply_heights(z)
+            self.plotter.clear()
+            # No smooth_shading: it would draw a copy with computed normals, and
+            # in-place height updates would not show; _apply_heights sets the
+            # normals itself.
+            self._actor = self.plotter.add_mesh(grid, scalars="elevation", cmap="gist_earth", clim=self._vrange,
+                                                show_scalar_bar=False, render=False)
+            self.plotter.view_isometric(render=False)
+            self.plotter.reset_camera(render=False)
+        else:
+            self._apply_heights(z)
+            self._actor.mapper.scalar_range = self._vrange
+        if now:
+            self.plotter.render()
+            self.render_ms = (time.perf_counter() - started) * 1000
+        else:
+            self.plotter.update()
+        self.redraws += 1
+        self.rendered.emit()
+
+    def _apply_heights(self, z: np.ndarray) -> None:
+        """Set the mesh heights (metres, decimated grid) and their normals in place."""
+        scale = self.scale_spin.value()
+        points = self._grid.points
+        points[:, 2] = z.ravel() * scale
+        self._grid.points = points
+        self._grid["elevation"] = z.ravel()
+        step = self._grid_key[1]
+        dy, dx = self._cell_size
+        # Normals of the surface z(x, y) with y pointing north (rows run south).
+        dz_drow, dz_dcol = np.gradient(z * scale, dy * step, dx * step)
+        normals = np.column_stack([-dz_dcol.ravel(), dz_drow.ravel(), np.ones(z.size)])
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        self._grid.point_data["Normals"] = normals.astype(np.float32)
+        self._grid.point_data.active_normals_name = "Normals"

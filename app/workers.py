@@ -1,0 +1,313 @@
+"""Thread workers: the core's ``iter_run`` and slow one-off jobs off the GUI thread.
+
+:class:`SynthesisRunner` owns at most one current run.  Each run drains
+``session.iter_run()`` on its own ``QThread`` and turns every event into a
+signal; starting a new run cancels the old one, whose late events are
+dropped.  Cancelling closes the generator at the next patch boundary.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import traceback
+from typing import Callable
+
+from PySide6.QtCore import QObject, QRunnable, QThread, QThreadPool, Signal, Slot
+
+from terrasynth_core.errors import TerraSynthError
+from terrasynth_core.synthesis import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
+
+log = logging.getLogger(__name__)
+
+
+def describe_error(exc: BaseException) -> str:
+    """One line for the user: the core's own message, or the exception and where."""
+    if isinstance(exc, TerraSynthError):
+        return str(exc)
+    return f"internal error: {type(exc).__name__}: {exc}"
+
+
+def _log_failure(what: str, exc: Exception) -> None:
+    # A user's mistake gets its one line; anything else its traceback, for a bug report.
+    if isinstance(exc, TerraSynthError):
+        log.info("%s failed: %s", what, exc)
+    else:
+        log.error("%s failed:\n%s", what, traceback.format_exc())
+
+
+class SynthesisWorker(QObject):
+    """Runs one synthesis on the thread it is moved to.
+
+    Parameters
+    ----------
+    make_session : callable
+        Returns a core ``Session``; called on the worker thread, since reading
+        and analysing examples is slow.
+    prepare : callable, optional
+        Called on the worker thread after the session is made; its return
+        value is sent with :attr:`session_ready` (e.g. the output cell size).
+
+    Signals
+    -------
+    session_ready(object)
+        The session is valid and the run starts; carries ``prepare()``'s value.
+    stage_started(str, int)
+        Stage name and the patches it will place.
+    patch_placed(object)
+        The core's :class:`PatchPlaced` event.
+    stage_finished(str, float)
+        Stage name and its seconds.
+    synthesis_finished(object)
+        The core's ``SynthesisResult``.
+    synthesis_failed(str)
+        One-line message; the run is over.
+    synthesis_cancelled()
+        The run stopped on request.
+    done()
+        Always last, whatever the outcome.
+    """
+
+    session_ready = Signal(object)
+    stage_started = Signal(str, int)
+    patch_placed = Signal(object)
+    stage_finished = Signal(str, float)
+    synthesis_finished = Signal(object)
+    synthesis_failed = Signal(str)
+    synthesis_cancelled = Signal()
+    done = Signal()
+
+    def __init__(self, make_session: Callable[[], object], prepare: Callable[[], object] | None = None) -> None:
+        super().__init__()
+        self._make_session = make_session
+        self._prepare = prepare
+        self._cancel = threading.Event()
+
+    def cancel(self) -> None:
+        """Ask the run to stop at its next event (callable from any thread)."""
+        self._cancel.set()
+
+    @property
+    def cancelled(self) -> bool:
+        return self._cancel.is_set()
+
+    @Slot()
+    def run(self) -> None:
+        try:
+            self._run()
+        except Exception as exc:  # shown to the user, never lost in a thread
+            _log_failure("synthesis", exc)
+            self.synthesis_failed.emit(describe_error(exc))
+        finally:
+            self.done.emit()
+
+    def _run(self) -> None:
+        session = self._make_session()
+        extra = self._prepare() if self._prepare is not None else None
+        if self._cancel.is_set():
+            self.synthesis_cancelled.emit()
+            return
+        self.session_ready.emit(extra)
+        events = session.iter_run()
+        try:
+            for event in events:
+                if self._cancel.is_set():
+                    self.synthesis_cancelled.emit()
+                    return
+                if isinstance(event, PatchPlaced):
+                    self.patch_placed.emit(event)
+                elif isinstance(event, StageStarted):
+                    self.stage_started.emit(event.stage, event.total)
+                elif isinstance(event, StageFinished):
+                    self.stage_finished.emit(event.stage, event.seconds)
+                elif isinstance(event, SynthesisFinished):
+                    self.synthesis_finished.emit(event.result)
+        finally:
+            events.close()
+
+
+class SynthesisRunner(QObject):
+    """Starts synthesis runs, one current at a time, and forwards their signals.
+
+    Signals have the meaning of :class:`SynthesisWorker`'s, for the current
+    run only.  ``running_changed(bool)`` tells when a run starts or ends.
+    """
+
+    session_ready = Signal(object)
+    stage_started = Signal(str, int)
+    patch_placed = Signal(object)
+    stage_finished = Signal(str, float)
+    synthesis_finished = Signal(object)
+    synthesis_failed = Signal(str)
+    synthesis_cancelled = Signal()
+    running_changed = Signal(bool)
+
+    def __init__(self, parent: QObject | None = None) -> None:
+        super().__init__(parent)
+        self._current: _Run | None = None
+        self._runs: set[_Run] = set()  # alive until their thread ends
+
+    @property
+    def running(self) -> bool:
+        return self._current is not None
+
+    def start(self, make_session: Callable[[], object], prepare: Callable[[], object] | None = None) -> None:
+        """Start a run, cancelling the current one."""
+        self.cancel()
+        run = _Run(self, SynthesisWorker(make_session, prepare))
+        self._runs.add(run)
+        self._current = run
+        self.running_changed.emit(True)
+        run.thread.start()
+
+    def cancel(self) -> None:
+        """Cancel the current run; its ``synthesis_cancelled`` is still forwarded."""
+        if self._current is not None:
+            self._current.worker.cancel()
+            # Keep it current until it says it stopped, so the views learn
+            # the run ended; only a newer run replaces it.
+
+    def wait(self, msecs: int = 10_000) -> bool:
+        """Cancel everything and wait for the threads (at exit); False on timeout."""
+        for run in list(self._runs):
+            run.worker.cancel()
+        ok = True
+        for run in list(self._runs):
+            ok &= run.thread.wait(msecs)
+        return ok
+
+    # -- called by _Run on the GUI thread --------------------------------------
+    def _forward(self, run: "_Run", signal: str, *args) -> None:
+        if run is self._current:
+            getattr(self, signal).emit(*args)
+
+    def _run_done(self, run: "_Run") -> None:
+        if run is self._current:
+            self._current = None
+            self.running_changed.emit(False)
+
+    def _thread_finished(self, run: "_Run") -> None:
+        self._runs.discard(run)
+
+
+class _Run(QObject):
+    """One run: a worker, its thread, and slots (on the GUI thread) relaying
+    the worker's queued signals to the runner if the run is still current."""
+
+    def __init__(self, runner: SynthesisRunner, worker: SynthesisWorker) -> None:
+        super().__init__()
+        self.runner = runner
+        self.worker = worker
+        self.thread = QThread()
+        worker.moveToThread(self.thread)
+        self.thread.started.connect(worker.run)
+        worker.session_ready.connect(self._session_ready)
+        worker.stage_started.connect(self._stage_started)
+        worker.patch_placed.connect(self._patch_placed)
+        worker.stage_finished.connect(self._stage_finished)
+        worker.synthesis_finished.connect(self._synthesis_finished)
+        worker.synthesis_failed.connect(self._synthesis_failed)
+        worker.synthesis_cancelled.connect(self._synthesis_cancelled)
+        worker.done.connect(self._done)
+        worker.done.connect(self.thread.quit)
+        self.thread.finished.connect(self._thread_finished)
+
+    @Slot(object)
+    def _session_ready(self, extra) -> None:
+        self.runner._forward(self, "session_ready", extra)
+
+    @Slot(str, int)
+    def _stage_started(self, stage: str, total: int) -> None:
+        self.runner._forward(self, "stage_started", stage, total)
+
+    @Slot(object)
+    def _patch_placed(self, event) -> None:
+        self.runner._forward(self, "patch_placed", event)
+
+    @Slot(str, float)
+    def _stage_finished(self, stage: str, seconds: float) -> None:
+        self.runner._forward(self, "stage_finished", stage, seconds)
+
+    @Slot(object)
+    def _synthesis_finished(self, result) -> None:
+        self.runner._forward(self, "synthesis_finished", result)
+
+    @Slot(str)
+    def _synthesis_failed(self, message: str) -> None:
+        self.runner._forward(self, "synthesis_failed", message)
+
+    @Slot()
+    def _synthesis_cancelled(self) -> None:
+        self.runner._forward(self, "synthesis_cancelled")
+
+    @Slot()
+    def _done(self) -> None:
+        self.runner._run_done(self)
+
+    @Slot()
+    def _thread_finished(self) -> None:
+        self.runner._thread_finished(self)
+
+
+class _JobSignals(QObject):
+    finished = Signal(object)
+    failed = Signal(str)
+
+    #: Signals of jobs whose result is not delivered yet, kept alive here
+    #: because the pool deletes the runnable as soon as it has run.
+    active: set["_JobSignals"] = set()
+
+    @Slot()
+    def release(self) -> None:
+        _JobSignals.active.discard(self)
+
+
+class BackgroundJob(QRunnable):
+    """A function run on Qt's global thread pool; its result or error comes back by signal.
+
+    Parameters
+    ----------
+    function : callable
+        Called with no argument on a pool thread.
+    """
+
+    def __init__(self, function: Callable[[], object]) -> None:
+        super().__init__()
+        self._function = function
+        self.signals = _JobSignals()
+
+    def run(self) -> None:
+        try:
+            value = self._function()
+        except Exception as exc:
+            _log_failure("background job", exc)
+            self.signals.failed.emit(describe_error(exc))
+        else:
+            self.signals.finished.emit(value)
+
+
+def run_in_background(function: Callable[[], object], on_finished: Callable[[object], None],
+                      on_failed: Callable[[str], None]) -> None:
+    """Run ``function`` on Qt's thread pool and call back on the GUI thread.
+
+    Parameters
+    ----------
+    function : callable
+        Called with no argument on a pool thread.
+    on_finished : callable
+        ``on_finished(value)`` with ``function``'s return value.
+    on_failed : callable
+        ``on_failed(message)`` with a one-line message when it raised.
+
+    The callbacks must be bound methods of QObjects living on the GUI thread,
+    so Qt queues the calls there.
+    """
+    job = BackgroundJob(function)
+    signals = job.signals
+    signals.finished.connect(on_finished)
+    signals.failed.connect(on_failed)
+    # Connected last, so it runs after the callbacks of the same emission.
+    signals.finished.connect(signals.release)
+    signals.failed.connect(signals.release)
+    _JobSignals.active.add(signals)
+    QThreadPool.globalInstance().start(job)

@@ -1,0 +1,241 @@
+"""The main window: start-up, projects, prompts, recovery, panels, export."""
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QSettings
+from PySide6.QtWidgets import QMessageBox
+
+from terrasynth_core.examples import BUILTIN_EXAMPLES
+from terrasynth_core.synthesis import SynthesisParams
+from terrasynth_app.main import build_parser, main
+from terrasynth_app.model import ExampleRef, RecoveryStore, TerrainResult
+from terrasynth_app.views.export_dialog import ExportDialog
+from terrasynth_app.views.main_window import MainWindow
+
+
+def _fake_result(shape):
+    heights = np.add.outer(np.arange(shape[0]), np.arange(shape[1])).astype(np.float32)
+    return TerrainResult(heights, np.zeros(shape, np.int32), np.zeros(shape, bool), cell_size=(30.0, 30.0))
+
+
+def test_starts_ready_with_the_default_example_and_sketch(qtbot, tmp_path, dialogs):
+    win = MainWindow(settings=QSettings(str(tmp_path / "s.ini"), QSettings.IniFormat))
+    qtbot.addWidget(win)
+    win.show()
+    assert win.windowTitle().startswith("TerraSynth")
+    assert win.document.examples == [ExampleRef(builtin="white-mountains")]
+    assert win.document.sketch.has_strokes and win.synthesize_action.isEnabled()
+    assert not win.cancel_action.isEnabled()
+    panel = win.examples
+    assert [ref.builtin for ref in panel.refs()] == [ex.key for ex in BUILTIN_EXAMPLES]
+    qtbot.waitUntil(lambda: len(panel.infos) == len(BUILTIN_EXAMPLES), timeout=30_000)
+    item = panel.item_for(ExampleRef(builtin="white-mountains"))
+    assert "1201 x 1201" in item.text() and not item.icon().isNull()
+    assert dialogs.calls == []
+
+
+def test_params_panel_edits_the_document(qtbot, window):
+    panel, doc = window.params, window.document
+    panel.patch_size.setValue(48)
+    assert doc.params.patch_size == 48
+    panel.blend.setCurrentText("poisson")
+    assert doc.params.blend == "poisson"
+    old_seed = doc.params.seed
+    seeds = {old_seed}
+    for _ in range(3):
+        window.randomize_action.trigger()
+        seeds.add(doc.params.seed)
+    assert len(seeds) > 1
+    panel.overlap_auto.setChecked(False)  # the automatic third of the patch, made explicit
+    assert doc.params.overlap == 16
+    panel.overlap.setValue(30)  # more than half of 48: shown, not applied
+    assert "overlap" in panel.error_label.text() and doc.params.overlap == 16
+    panel.overlap.setValue(20)
+    assert doc.params.overlap == 20 and panel.error_label.text() == ""
+    doc.set_params(SynthesisParams(patch_size=64, k=9))
+    assert panel.patch_size.value() == 64 and panel.k.value() == 9 and panel.overlap_auto.isChecked()
+    assert panel.patch_size.toolTip()
+
+
+def test_checking_examples_chooses_them(qtbot, window):
+    panel, doc = window.examples, window.document
+    item = panel.item_for(ExampleRef(builtin="st-helens"))
+    item.setCheckState(item.checkState().Checked)
+    assert ExampleRef(builtin="st-helens") in doc.examples
+    item.setCheckState(item.checkState().Unchecked)
+    assert ExampleRef(builtin="st-helens") not in doc.examples
+
+
+def test_adding_a_corrupt_dem_shows_an_error_and_adds_nothing(qtbot, window, dialogs, tmp_path):
+    bad = tmp_path / "bad.tif"
+    bad.write_bytes(b"II*\x00garbage")
+    before = window.examples.list.count()
+    with qtbot.waitSignal(window.examples.load_failed, timeout=10_000):
+        window.examples.add_file(str(bad))
+    assert window.examples.list.count() == before
+    assert len(dialogs.messages("critical")) == 1 and "bad.tif" in dialogs.messages("critical")[0]
+    assert "bad.tif" in window.statusBar().currentMessage()
+
+
+def test_adding_a_good_dem_file(qtbot, window, tmp_path):
+    from terrasynth_core.heightfield import HeightField
+    from terrasynth_core.io import save_dem
+
+    path = tmp_path / "hills.asc"
+    save_dem(HeightField(np.random.default_rng(0).normal(300, 20, (90, 120)).astype(np.float32),
+                         cell_size=(10.0, 10.0)), path)
+    with qtbot.waitSignal(window.examples.info_loaded, timeout=10_000):
+        window.examples.add_file(str(path))
+    assert ExampleRef(path=str(path)) in window.document.examples
+    assert "90 x 120, 10 m cells" in window.examples.item_for(ExampleRef(path=str(path))).text()
+
+
+def test_save_and_reopen_a_project_unchanged(qtbot, window, tmp_path):
+    doc = window.document
+    with qtbot.waitSignal(window.runner.synthesis_finished, timeout=90_000):
+        window.synthesize()
+    doc.sketch.draw_polyline([(150, 10), (150, 150)], "valley", radius=2)
+    path = tmp_path / "mine.tsproj"
+    assert window.save_to(path)
+    assert not doc.dirty and window.windowTitle() == "TerraSynth - mine.tsproj[*]"
+    saved = (doc.sketch.ridge.copy(), doc.sketch.valley.copy(), doc.result.heights.copy(), doc.params,
+             doc.examples)
+    window.new_project()  # nothing unsaved: no question
+    assert doc.result is None and doc.sketch.shape != (160, 160)
+    assert window.open_project(str(path))
+    np.testing.assert_array_equal(doc.sketch.ridge, saved[0])
+    np.testing.assert_array_equal(doc.sketch.valley, saved[1])
+    np.testing.assert_array_equal(doc.result.heights, saved[2])
+    assert (doc.params, doc.examples) == saved[3:] and not doc.dirty
+    np.testing.assert_array_equal(window.heightmap.heights, saved[2])
+    assert window.recent_files()[0] == str(path.resolve())
+
+
+def test_unsaved_changes_prompt_on_close(qtbot, window, dialogs):
+    window.document.sketch.clear()
+    assert window.document.dirty
+    dialogs.answers = [QMessageBox.Cancel]
+    assert not window.close()
+    assert window.isVisible() and dialogs.messages("question")
+    dialogs.answers = [QMessageBox.Discard]
+    assert window.close()
+
+
+def test_opening_a_bad_project_reports_it(qtbot, window, dialogs, tmp_path):
+    bad = tmp_path / "bad.tsproj"
+    bad.write_text("no zip")
+    ridge = window.document.sketch.ridge.copy()
+    assert not window.open_project(str(bad))
+    assert "bad.tsproj" in dialogs.messages("critical")[0]
+    np.testing.assert_array_equal(window.document.sketch.ridge, ridge)
+
+
+def test_autosave_and_recovery_on_the_next_start(qtbot, window, dialogs, tmp_path):
+    doc = window.document
+    doc.sketch.draw_polyline([(5, 5), (5, 150)], "valley", radius=2)
+    doc.set_result(_fake_result(doc.sketch.shape))
+    store = window.recovery
+    qtbot.waitUntil(lambda: (window.autosave() or True) and store.exists(), timeout=10_000)
+    recovered_window = MainWindow(settings=QSettings(str(tmp_path / "s2.ini"), QSettings.IniFormat),
+                                  recovery=RecoveryStore(store.directory))
+    qtbot.addWidget(recovered_window)
+    dialogs.answers = [QMessageBox.Yes]
+    assert recovered_window.offer_recovery()
+    got = recovered_window.document
+    np.testing.assert_array_equal(got.sketch.valley, doc.sketch.valley)
+    np.testing.assert_array_equal(got.result.heights, doc.result.heights)
+    assert got.dirty and recovered_window.isWindowModified()
+    # A clean exit removes the recovery file.
+    dialogs.answers = [QMessageBox.Discard]
+    recovered_window.close()
+    assert not store.exists()
+
+
+def test_export_dialog_offers_every_format_with_mesh_options(qtbot):
+    from terrasynth_core.io import MESH_EXTENSIONS, WRITE_EXTENSIONS
+
+    dialog = ExportDialog((200, 300), directory="/tmp")
+    qtbot.addWidget(dialog)
+    offered = [dialog.format.itemData(i) for i in range(dialog.format.count())]
+    assert offered == list(WRITE_EXTENSIONS) + list(MESH_EXTENSIONS)
+    dialog.format.setCurrentIndex(offered.index(".stl"))
+    assert dialog.path.text().endswith(".stl") and dialog.vertical_scale.isEnabled()
+    dialog.format.setCurrentIndex(offered.index(".asc"))
+    assert not dialog.step.isEnabled()
+    dialog.rows.setValue(100)
+    assert dialog.options()["size"] == (100, 300)
+
+
+def test_export_writes_the_result_in_the_background(qtbot, window, tmp_path, monkeypatch):
+    from terrasynth_core.io import load_dem
+
+    window.document.set_result(_fake_result((160, 160)))
+    target = tmp_path / "out.tif"
+
+    def accept(dialog):
+        dialog.path.setText(str(target))
+        dialog.rows.setValue(80)
+        dialog.cols.setValue(80)
+        return True
+
+    monkeypatch.setattr(ExportDialog, "exec", accept)
+    with qtbot.waitSignal(window.export_finished, timeout=10_000):
+        window.export_terrain()
+    assert load_dem(target).shape == (80, 80)
+
+
+def test_3d_view_without_opengl_shows_a_message(qtbot, window):
+    window.result_tabs.setCurrentWidget(window.view3d)
+    assert not window.view3d.available
+    assert "3D view" in window.view3d.message.text() and window.view3d.message.isVisible()
+
+
+def test_command_line_help_and_missing_display(capsys, monkeypatch):
+    with pytest.raises(SystemExit) as exc:
+        main(["--help"])
+    assert exc.value.code == 0 and "terrasynth" in capsys.readouterr().out
+    assert build_parser().parse_args(["x.tsproj"]).file.name == "x.tsproj"
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setattr("sys.platform", "linux")
+    assert main([]) == 1
+    assert "no display" in capsys.readouterr().err
+
+
+
+def test_sketch_png_round_trip_and_new_sketch(qtbot, window, tmp_path, monkeypatch):
+    from terrasynth_app.views.dialogs import NewSketchDialog
+
+    sketch = window.document.sketch
+    path = tmp_path / "s.png"
+    window.save_sketch(str(path))
+    before = sketch.to_sketch_map()
+
+    def choose_size(dialog):
+        dialog.rows.setValue(64)
+        dialog.cols.setValue(96)
+        return True
+
+    monkeypatch.setattr(NewSketchDialog, "exec", choose_size)
+    window.new_sketch()
+    assert sketch.shape == (64, 96) and not sketch.has_strokes
+    assert window.params.output_label.text().startswith("64 x 96")
+    window.open_sketch(str(path))
+    np.testing.assert_array_equal(sketch.to_sketch_map().ridge_mask, before.ridge_mask)
+    sketch.undo()  # opening is one undo step
+    assert sketch.shape == (64, 96)
+
+
+def test_import_dem_features_as_sketch(qtbot, window):
+    from terrasynth_core.examples import builtin_example
+
+    sketch = window.document.sketch
+    sketch.clear()
+    changes = []
+    sketch.changed.connect(changes.append)
+    window.import_dem_features(str(builtin_example("st-helens").path))
+    qtbot.waitUntil(lambda: None in changes, timeout=60_000)
+    assert sketch.shape == (160, 160) and sketch.has_strokes
+    assert sketch.to_sketch_map().valley_mask.any()
+    sketch.undo()
+    assert not sketch.has_strokes

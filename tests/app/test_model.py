@@ -1,0 +1,382 @@
+"""The document model without Qt: strokes, undo, documents, projects, export."""
+
+import json
+import zipfile
+
+import numpy as np
+import pytest
+
+from terrasynth_core.errors import DEMFormatError, ParamsError
+from terrasynth_core.features import FeatureGraph, FeatureMaps, FeatureNode, FeaturePath, SketchMap
+from terrasynth_core.io import load_dem, save_dem
+from terrasynth_core.heightfield import HeightField
+from terrasynth_core.synthesis import SynthesisParams
+from terrasynth_app.model import (Document, ExampleRef, ProjectError, RecoveryStore, Sketch, TerrainResult,
+                                  capsule_coverage, load_project, save_project)
+from terrasynth_app.model.dem_features import dem_feature_layers, scaled_graph
+from terrasynth_app.model.export import export_terrain, resampled_field
+
+
+# -- brushes ------------------------------------------------------------------------------
+def test_hard_brush_covers_a_disc_and_clips_to_the_grid():
+    bbox, cov = capsule_coverage((20, 20), (1.0, 1.0), (1.0, 1.0), 3.0, 1.0)
+    r0, r1, c0, c1 = bbox
+    assert (r0, c0) == (0, 0) and cov.shape == (r1 - r0, c1 - c0)
+    assert cov[1, 1] == 255  # the centre
+    assert cov[1, 3] == 255  # 2 cells away, inside the radius
+    assert cov[1, 4] == 128  # on the rim: half intensity, the stroke threshold
+    assert cov[1, 5] == 0
+    rr, cc = np.nonzero(cov >= 128)
+    assert np.hypot(rr + r0 - 1, cc + c0 - 1).max() <= 3.0
+
+
+def test_soft_brush_fades_towards_its_rim():
+    _, hard = capsule_coverage((40, 40), (20.0, 20.0), (20.0, 20.0), 8.0, 1.0)
+    _, soft = capsule_coverage((40, 40), (20.0, 20.0), (20.0, 20.0), 8.0, 0.0)
+    assert (soft == 255).sum() < (hard == 255).sum()
+    # Half intensity at the radius for any hardness: the same stroked cells.
+    pad = (soft.shape[0] - hard.shape[0]) // 2
+    np.testing.assert_array_equal(soft[pad:-pad, pad:-pad] >= 128, hard >= 128)
+    row = soft[soft.shape[0] // 2]
+    centre = len(row) // 2
+    assert np.all(np.diff(row[centre:].astype(int)) <= 0)  # monotone fall-off
+
+
+def test_segment_coverage_is_a_capsule():
+    bbox, cov = capsule_coverage((50, 50), (10.0, 5.0), (10.0, 40.0), 2.0, 1.0)
+    r0, r1, c0, c1 = bbox
+    assert (r0, r1, c0, c1) == (7, 14, 2, 44)
+    assert cov[10 - r0, 5 - c0:41 - c0].min() == 255  # the whole segment is painted
+    assert cov[12 - r0, 5 - c0:41 - c0].max() == 128  # half intensity a radius off the line
+    assert cov[13 - r0].max() == 0
+
+
+def test_brush_outside_the_grid_paints_nothing():
+    bbox, cov = capsule_coverage((10, 10), (-20.0, -20.0), (-15.0, -15.0), 2.0, 1.0)
+    assert bbox is None and cov.size == 0
+
+
+# -- sketch and undo -------------------------------------------------------------------------
+def test_one_stroke_is_one_undo_step():
+    sketch = Sketch.blank((64, 64))
+    events = []
+    sketch.changed.connect(events.append)
+    sketch.begin_stroke("ridge", 10, 10, radius=3, hardness=1.0)
+    for c in range(11, 50, 3):
+        sketch.stroke_to(10, c)
+    sketch.end_stroke()
+    painted = sketch.ridge.copy()
+    assert painted[10, 10:50].min() == 255
+    assert len(events) > 5 and all(bbox is not None for bbox in events)
+    assert sketch.can_undo and not sketch.can_redo
+    assert sketch.undo()
+    assert not sketch.ridge.any()
+    assert not sketch.can_undo and sketch.can_redo
+    assert sketch.redo()
+    np.testing.assert_array_equal(sketch.ridge, painted)
+
+
+def test_a_new_stroke_drops_the_redo_steps():
+    sketch = Sketch.blank((32, 32))
+    sketch.draw_polyline([(5, 5), (5, 25)], "ridge", radius=2)
+    sketch.draw_polyline([(20, 5), (20, 25)], "valley", radius=2)
+    sketch.undo()
+    sketch.draw_polyline([(28, 5), (28, 25)], "ridge", radius=2)
+    assert not sketch.can_redo
+    assert sketch.valley.max() == 0 and sketch.ridge[28, 15] == 255
+    sketch.undo()
+    sketch.undo()
+    assert not sketch.ridge.any() and not sketch.can_undo
+
+
+def test_painting_one_kind_over_the_other_replaces_it_and_the_eraser_clears_both():
+    sketch = Sketch.blank((40, 40))
+    sketch.draw_polyline([(20, 0), (20, 39)], "valley", radius=3, hardness=1.0)
+    sketch.draw_polyline([(0, 20), (39, 20)], "ridge", radius=3, hardness=1.0)
+    assert sketch.ridge[20, 20] == 255 and sketch.valley[20, 20] == 0
+    assert sketch.valley[20, 5] == 255
+    sketch.draw_polyline([(20, 0), (20, 39)], "erase", radius=5, hardness=1.0)
+    assert sketch.valley.max() == 0 and sketch.ridge[20, 20] == 0 and sketch.ridge[5, 20] == 255
+    assert sketch.history.can_undo
+    sketch.undo()
+    assert sketch.ridge[20, 20] == 255 and sketch.valley[20, 5] == 255
+
+
+def test_a_stroke_that_changes_nothing_is_not_recorded():
+    sketch = Sketch.blank((20, 20))
+    sketch.draw_polyline([(5, 5), (5, 15)], "erase", radius=2)
+    assert not sketch.can_undo
+
+
+def test_sketch_map_thresholds_at_half_intensity_and_keeps_kinds_exclusive():
+    ridge = np.zeros((8, 8), np.uint8)
+    valley = np.zeros((8, 8), np.uint8)
+    ridge[1, 1], ridge[2, 2] = 127, 128
+    ridge[3, 3], valley[3, 3] = 200, 200  # a tie: the ridge wins
+    valley[4, 4] = 255
+    sm = Sketch(ridge, valley).to_sketch_map()
+    assert isinstance(sm, SketchMap)
+    assert np.argwhere(sm.ridge_mask).tolist() == [[2, 2], [3, 3]]
+    assert np.argwhere(sm.valley_mask).tolist() == [[4, 4]]
+    back = Sketch.from_sketch_map(sm)
+    assert back.ridge[2, 2] == 255 and back.valley[4, 4] == 255 and back.ridge[1, 1] == 0
+
+
+def test_replacing_with_another_shape_is_undoable():
+    sketch = Sketch.blank((30, 40))
+    sketch.draw_polyline([(5, 5), (5, 30)], "ridge")
+    before = sketch.ridge.copy()
+    shapes = []
+    sketch.changed.connect(lambda bbox: shapes.append((bbox, sketch.shape)))
+    sketch.replace(np.zeros((50, 20), np.uint8), np.zeros((50, 20), np.uint8))
+    assert sketch.shape == (50, 20) and shapes[-1] == (None, (50, 20))
+    sketch.undo()
+    assert sketch.shape == (30, 40)
+    np.testing.assert_array_equal(sketch.ridge, before)
+    sketch.clear()
+    assert not sketch.has_strokes
+    sketch.undo()
+    assert sketch.has_strokes
+
+
+def test_rgb_is_white_red_and_blue_like_a_sketch_png():
+    sketch = Sketch.blank((10, 10))
+    sketch.draw_polyline([(2, 0), (2, 9)], "ridge", radius=0.5, hardness=1.0)
+    sketch.draw_polyline([(7, 0), (7, 9)], "valley", radius=0.5, hardness=1.0)
+    rgb = sketch.to_rgb()
+    assert rgb.dtype == np.uint8 and rgb.shape == (10, 10, 3)
+    assert rgb[2, 5].tolist() == [255, 0, 0]
+    assert rgb[7, 5].tolist() == [0, 0, 255]
+    assert rgb[0, 0].tolist() == [255, 255, 255]
+    np.testing.assert_array_equal(sketch.to_rgb((1, 3, 2, 6)), rgb[1:3, 2:6])
+
+
+def test_bad_layers_and_tools_are_rejected():
+    with pytest.raises(ValueError, match="same shape"):
+        Sketch(np.zeros((5, 5), np.uint8), np.zeros((5, 6), np.uint8))
+    with pytest.raises(ValueError, match="tool"):
+        Sketch.blank((5, 5)).begin_stroke("lava", 1, 1)
+
+
+def test_history_drops_oldest_steps_beyond_its_memory_budget():
+    sketch = Sketch.blank((100, 100))
+    sketch.history._max_bytes = 3 * 4 * 100 * 100  # room for about three full-size steps
+    for i in range(6):
+        sketch.draw_polyline([(i * 10 + 5, 0), (i * 10 + 5, 99)], "ridge", radius=2)
+        sketch.clear()
+    undone = 0
+    while sketch.undo():
+        undone += 1
+    assert 0 < undone < 12
+    assert sketch.has_strokes or undone % 2 == 0
+
+
+# -- document ------------------------------------------------------------------------------------
+def _document(shape=(48, 64)):
+    sketch = Sketch.blank(shape)
+    sketch.draw_polyline([(10, 5), (10, 50)], "ridge", radius=2)
+    return Document(sketch, [ExampleRef(builtin="white-mountains", crop=(0, 200, 0, 300))])
+
+
+def test_document_events_and_dirty_flag(tmp_path):
+    doc = _document()
+    seen = []
+    doc.changed.connect(seen.append)
+    assert not doc.dirty
+    doc.sketch.draw_polyline([(20, 5), (20, 50)], "valley")
+    assert doc.dirty and seen == ["dirty"]
+    doc.set_params(SynthesisParams(patch_size=32))
+    assert seen[-1] == "params"
+    doc.set_params(SynthesisParams(patch_size=32))  # no change, no event
+    assert seen.count("params") == 1
+    with pytest.raises(ParamsError):
+        doc.set_params({"patch_size": 32})
+    save_project(doc, tmp_path / "a.tsproj")
+    assert not doc.dirty and doc.title == "a.tsproj"
+    doc.add_example(ExampleRef(builtin="st-helens"))
+    doc.add_example(ExampleRef(builtin="st-helens"))
+    assert len(doc.examples) == 2 and doc.dirty
+
+
+def test_default_document_is_ready_to_synthesize():
+    doc = Document.default()
+    assert doc.sketch.has_strokes and doc.examples == [ExampleRef(builtin="white-mountains")]
+    request = doc.synthesis_request()
+    assert request.shape == doc.sketch.shape and request.sketch_map.has_strokes
+    assert request.params == SynthesisParams()
+
+
+def test_request_without_examples_is_refused():
+    doc = _document()
+    doc.set_examples([])
+    with pytest.raises(ParamsError, match="no example"):
+        doc.synthesis_request()
+
+
+def test_request_is_a_snapshot_of_the_sketch():
+    doc = _document()
+    request = doc.synthesis_request()
+    doc.sketch.clear()
+    assert request.sketch_map.has_strokes
+
+
+def test_example_refs_validate_load_crop_and_serialise(tmp_path):
+    with pytest.raises(DEMFormatError, match="either"):
+        ExampleRef()
+    with pytest.raises(DEMFormatError, match="white-mountains"):
+        ExampleRef(builtin="atlantis")
+    with pytest.raises(DEMFormatError, match="crop"):
+        ExampleRef(builtin="himalaya", crop=(10, 5, 0, 4))
+    ref = ExampleRef(builtin="white-mountains", crop=(100, 260, 200, 400))
+    field = ref.load()
+    assert field.shape == (160, 200) and field.heights.dtype == np.float32
+    assert ExampleRef.from_dict(json.loads(json.dumps(ref.to_dict()))) == ref
+    with pytest.raises(DEMFormatError, match="outside"):
+        ExampleRef(builtin="st-helens", crop=(0, 5000, 0, 10)).load()
+    with pytest.raises(DEMFormatError, match="missing.tif"):
+        ExampleRef(path=str(tmp_path / "missing.tif")).load()
+
+
+# -- projects ---------------------------------------------------------------------------------------
+def _result(shape=(48, 64)):
+    rng = np.random.default_rng(1)
+    heights = rng.normal(500, 50, shape).astype(np.float32)
+    patch_id = np.arange(shape[0] * shape[1], dtype=np.int32).reshape(shape) % 7
+    seams = rng.random(shape) > 0.9
+    ridge = FeatureGraph("ridge", shape, (FeatureNode(0, 10.0, 5.0, "end", 1), FeatureNode(1, 10.0, 50.0, "end", 1)),
+                         (FeaturePath(0, 1, np.array([[10.0, 5.0], [10.0, 50.0]])),))
+    valley = FeatureGraph("valley", shape, (), ())
+    return TerrainResult(heights, patch_id, seams, FeatureMaps(ridge, valley), (30.0, 30.0),
+                         {"warnings": ["a warning"], "total_seconds": 1.5})
+
+
+def test_project_round_trip_keeps_everything(tmp_path):
+    dem = tmp_path / "mine.npy"
+    save_dem(HeightField(np.random.default_rng(0).normal(100, 5, (80, 90)).astype(np.float32)), dem)
+    doc = _document()
+    doc.add_example(ExampleRef(path=str(dem)))
+    doc.set_params(SynthesisParams(patch_size=40, seed=17, blend="poisson", overlap=12))
+    doc.set_result(_result())
+    path = save_project(doc, tmp_path / "p.tsproj")
+    assert not doc.dirty and doc.path == path
+    with zipfile.ZipFile(path) as zf:
+        assert {"project.json", "sketch_ridge.npy", "result_heights.npy"} <= set(zf.namelist())
+    back = load_project(path)
+    assert not back.dirty
+    np.testing.assert_array_equal(back.sketch.ridge, doc.sketch.ridge)
+    np.testing.assert_array_equal(back.sketch.valley, doc.sketch.valley)
+    assert back.examples == doc.examples and back.params == doc.params
+    np.testing.assert_array_equal(back.result.heights, doc.result.heights)
+    np.testing.assert_array_equal(back.result.patch_id, doc.result.patch_id)
+    np.testing.assert_array_equal(back.result.seam_mask, doc.result.seam_mask)
+    assert back.result.cell_size == (30.0, 30.0) and back.result.warnings == ["a warning"]
+    assert back.result.sketch_features.ridges.to_dict() == doc.result.sketch_features.ridges.to_dict()
+
+
+def test_project_finds_moved_dems_by_relative_path(tmp_path):
+    (tmp_path / "a").mkdir()
+    dem = tmp_path / "a" / "dem.npy"
+    save_dem(HeightField(np.ones((40, 40), np.float32)), dem)
+    doc = _document()
+    doc.set_examples([ExampleRef(path=str(dem))])
+    save_project(doc, tmp_path / "a" / "p.tsproj")
+    moved = tmp_path / "b"
+    (tmp_path / "a").rename(moved)
+    back = load_project(moved / "p.tsproj")
+    assert back.examples[0].path == str(moved / "dem.npy")
+
+
+def test_damaged_or_foreign_project_files_raise_one_clear_error(tmp_path):
+    junk = tmp_path / "junk.tsproj"
+    junk.write_bytes(b"not a zip at all")
+    with pytest.raises(ProjectError, match="junk.tsproj"):
+        load_project(junk)
+    other = tmp_path / "other.tsproj"
+    with zipfile.ZipFile(other, "w") as zf:
+        zf.writestr("project.json", json.dumps({"format": "something-else"}))
+    with pytest.raises(ProjectError, match="not a TerraSynth project"):
+        load_project(other)
+    with pytest.raises(ProjectError, match="does not exist"):
+        load_project(tmp_path / "none.tsproj")
+
+
+def test_a_failed_save_leaves_the_old_file_and_no_temporary(tmp_path, monkeypatch):
+    doc = _document()
+    path = save_project(doc, tmp_path / "p.tsproj")
+    before = path.read_bytes()
+    doc.sketch.clear()
+
+    def broken_save(*_args, **_kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(np, "save", broken_save)
+    with pytest.raises(ProjectError, match="No space left"):
+        save_project(doc, path)
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["p.tsproj"]
+    assert doc.dirty
+
+
+def test_recovery_store_round_trip(tmp_path):
+    store = RecoveryStore(tmp_path / "rec")
+    assert not store.exists()
+    doc = _document()
+    save_project(doc, tmp_path / "orig.tsproj")
+    doc.sketch.draw_polyline([(30, 5), (30, 40)], "valley")
+    store.save(doc.snapshot())
+    assert doc.dirty and doc.path == tmp_path / "orig.tsproj"  # autosave never touches the document
+    assert store.exists() and "orig.tsproj" in store.describe()
+    recovered = store.load()
+    assert recovered.dirty and recovered.path == tmp_path / "orig.tsproj"
+    np.testing.assert_array_equal(recovered.sketch.valley, doc.sketch.valley)
+    store.discard()
+    assert not store.exists()
+
+
+def test_assign_takes_over_another_document():
+    doc = _document()
+    doc.sketch.draw_polyline([(30, 5), (30, 40)], "valley")
+    other = Document(Sketch.blank((20, 30)), [ExampleRef(builtin="himalaya")], result=_result((20, 30)))
+    seen = []
+    doc.changed.connect(seen.append)
+    sketch = doc.sketch
+    doc.assign(other)
+    assert doc.sketch is sketch and doc.sketch.shape == (20, 30) and not doc.sketch.can_undo
+    assert doc.examples == [ExampleRef(builtin="himalaya")] and doc.result is other.result
+    assert {"examples", "params", "result", "dirty"} <= set(seen) and not doc.dirty
+
+
+# -- export and DEM features ------------------------------------------------------------------------
+def test_export_writes_dems_and_meshes_at_a_chosen_size(tmp_path):
+    result = _result()
+    tif = export_terrain(result, tmp_path / "t.tif")
+    back = load_dem(tif)
+    np.testing.assert_array_equal(back.heights, result.heights)
+    small = export_terrain(result, tmp_path / "s.npy", size=(24, 32))
+    field = load_dem(small)
+    assert field.shape == (24, 32)
+    assert field.cell_size == pytest.approx((30.0 * 47 / 23, 30.0 * 63 / 31))
+    obj = export_terrain(result, tmp_path / "m.obj", vertical_scale=2.0, step=2)
+    text = obj.read_text()
+    assert text.count("\nv ") + text.startswith("v ") == 24 * 32
+    with pytest.raises(ParamsError, match="export size"):
+        resampled_field(result, (1, 10))
+
+
+def test_resampling_keeps_corners_and_linear_ramps():
+    ramp = np.add.outer(np.arange(48, dtype=np.float32), np.zeros(64, np.float32))
+    result = TerrainResult(ramp, np.zeros((48, 64), np.int32), np.zeros((48, 64), bool))
+    field = resampled_field(result, (95, 64))
+    np.testing.assert_allclose(field.heights[:, 0], np.linspace(0, 47, 95), atol=1e-4)
+
+
+def test_dem_features_become_sketch_strokes_fitted_to_the_sketch():
+    rows, cols = np.mgrid[0:120, 0:160]
+    # A ridge running east-west with valleys either side.
+    heights = (1000 - 8 * np.abs(rows - 60) + 30 * np.sin(cols / 9.0)).astype(np.float32)
+    ridge, valley = dem_feature_layers(HeightField(heights, cell_size=(30.0, 30.0)), (60, 80))
+    assert ridge.shape == valley.shape == (60, 80) and ridge.dtype == np.uint8
+    assert ridge.any()
+    assert not (ridge.astype(bool) & valley.astype(bool)).any()
+    graph = FeatureGraph("ridge", (11, 21), (FeatureNode(0, 10.0, 20.0, "end", 1),), ())
+    assert scaled_graph(graph, (21, 41)).nodes[0].row == 20.0

@@ -1,0 +1,137 @@
+"""Synthesis through the worker thread: views update in order, cancel, errors, stalls."""
+
+import time
+
+import numpy as np
+from PySide6.QtCore import QTimer
+
+from terrasynth_app.model import ExampleRef
+
+RUN_TIMEOUT_MS = 90_000
+
+
+def _record(runner):
+    log = []
+    runner.session_ready.connect(lambda info: log.append(("session_ready", info)))
+    runner.stage_started.connect(lambda stage, total: log.append(("stage_started", stage)))
+    runner.patch_placed.connect(lambda event: log.append(("patch_placed", event)))
+    runner.stage_finished.connect(lambda stage, seconds: log.append(("stage_finished", stage)))
+    runner.synthesis_finished.connect(lambda result: log.append(("synthesis_finished", result)))
+    return log
+
+
+def test_a_run_updates_the_views_patch_by_patch_then_shows_the_result(qtbot, window):
+    runner, view = window.runner, window.heightmap
+    log = _record(runner)
+    mismatches = []
+
+    def check_view(event):
+        # Connected after the window's own slot: the view has pasted already.
+        r0, r1, c0, c1 = event.bbox
+        if view.last_bbox != event.bbox or not np.array_equal(view.heights[r0:r1, c0:c1], event.heights):
+            mismatches.append(event.index)
+
+    runner.patch_placed.connect(check_view)
+    sketch_before = window.document.sketch.ridge.copy()
+    with qtbot.waitSignals([runner.synthesis_finished, view.result_shown], order="strict",
+                           timeout=RUN_TIMEOUT_MS):
+        window.synthesize()
+    kinds = [k for k, _ in log]
+    assert kinds[0] == "session_ready" and kinds[-1] == "synthesis_finished"
+    stages = [arg for k, arg in log if k == "stage_started"]
+    assert stages == ["analyse", "features", "fill", "finish"]
+    patches = [arg for k, arg in log if k == "patch_placed"]
+    assert [p.index for p in patches] == list(range(len(patches)))
+    assert any(p.kind == "fill" for p in patches) and any(p.kind != "fill" for p in patches)
+    assert mismatches == [] and view.patches_pasted == len(patches)
+    # Feature patches come while the "features" stage runs, fill patches after.
+    first_fill = kinds.index("stage_started", kinds.index("stage_finished"))
+    assert all(p.kind != "fill" for k, p in log[:first_fill] if k == "patch_placed")
+
+    result = window.document.result
+    assert result is not None and result.shape == (160, 160)
+    assert np.isfinite(result.heights).all()
+    np.testing.assert_array_equal(view.heights, result.heights)
+    assert window.document.dirty and not runner.running
+    assert not window.cancel_action.isEnabled()
+    assert window.progress.value() == window.progress.maximum()
+    np.testing.assert_array_equal(window.document.sketch.ridge, sketch_before)
+
+    view.set_overlay("patch_ids", True)
+    view.set_overlay("seams", True)
+    assert view.patch_image.isVisible() and view.seam_image.isVisible()
+    assert view.seam_image.image[..., 3].astype(bool).sum() == result.seam_mask.sum()
+    with qtbot.waitSignal(view.terrain_features_ready, timeout=30_000):
+        view.set_overlay("terrain_features", True)
+    assert view.terrain_overlay.maps.ridges.paths
+
+
+def test_cancel_mid_run_keeps_the_previous_result(qtbot, window):
+    runner = window.runner
+    with qtbot.waitSignal(runner.synthesis_finished, timeout=RUN_TIMEOUT_MS):
+        window.synthesize()
+    first = window.document.result
+    window.document.sketch.draw_polyline([(100, 10), (100, 150)], "valley", radius=2)
+    finished = []
+    runner.synthesis_finished.connect(finished.append)
+    with qtbot.waitSignal(runner.patch_placed, timeout=RUN_TIMEOUT_MS):
+        window.synthesize()
+    with qtbot.waitSignal(runner.synthesis_cancelled, timeout=RUN_TIMEOUT_MS):
+        window.cancel_synthesis()
+    assert finished == [] and window.document.result is first
+    np.testing.assert_array_equal(window.heightmap.heights, first.heights)
+    assert window.stage_label.text() == "Cancelled"
+    qtbot.waitUntil(lambda: not runner.running, timeout=5000)
+
+
+def test_a_new_run_cancels_the_old_one(qtbot, window):
+    runner = window.runner
+    indices = []
+    runner.patch_placed.connect(lambda event: indices.append(event.index))
+    with qtbot.waitSignal(runner.patch_placed, timeout=RUN_TIMEOUT_MS):
+        window.synthesize()
+    restart = len(indices)
+    with qtbot.waitSignal(runner.synthesis_finished, timeout=RUN_TIMEOUT_MS):
+        window.synthesize()
+    second = indices[restart:]
+    # Only the new run's patches arrive after the restart: one run, from 0.
+    assert second == list(range(len(second))) and len(second) > 0
+    assert window.document.result is not None
+
+
+def test_a_corrupt_example_gives_an_error_dialog_and_loses_nothing(qtbot, window, dialogs, tmp_path):
+    with qtbot.waitSignal(window.runner.synthesis_finished, timeout=RUN_TIMEOUT_MS):
+        window.synthesize()
+    good = window.document.result
+    bad = tmp_path / "broken.hgt"
+    bad.write_bytes(b"\x00\x01" * 1000)  # not 1201x1201 or 3601x3601 samples
+    window.document.set_examples([ExampleRef(path=str(bad))])
+    sketch = window.document.sketch.ridge.copy()
+    with qtbot.waitSignal(window.runner.synthesis_failed, timeout=RUN_TIMEOUT_MS) as blocker:
+        window.synthesize()
+    assert "broken.hgt" in blocker.args[0]
+    assert len(dialogs.messages("critical")) == 1 and "broken.hgt" in dialogs.messages("critical")[0]
+    assert "broken.hgt" in window.statusBar().currentMessage()
+    assert window.document.result is good
+    np.testing.assert_array_equal(window.document.sketch.ridge, sketch)
+    np.testing.assert_array_equal(window.heightmap.heights, good.heights)
+
+
+def test_the_event_loop_never_stalls_during_a_run(qtbot, window, record_property):
+    ticks = []
+    timer = QTimer(interval=10)
+    timer.timeout.connect(lambda: ticks.append(time.perf_counter()))
+    timer.start()
+    with qtbot.waitSignals([window.runner.synthesis_finished, window.heightmap.result_shown], order="strict",
+                           timeout=RUN_TIMEOUT_MS):
+        window.synthesize()
+    # A few more ticks: showing the result follows the last signal.
+    count = len(ticks)
+    qtbot.waitUntil(lambda: len(ticks) >= count + 5, timeout=2000)
+    timer.stop()
+    gaps = np.diff(ticks)
+    max_gap_ms = float(gaps.max() * 1000)
+    record_property("max_event_loop_gap_ms", round(max_gap_ms, 1))
+    print(f"\nevent loop: {len(ticks)} ticks, max gap {max_gap_ms:.1f} ms, "
+          f"95th percentile {np.percentile(gaps, 95) * 1000:.1f} ms")
+    assert max_gap_ms < 100

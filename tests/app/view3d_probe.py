@@ -1,0 +1,53 @@
+"""Child process of ``test_view3d.py``: drive the 3D view on a real X display.
+
+Prints one JSON line with what it saw.  Not a test module itself: Qt's
+platform is chosen once per process, and the other tests run offscreen.
+"""
+
+import json
+import sys
+import types
+
+import numpy as np
+from PySide6.QtWidgets import QApplication
+
+
+def main(screenshot_path: str) -> None:
+    app = QApplication(sys.argv[:1])
+    from terrasynth_app.model import TerrainResult
+    from terrasynth_app.views.terrain_view_3d import MAX_SIDE, TerrainView3D
+
+    view = TerrainView3D()
+    view.resize(500, 400)
+    view.show()
+    app.processEvents()
+    out = {"platform": QApplication.platformName(), "available": view.available,
+           "reason": view.unavailable_reason}
+    out["frame_ms"] = round(view.render_ms, 1)
+    out["live_updates"] = view.live_updates
+    if view.available:
+        # Exercise live updates even where this OpenGL is too slow for them.
+        view.live_updates = True
+        shape = (300, 200)
+        view.begin_run(shape, cell_size=(30.0, 30.0), vrange=(0.0, 500.0))
+        heights = np.full((40, 60), 400.0, np.float32)
+        event = types.SimpleNamespace(bbox=(20, 60, 40, 100), heights=heights, index=0, total=1)
+        redraws = view.redraws
+        view.paste_patch(event)
+        while view.redraws == redraws:  # the throttle timer redraws within ~100 ms
+            app.processEvents()
+        mesh = view.mesh_heights()
+        step = int(np.ceil(max(shape) / MAX_SIDE))
+        out["mesh_shape"] = list(mesh.shape)
+        out["patch_in_mesh"] = bool(np.allclose(mesh[20 // step + 1:60 // step - 1, 40 // step + 1:100 // step - 1], 400))
+        out["floor_elsewhere"] = bool(np.allclose(mesh[-1, -1], 400))  # unfilled cells sit at the lowest height
+        ramp = np.add.outer(np.arange(300), np.arange(200)).astype(np.float32)
+        view.show_result(TerrainResult(ramp, np.zeros(shape, np.int32), np.zeros(shape, bool), cell_size=(30.0, 30.0)))
+        out["result_in_mesh"] = bool(np.allclose(view.mesh_heights(), ramp[::step, ::step]))
+        view.screenshot(screenshot_path)
+        view.plotter.close()
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
