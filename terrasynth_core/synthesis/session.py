@@ -298,15 +298,16 @@ class _Run:
                 rng = np.random.default_rng([self.p.seed, 1, n])
                 return bbox, pre.submit(self._search_fill, searches, target, filled, rng)
 
-            remaining = list(windows)
+            remaining = _WindowQueue(windows, self.canvas.filled)
             n_fill = 0
-            bbox = self._next_window(remaining)
+            bbox = remaining.pop()
             pending = search(bbox, n_fill) if bbox else None
             while pending is not None:
                 bbox, future = pending
                 placed = self._choose_fill(bbox, future.result())
                 n_fill += 1
-                nxt = self._next_window(remaining)
+                remaining.update(placed.bbox)
+                nxt = remaining.pop()
                 pending = search(nxt, n_fill) if nxt else None
                 self.canvas.blend(placed.bbox)
                 yield self._event(placed, total)
@@ -363,18 +364,6 @@ class _Run:
                 if not self.canvas.filled[r:r + P, c:c + P].all():
                     out.append((int(r), int(r + P), int(c), int(c + P)))
         return out
-
-    def _next_window(self, remaining: list) -> tuple[int, int, int, int] | None:
-        """Pop the most constrained window: the one with the largest filled
-        share, so fill grows out from the placed features (top-left first
-        among equals).  Windows filled in the meantime are dropped."""
-        while remaining:
-            shares = [self.canvas.filled[r0:r1, c0:c1].mean() for r0, r1, c0, c1 in remaining]
-            bbox = remaining.pop(int(np.argmax(shares)))
-            r0, r1, c0, c1 = bbox
-            if not self.canvas.filled[r0:r1, c0:c1].all():
-                return bbox
-        return None
 
     # -- placing --------------------------------------------------------------
     def _window(self, center: np.ndarray) -> tuple[int, int, int, int]:
@@ -474,6 +463,36 @@ class _Run:
         r0, r1, c0, c1 = rec.bbox
         return PatchPlaced(len(self.records) - 1, max(total, len(self.records)), rec.kind, rec.bbox,
                            self.canvas.heights[r0:r1, c0:c1].copy(), rec.cost)
+
+
+class _WindowQueue:
+    """Fill windows, most constrained first: the one with the largest filled
+    share, so fill grows out from the placed features (top-left first among
+    equals).  Shares are updated only for windows a placed patch touches."""
+
+    def __init__(self, windows: list, filled: np.ndarray):
+        self.filled = filled
+        self.boxes = np.array(windows, dtype=np.int64).reshape(-1, 4)
+        self.share = np.array([filled[r0:r1, c0:c1].mean() for r0, r1, c0, c1 in self.boxes])
+        self.done = np.zeros(len(self.boxes), dtype=bool)
+
+    def update(self, bbox) -> None:
+        r0, r1, c0, c1 = bbox
+        b = self.boxes
+        touched = ~self.done & (b[:, 0] < r1) & (b[:, 1] > r0) & (b[:, 2] < c1) & (b[:, 3] > c0)
+        for i in np.flatnonzero(touched):
+            w0, w1, v0, v1 = b[i]
+            self.share[i] = self.filled[w0:w1, v0:v1].mean()
+
+    def pop(self) -> tuple[int, int, int, int] | None:
+        """The next window not yet full, or None; windows filled in the
+        meantime are dropped."""
+        while not self.done.all():
+            i = int(np.argmax(np.where(self.done, -1.0, self.share)))
+            self.done[i] = True
+            if self.share[i] < 1.0:
+                return tuple(int(v) for v in self.boxes[i])
+        return None
 
 
 def _overlap_ssd(existing: np.ndarray, patch: np.ndarray, filled: np.ndarray) -> tuple[float, float]:
