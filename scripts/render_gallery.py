@@ -1,0 +1,265 @@
+"""Render the synthesis gallery and the seam close-up for the docs.
+
+Usage::
+
+    python scripts/render_gallery.py [--out docs/images] [--only gallery|seams] [--seed S]
+
+Writes, under ``--out``:
+
+* ``gallery_<sketch>_<example>.png`` for three sketch/example pairs: the
+  sketch, the synthesized heightmap (terrain colours under a hillshade) and
+  a 3D view (pyvista, off screen, vertical exaggeration 2x), side by side,
+  at most 1200 px wide;
+* ``seams_closeup.png``: a 160x160-cell crop of the hillshade around the
+  place where plain pasting leaves its strongest seams, enlarged 3x (nearest
+  neighbour), for the four merge settings (paste, graph cut, graph cut +
+  Poisson, graph cut + C1) on the same sketch, example and seed, as a 2x2
+  grid.
+
+Nothing here belongs to the core: pyvista renders without a display
+(``pv.OFF_SCREEN``), and the colours are plain numpy (no matplotlib).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+from scipy import ndimage
+
+from terrasynth_core.analysis import hillshade
+from terrasynth_core.examples import builtin_example
+from terrasynth_core.features import read_sketch
+from terrasynth_core.synthesis import Session, SynthesisParams
+
+REPO = Path(__file__).resolve().parents[1]
+SKETCH_DIR = REPO / "resources" / "sketches"
+
+#: (sketch file, built-in example, output shape or None for the sketch's own).
+GALLERY = (
+    ("y_junction_512.png", "white-mountains", None),
+    ("ring_cross_512.png", "big-tujunga", None),
+    ("s_valley_1000.png", "st-helens", (600, 600)),
+)
+SEAM_SKETCH = "s_valley_1000.png"
+SEAM_EXAMPLE = "white-mountains"
+SEAM_SHAPE = (512, 512)
+SEAM_SETTINGS = (
+    ("paste", {"seam": "paste", "blend": "none"}),
+    ("graph cut", {"seam": "cut", "blend": "none"}),
+    ("graph cut + Poisson (paper)", {"seam": "cut", "blend": "poisson"}),
+    ("graph cut + C1 (default)", {"seam": "cut", "blend": "c1"}),
+)
+CROP = 160
+ZOOM = 3
+
+MAX_WIDTH = 1200
+MAX_BYTES = 700_000
+MARGIN = 12
+PANEL = (MAX_WIDTH - 4 * MARGIN) // 3
+EXAGGERATION = 2.0
+
+#: Height fraction -> colour, lowland green through rock brown to snow.
+TERRAIN_STOPS = np.array([0.0, 0.2, 0.45, 0.7, 0.88, 1.0])
+TERRAIN_RGB = np.array([
+    (46, 104, 58),
+    (112, 156, 84),
+    (196, 188, 124),
+    (150, 112, 74),
+    (170, 160, 152),
+    (250, 250, 250),
+], dtype=np.float64)
+
+
+# -- colours ------------------------------------------------------------------
+def terrain_colours(heights: np.ndarray) -> np.ndarray:
+    """Hypsometric colours, shape (rows, cols, 3) float in [0, 255].
+
+    The 0.5th to 99.5th height percentiles span the palette, so a few
+    extreme cells do not wash out the rest.
+    """
+    lo, hi = np.nanpercentile(heights, [0.5, 99.5])
+    t = np.clip((heights - lo) / max(hi - lo, 1e-6), 0.0, 1.0)
+    return np.stack([np.interp(t, TERRAIN_STOPS, TERRAIN_RGB[:, i]) for i in range(3)], axis=-1)
+
+
+def shaded_relief(heights: np.ndarray, cell_size) -> np.ndarray:
+    """Terrain colours darkened by a north-west hillshade, uint8 (rows, cols, 3)."""
+    shade = np.nan_to_num(hillshade(heights, cell_size=cell_size), nan=1.0)
+    # Flat ground under a 45-degree light has shade sin(45) ~ 0.71: scale so
+    # it keeps its colour, lit slopes brighten a little, shadows darken.
+    light = np.clip(0.15 + 1.2 * shade, 0.0, 1.25)[..., None]
+    return np.clip(terrain_colours(heights) * light, 0, 255).astype(np.uint8)
+
+
+def grey_hillshade(heights: np.ndarray, cell_size) -> np.ndarray:
+    """Hillshade as uint8 grey levels, shape (rows, cols)."""
+    shade = np.nan_to_num(hillshade(heights, cell_size=cell_size), nan=1.0)
+    return (shade * 255).astype(np.uint8)
+
+
+# -- 3D -----------------------------------------------------------------------
+def render_3d(heights: np.ndarray, cell_size, size: tuple[int, int]) -> np.ndarray:
+    """An off-screen 3D view of the terrain from the south, uint8 (h, w, 3).
+
+    Parameters
+    ----------
+    heights : ndarray, shape (rows, cols)
+        Metres; row 0 is the northern edge.
+    cell_size : (dy, dx) metres
+    size : (width, height) of the image in pixels
+    """
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    dy, dx = cell_size
+    rows, cols = heights.shape
+    # Rows run south, y runs north: flip so the map is not mirrored in 3D.
+    z = np.ascontiguousarray(heights[::-1], dtype=np.float64)
+    grid = pv.ImageData(dimensions=(cols, rows, 1), spacing=(dx, dy, 1.0))
+    grid.point_data["z"] = (z - z.min()).ravel()
+    grid.point_data["colour"] = terrain_colours(z).reshape(-1, 3).astype(np.uint8)
+    surface = grid.warp_by_scalar("z", factor=EXAGGERATION)
+    # Render at twice the size and shrink: cheap anti-aliasing.
+    plotter = pv.Plotter(off_screen=True, window_size=(2 * size[0], 2 * size[1]))
+    plotter.set_background("white")
+    plotter.add_mesh(surface, scalars="colour", rgb=True, smooth_shading=True, show_scalar_bar=False)
+    plotter.view_xy()
+    plotter.camera.elevation = -55.0
+    plotter.camera.azimuth = -20.0
+    plotter.reset_camera()
+    plotter.camera.zoom(1.25)
+    shot = plotter.screenshot(None, return_img=True)
+    plotter.close()
+    return np.asarray(Image.fromarray(shot[:, :, :3]).resize(size, Image.LANCZOS))
+
+
+# -- composing ----------------------------------------------------------------
+def _font(size: int):
+    return ImageFont.load_default(size=size)
+
+
+def _fit(rgb: np.ndarray, side: int, *, resample=Image.LANCZOS) -> Image.Image:
+    """The image scaled so its longer side is ``side`` pixels."""
+    img = Image.fromarray(rgb)
+    f = side / max(img.size)
+    return img.resize((max(1, round(img.size[0] * f)), max(1, round(img.size[1] * f))), resample)
+
+
+def compose(panels: list[Image.Image], labels: list[str], title: str, *, columns: int) -> Image.Image:
+    """Panels in a grid with a label over each and a title on top."""
+    title_font, label_font = _font(20), _font(16)
+    cell_w = max(p.size[0] for p in panels)
+    cell_h = max(p.size[1] for p in panels)
+    label_h, title_h = 26, 34
+    grid_rows = -(-len(panels) // columns)
+    width = columns * cell_w + (columns + 1) * MARGIN
+    height = title_h + grid_rows * (label_h + cell_h) + (grid_rows + 1) * MARGIN // 2 + MARGIN // 2
+    canvas = Image.new("RGB", (width, height), "white")
+    draw = ImageDraw.Draw(canvas)
+    draw.text((MARGIN, 8), title, fill=(20, 20, 20), font=title_font)
+    for i, (panel, label) in enumerate(zip(panels, labels)):
+        r, c = divmod(i, columns)
+        x = MARGIN + c * (cell_w + MARGIN)
+        y = title_h + MARGIN // 2 + r * (label_h + cell_h + MARGIN // 2)
+        draw.text((x, y + 2), label, fill=(40, 40, 40), font=label_font)
+        canvas.paste(panel, (x + (cell_w - panel.size[0]) // 2, y + label_h))
+    return canvas
+
+
+def save_png(img: Image.Image, path: Path) -> int:
+    """Save, falling back to a 256-colour palette when the file would be too big."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    img.save(path, optimize=True)
+    if path.stat().st_size >= MAX_BYTES:
+        img.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path, optimize=True)
+    size = path.stat().st_size
+    if size >= MAX_BYTES:
+        raise RuntimeError(f"{path} is {size} bytes, above the {MAX_BYTES}-byte budget")
+    return size
+
+
+# -- products -----------------------------------------------------------------
+def render_gallery(out: Path, *, seed: int) -> None:
+    for sketch_file, key, shape in GALLERY:
+        sketch = read_sketch(SKETCH_DIR / sketch_file)
+        example = builtin_example(key).load()
+        t = time.perf_counter()
+        result = Session([example], sketch, shape=shape, params=SynthesisParams(seed=seed)).run()
+        seconds = time.perf_counter() - t
+        shown_sketch = sketch.resized(result.heights.shape) if shape else sketch
+        cell = example.cell_size or (1.0, 1.0)
+        panels = [
+            _fit(shown_sketch.to_rgb(), PANEL),
+            _fit(shaded_relief(result.heights, cell), PANEL),
+            Image.fromarray(render_3d(result.heights, cell, (PANEL, PANEL))),
+        ]
+        rows, cols = result.heights.shape
+        relief = float(result.heights.max() - result.heights.min())
+        labels = [
+            "sketch (red ridge, blue valley)",
+            f"synthesized heightmap, hillshade",
+            f"3D, vertical exaggeration {EXAGGERATION:g}x",
+        ]
+        title = (f"{Path(sketch_file).stem} on {key}: {rows}x{cols} cells, "
+                 f"relief {relief:.0f} m, {seconds:.1f} s")
+        path = out / f"gallery_{Path(sketch_file).stem}_{key}.png"
+        size = save_png(compose(panels, labels, title, columns=3), path)
+        print(f"wrote {path} ({size // 1000} KB): {title}", flush=True)
+
+
+def _seam_window(result) -> tuple[int, int]:
+    """Top-left corner of the ``CROP`` window with the most |Laplacian| on
+    patch boundaries, away from the output's edge."""
+    pid = result.patch_id
+    edge = np.zeros(pid.shape, dtype=bool)
+    edge[1:, :] |= pid[1:, :] != pid[:-1, :]
+    edge[:, 1:] |= pid[:, 1:] != pid[:, :-1]
+    strength = np.where(edge, np.abs(ndimage.laplace(result.heights.astype(np.float64))), 0.0)
+    density = ndimage.uniform_filter(strength, CROP, mode="constant")
+    half = CROP // 2
+    inner = density[half:-half, half:-half]
+    r, c = np.unravel_index(int(np.argmax(inner)), inner.shape)
+    return int(r), int(c)
+
+
+def render_seams(out: Path, *, seed: int) -> None:
+    sketch = read_sketch(SKETCH_DIR / SEAM_SKETCH)
+    example = builtin_example(SEAM_EXAMPLE).load()
+    cell = example.cell_size or (1.0, 1.0)
+    results = []
+    for _, options in SEAM_SETTINGS:
+        params = SynthesisParams(seed=seed, **options)
+        results.append(Session([example], sketch, shape=SEAM_SHAPE, params=params).run())
+    r0, c0 = _seam_window(results[0])
+    panels = []
+    for result in results:
+        shade = grey_hillshade(result.heights, cell)[r0:r0 + CROP, c0:c0 + CROP]
+        panels.append(Image.fromarray(shade).resize((CROP * ZOOM, CROP * ZOOM), Image.NEAREST).convert("RGB"))
+    labels = [name for name, _ in SEAM_SETTINGS]
+    title = (f"Seams: {Path(SEAM_SKETCH).stem} at {SEAM_SHAPE[0]}x{SEAM_SHAPE[1]} on {SEAM_EXAMPLE}, seed {seed}; "
+             f"cells {r0}-{r0 + CROP} x {c0}-{c0 + CROP}, hillshade, {ZOOM}x")
+    path = out / "seams_closeup.png"
+    size = save_png(compose(panels, labels, title, columns=2), path)
+    print(f"wrote {path} ({size // 1000} KB): {title}", flush=True)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=REPO / "docs" / "images", help="output folder")
+    parser.add_argument("--only", choices=["gallery", "seams"], default=None, help="render only one product")
+    parser.add_argument("--seed", type=int, default=0, help="synthesis seed (default 0)")
+    args = parser.parse_args(argv)
+    if args.only in (None, "gallery"):
+        render_gallery(args.out, seed=args.seed)
+    if args.only in (None, "seams"):
+        render_seams(args.out, seed=args.seed)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
