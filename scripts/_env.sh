@@ -25,6 +25,12 @@ install_debs() {
 
 install_venv() {  # $1: the extras, e.g. "gui" or "test"
   [[ -x .venv/bin/python ]] || python3 -m venv .venv
-  .venv/bin/python -m pip install -q --upgrade pip >&2
-  .venv/bin/python -m pip install -q -e ".[$1]" >&2
+  # pip's build chatter goes to a log, shown only when something fails.
+  local log=.venv/install.log
+  if ! { .venv/bin/python -m pip install -q --upgrade pip &&
+         .venv/bin/python -m pip install -q -e ".[$1]"; } >"$log" 2>&1; then
+    cat "$log" >&2
+    echo "Installing TerraSynth into .venv failed (log above, also in $log)." >&2
+    return 1
+  fi
 }
