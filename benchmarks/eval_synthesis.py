@@ -2,7 +2,8 @@
 
 Usage::
 
-    python benchmarks/eval_synthesis.py [--part follow|seams|all] [--max-side N] [--seed S] [--json OUT]
+    python benchmarks/eval_synthesis.py [--part follow|seams|all] [--max-side N] [--seeds N] [--seed S]
+                                        [--json OUT]
 
 The measures look only at the output heights, the sketch and the example,
 never at how the engine works, so any synthesis method can be scored alike.
@@ -12,9 +13,10 @@ Following the sketch (``--part follow``)
 Each shared sketch is synthesized from three built-in examples
 (white-mountains, big-tujunga, st-helens) at the sketch's own size (or
 scaled so its longer side is at most ``--max-side``), once with the paper's
-breadth-first placement order and once in raster order, same seed.  A third
-row per pair, ``none``, is the chance level: a synthesis of the same size
-and example *without* the sketch, scored against the same strokes.
+breadth-first placement order and once in raster order, with the same seed
+(seeds 0 to ``--seeds`` - 1).  A third row, ``none``, is the chance level: a
+synthesis of the same size, example and seed *without* the sketch, scored
+against the same strokes.
 
 * ``TPI r/v``: topographic position index along the sketch's ridge and
   valley centre lines (the sketch's own feature graphs), in standard
@@ -24,16 +26,25 @@ and example *without* the sketch, scored against the same strokes.
 * ``recall r/v``: PPA (default :class:`PPAParams`) on the output; the share
   of sketch centre-line cells with an output feature of the same kind
   within 8 cells.
-* ``prec.long r/v``: the share of cells on *long* output features (PPA paths
-  of at least one patch side, 80 cells) that lie within 8 cells of a sketch
-  stroke of the same kind.  PPA on any real terrain also finds the many
-  small natural ridges and valleys between the sketched ones, and the
-  engine fills the space between strokes with real terrain, which has them
-  too; precision over all features would mostly count those and say little
-  about the sketch.  A path longer than a patch cannot come from a single
-  unguided fill patch, so the long paths are the ones that show whether
-  the large-scale structure is the sketch's.  ``prec.all r/v`` (every
-  output feature) is given for reference.
+* precision: the share of output feature cells within 8 cells of a sketch
+  stroke of the same kind, over *long* output features only.  PPA on any
+  real terrain also finds the many small natural ridges and valleys between
+  the sketched ones, and the engine fills the space between strokes with
+  real terrain, which has them too; precision over all features
+  (``prec.all``, given for reference) mostly counts those and says little
+  about the sketch.  A feature longer than a patch side (80 cells) cannot
+  come from one unguided fill patch, so the long features show whether the
+  large-scale structure is the sketch's.  "Long" is measured two ways:
+  ``prec.path`` keeps PPA paths of at least 80 cells, but PPA splits a ridge
+  line at every side spur, so such paths are few (often none: ``-``) and
+  the figure is noisy; ``prec.trunk`` keeps the trunk of each output
+  network (the longest route through the tree, its main ridge or valley
+  line) when it is at least 80 cells long, which is what a person would
+  call a long ridge.
+
+The summary gives each measure's mean per order and the paired difference
+BFS minus raster (valley TPI negated, so positive always favours BFS) with
+its standard error over the (sketch, example, seed, kind) pairs.
 
 A run that fails with :class:`ParamsError` (example too small or too poor in
 features for an 80-cell patch) is repeated with 48-cell patches; its patch
@@ -138,8 +149,50 @@ def scaled_shape(shape: tuple[int, int], max_side: int | None) -> tuple[int, int
 
 # -- following the sketch -----------------------------------------------------
 def _long_paths(graph: FeatureGraph, min_length: float) -> FeatureGraph:
+    """The graph with only its paths of at least ``min_length`` cells."""
     return FeatureGraph(graph.kind, graph.shape, graph.nodes,
                         tuple(p for p in graph.paths if p.length >= min_length))
+
+
+def _farthest(adjacency: list, start: int) -> tuple[int, dict]:
+    """The node farthest (along the paths) from ``start`` in its tree, and
+    for every reached node the path index that led to it and its parent."""
+    distance = {start: 0.0}
+    via = {start: (None, None)}
+    stack = [start]
+    while stack:
+        node = stack.pop()
+        for path, other, length in adjacency[node]:
+            if other not in distance:
+                distance[other] = distance[node] + length
+                via[other] = (path, node)
+                stack.append(other)
+    return max(distance, key=distance.get), via
+
+
+def trunks(graph: FeatureGraph, min_length: float) -> FeatureGraph:
+    """The trunk of every network: the longest route through each tree (its
+    diameter, a main ridge or valley line), kept when at least ``min_length``
+    cells long.  Returns the graph with only the trunks' paths."""
+    adjacency = [[] for _ in graph.nodes]
+    for i, p in enumerate(graph.paths):
+        adjacency[p.start].append((i, p.end, p.length))
+        adjacency[p.end].append((i, p.start, p.length))
+    keep: set[int] = set()
+    seen: set[int] = set()
+    for root in range(len(graph.nodes)):
+        if root in seen or not adjacency[root]:
+            continue
+        far, reached = _farthest(adjacency, root)
+        seen.update(reached)
+        end, via = _farthest(adjacency, far)
+        route = []
+        while via[end][0] is not None:
+            route.append(via[end][0])
+            end = via[end][1]
+        if sum(graph.paths[i].length for i in route) >= min_length:
+            keep.update(route)
+    return FeatureGraph(graph.kind, graph.shape, graph.nodes, tuple(graph.paths[i] for i in sorted(keep)))
 
 
 def _share_within(cells: np.ndarray, targets: np.ndarray, tol: float) -> float:
@@ -176,7 +229,8 @@ def stroke_following(heights: np.ndarray, sketch_maps, *, long_length: float) ->
     for kind, wanted, got in (("ridge", sketch_maps.ridges, found.ridges),
                               ("valley", sketch_maps.valleys, found.valleys)):
         if not wanted.paths:
-            out[kind] = dict.fromkeys(("tpi", "recall", "precision_long", "precision_all"), float("nan"))
+            out[kind] = dict.fromkeys(("tpi", "recall", "precision_long", "precision_trunk", "precision_all"),
+                                      float("nan"))
             continue
         sketch_cells = graph_mask(wanted)
         out_cells = graph_mask(got)
@@ -184,13 +238,14 @@ def stroke_following(heights: np.ndarray, sketch_maps, *, long_length: float) ->
             "tpi": feature_tpi_score(heights, wanted, radius=TPI_RADIUS),
             "recall": _share_within(sketch_cells, out_cells, TOLERANCE),
             "precision_long": _share_within(graph_mask(_long_paths(got, long_length)), sketch_cells, TOLERANCE),
+            "precision_trunk": _share_within(graph_mask(trunks(got, long_length)), sketch_cells, TOLERANCE),
             "precision_all": _share_within(out_cells, sketch_cells, TOLERANCE),
         }
     return out
 
 
-def evaluate_following(*, max_side: int | None, seed: int, log=print) -> list[dict]:
-    """Score BFS order, raster order and no sketch for every sketch and example."""
+def evaluate_following(*, max_side: int | None, seeds: list[int], log=print) -> list[dict]:
+    """Score BFS order, raster order and no sketch for every sketch, example and seed."""
     rows = []
     log(_follow_header())
     for sketch_file in SKETCHES:
@@ -198,21 +253,35 @@ def evaluate_following(*, max_side: int | None, seed: int, log=print) -> list[di
         shape = scaled_shape(sketch.shape, max_side)
         for key in FOLLOW_EXAMPLES:
             example = builtin_example(key).load()
-            sketch_maps = None
-            for order in ("bfs", "raster", "none"):
-                params = SynthesisParams(seed=seed, order="bfs" if order == "none" else order)
-                result, seconds, fallback = synthesize(example, None if order == "none" else sketch, shape, params)
-                if sketch_maps is None:
-                    sketch_maps = result.sketch_features
-                row = {
-                    "sketch": sketch_file, "example": key, "order": order, "shape": list(shape),
-                    "patch_size": result.params.patch_size, "fallback": fallback, "seconds": seconds,
-                    "warnings": list(result.warnings),
-                    **stroke_following(result.heights, sketch_maps, long_length=result.params.patch_size),
-                }
-                rows.append(row)
-                log(_follow_line(row))
+            for seed in seeds:
+                sketch_maps = None
+                for order in ORDERS:
+                    params = SynthesisParams(seed=seed, order="bfs" if order == "none" else order)
+                    result, seconds, fallback = synthesize(example, None if order == "none" else sketch, shape,
+                                                           params)
+                    if sketch_maps is None:
+                        sketch_maps = result.sketch_features
+                    row = {
+                        "sketch": sketch_file, "example": key, "seed": seed, "order": order, "shape": list(shape),
+                        "patch_size": result.params.patch_size, "fallback": fallback, "seconds": seconds,
+                        "warnings": list(result.warnings),
+                        **stroke_following(result.heights, sketch_maps, long_length=result.params.patch_size),
+                    }
+                    rows.append(row)
+                    log(_follow_line(row))
     return rows
+
+
+#: Placement orders compared; "none" is the run without a sketch (chance).
+ORDERS = ("bfs", "raster", "none")
+#: Measures of the follow table: key, column title, number format.
+FOLLOW_MEASURES = (
+    ("tpi", "TPI r/v", "+.2f"),
+    ("recall", "recall r/v", ".2f"),
+    ("precision_trunk", "prec.trunk r/v", ".2f"),
+    ("precision_long", "prec.path r/v", ".2f"),
+    ("precision_all", "prec.all r/v", ".2f"),
+)
 
 
 def _pair(a: float, b: float, fmt: str) -> str:
@@ -223,8 +292,8 @@ def _pair(a: float, b: float, fmt: str) -> str:
 
 
 def _follow_header() -> str:
-    h = (f"{'sketch':<18} {'example':<15} {'order':<6} {'size':>9} {'patch':>5} {'sec':>5} "
-         f"{'TPI r/v':>12} {'recall r/v':>11} {'prec.long r/v':>13} {'prec.all r/v':>12}")
+    h = (f"{'sketch':<18} {'example':<15} {'seed':>4} {'order':<6} {'size':>9} {'patch':>5} {'sec':>5} "
+         + " ".join(f"{title:>14}" for _, title, _ in FOLLOW_MEASURES))
     return h + "\n" + "-" * len(h)
 
 
@@ -232,30 +301,53 @@ def _follow_line(row: dict) -> str:
     r, v = row["ridge"], row["valley"]
     patch = f"{row['patch_size']}{'*' if row['fallback'] else ''}"
     return (
-        f"{row['sketch']:<18} {row['example']:<15} {row['order']:<6} {'x'.join(map(str, row['shape'])):>9} "
-        f"{patch:>5} {row['seconds']:>5.1f} {_pair(r['tpi'], v['tpi'], '+.2f'):>12} "
-        f"{_pair(r['recall'], v['recall'], '.2f'):>11} {_pair(r['precision_long'], v['precision_long'], '.2f'):>13} "
-        f"{_pair(r['precision_all'], v['precision_all'], '.2f'):>12}"
+        f"{row['sketch']:<18} {row['example']:<15} {row['seed']:>4} {row['order']:<6} "
+        f"{'x'.join(map(str, row['shape'])):>9} {patch:>5} {row['seconds']:>5.1f} "
+        + " ".join(f"{_pair(r[key], v[key], fmt):>14}" for key, _, fmt in FOLLOW_MEASURES)
     )
 
 
+def _values(rows: list[dict], key: str, kinds=("ridge", "valley")) -> list[float]:
+    return [r[k][key] for r in rows for k in kinds if not np.isnan(r[k][key])]
+
+
 def follow_summary(rows: list[dict]) -> str:
-    """Mean of each measure per order over all sketch/example pairs."""
-    lines = [f"{'order':<6} {'TPI ridge':>9} {'TPI valley':>10} {'recall':>7} {'prec.long':>9} {'prec.all':>8}"]
-    for order in ("bfs", "raster", "none"):
+    """Means per order over all runs, then the paired BFS - raster differences.
+
+    In the differences the valley TPI is negated, so a positive difference
+    always means BFS followed the sketch better.
+    """
+    lines = [f"{'order':<6} {'TPI ridge':>9} {'TPI valley':>10} {'recall':>7} {'prec.trunk':>10} "
+             f"{'prec.path':>9} {'prec.all':>8}"]
+    for order in ORDERS:
         sel = [r for r in rows if r["order"] == order]
         if not sel:
             continue
 
-        def mean(kind, key, sel=sel):
-            kinds = (kind,) if kind else ("ridge", "valley")
-            vals = [r[k][key] for r in sel for k in kinds if not np.isnan(r[k][key])]
+        def mean(key, kinds=("ridge", "valley"), sel=sel):
+            vals = _values(sel, key, kinds)
             return float(np.mean(vals)) if vals else float("nan")
 
         lines.append(
-            f"{order:<6} {mean('ridge', 'tpi'):>+9.2f} {mean('valley', 'tpi'):>+10.2f} {mean(None, 'recall'):>7.2f} "
-            f"{mean(None, 'precision_long'):>9.2f} {mean(None, 'precision_all'):>8.2f}"
+            f"{order:<6} {mean('tpi', ('ridge',)):>+9.2f} {mean('tpi', ('valley',)):>+10.2f} {mean('recall'):>7.2f} "
+            f"{mean('precision_trunk'):>10.2f} {mean('precision_long'):>9.2f} {mean('precision_all'):>8.2f}"
         )
+    lines.append("")
+    lines.append("Paired BFS - raster (same sketch, example, seed, kind): mean +- standard error (pairs)")
+    by_run = {(r["sketch"], r["example"], r["seed"], r["order"]): r for r in rows}
+    for key, title, _ in FOLLOW_MEASURES:
+        diffs = []
+        for (sketch, example, seed, order), bfs in by_run.items():
+            raster = by_run.get((sketch, example, seed, "raster"))
+            if order != "bfs" or raster is None:
+                continue
+            for kind, sign in (("ridge", 1.0), ("valley", -1.0 if key == "tpi" else 1.0)):
+                d = sign * (bfs[kind][key] - raster[kind][key])
+                if not np.isnan(d):
+                    diffs.append(d)
+        if diffs:
+            se = np.std(diffs, ddof=1) / np.sqrt(len(diffs)) if len(diffs) > 1 else float("nan")
+            lines.append(f"  {title.replace(' r/v', ''):<11} {np.mean(diffs):>+7.3f} +- {se:.3f} ({len(diffs)})")
     return "\n".join(lines)
 
 
@@ -348,7 +440,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--part", choices=["follow", "seams", "all"], default="all", help="which tables")
     parser.add_argument("--max-side", type=int, default=None, metavar="N",
                         help="scale sketches down so their longer side is at most N cells (default: native)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of every run (default 0)")
+    parser.add_argument("--seeds", type=int, default=1, metavar="N",
+                        help="follow table: repeat every run with seeds 0..N-1 (default 1)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the seam runs (default 0)")
     parser.add_argument("--json", type=Path, default=None, metavar="OUT", help="also write the figures as JSON")
     args = parser.parse_args(argv)
 
@@ -358,10 +452,10 @@ def main(argv: list[str] | None = None) -> int:
     report = {}
     if args.part in ("follow", "all"):
         log(f"Following the sketch: TPI radius {TPI_RADIUS} cells (in std. dev.), PPA match tolerance "
-            f"{TOLERANCE} cells, long = path >= patch size; r/v = ridges/valleys, '-' = no such strokes; "
-            f"seed {args.seed}")
-        rows = evaluate_following(max_side=args.max_side, seed=args.seed, log=log)
-        log("\nMeans over all sketch/example pairs (recall and precisions over both kinds)")
+            f"{TOLERANCE} cells, trunk/path counted when >= patch size; r/v = ridges/valleys, '-' = no such strokes; "
+            f"seeds 0..{args.seeds - 1}")
+        rows = evaluate_following(max_side=args.max_side, seeds=list(range(args.seeds)), log=log)
+        log("\nMeans over all runs (recall and precisions pool ridges and valleys)")
         log(follow_summary(rows))
         notes = sorted({f"{r['example']}: {w}" for r in rows if r["order"] != "none" for w in r["warnings"]})
         if any(r["fallback"] for r in rows):

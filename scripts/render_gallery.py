@@ -23,6 +23,7 @@ Nothing here belongs to the core: pyvista renders without a display
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -43,7 +44,7 @@ SKETCH_DIR = REPO / "resources" / "sketches"
 GALLERY = (
     ("y_junction_512.png", "white-mountains", None),
     ("ring_cross_512.png", "big-tujunga", None),
-    ("s_valley_1000.png", "st-helens", (600, 600)),
+    ("s_valley_1000.png", "himalaya", (600, 600)),
 )
 SEAM_SKETCH = "s_valley_1000.png"
 SEAM_EXAMPLE = "white-mountains"
@@ -62,6 +63,10 @@ MAX_BYTES = 700_000
 MARGIN = 12
 PANEL = (MAX_WIDTH - 4 * MARGIN) // 3
 EXAGGERATION = 2.0
+#: Camera direction: degrees from south towards east (negative = west) and
+#: above the horizon.
+VIEW_AZIMUTH = -30.0
+VIEW_ELEVATION = 35.0
 
 #: Height fraction -> colour, lowland green through rock brown to snow.
 TERRAIN_STOPS = np.array([0.0, 0.2, 0.45, 0.7, 0.88, 1.0])
@@ -104,7 +109,7 @@ def grey_hillshade(heights: np.ndarray, cell_size) -> np.ndarray:
 
 # -- 3D -----------------------------------------------------------------------
 def render_3d(heights: np.ndarray, cell_size, size: tuple[int, int]) -> np.ndarray:
-    """An off-screen 3D view of the terrain from the south, uint8 (h, w, 3).
+    """An off-screen 3D view of the terrain from the south-west, uint8 (h, w, 3).
 
     Parameters
     ----------
@@ -128,11 +133,16 @@ def render_3d(heights: np.ndarray, cell_size, size: tuple[int, int]) -> np.ndarr
     plotter = pv.Plotter(off_screen=True, window_size=(2 * size[0], 2 * size[1]))
     plotter.set_background("white")
     plotter.add_mesh(surface, scalars="colour", rgb=True, smooth_shading=True, show_scalar_bar=False)
-    plotter.view_xy()
-    plotter.camera.elevation = -55.0
-    plotter.camera.azimuth = -20.0
+    # Orbit about the centre with z kept up: from VIEW_AZIMUTH west of south,
+    # VIEW_ELEVATION degrees above the horizon; then fit and zoom in a little.
+    centre = np.array(surface.center)
+    x0, x1, y0, y1, _, _ = surface.bounds
+    az, el = math.radians(VIEW_AZIMUTH), math.radians(VIEW_ELEVATION)
+    direction = np.array([math.sin(az) * math.cos(el), -math.cos(az) * math.cos(el), math.sin(el)])
+    eye = centre + 2.0 * max(x1 - x0, y1 - y0) * direction
+    plotter.camera_position = [tuple(eye), tuple(centre), (0.0, 0.0, 1.0)]
     plotter.reset_camera()
-    plotter.camera.zoom(1.25)
+    plotter.camera.zoom(1.3)
     shot = plotter.screenshot(None, return_img=True)
     plotter.close()
     return np.asarray(Image.fromarray(shot[:, :, :3]).resize(size, Image.LANCZOS))
@@ -143,11 +153,11 @@ def _font(size: int):
     return ImageFont.load_default(size=size)
 
 
-def _fit(rgb: np.ndarray, side: int, *, resample=Image.LANCZOS) -> Image.Image:
+def _fit(rgb: np.ndarray, side: int) -> Image.Image:
     """The image scaled so its longer side is ``side`` pixels."""
     img = Image.fromarray(rgb)
     f = side / max(img.size)
-    return img.resize((max(1, round(img.size[0] * f)), max(1, round(img.size[1] * f))), resample)
+    return img.resize((max(1, round(img.size[0] * f)), max(1, round(img.size[1] * f))), Image.LANCZOS)
 
 
 def compose(panels: list[Image.Image], labels: list[str], title: str, *, columns: int) -> Image.Image:
@@ -185,6 +195,7 @@ def save_png(img: Image.Image, path: Path) -> int:
 
 # -- products -----------------------------------------------------------------
 def render_gallery(out: Path, *, seed: int) -> None:
+    """Synthesize each ``GALLERY`` pair and save its three-panel PNG in ``out``."""
     for sketch_file, key, shape in GALLERY:
         sketch = read_sketch(SKETCH_DIR / sketch_file)
         example = builtin_example(key).load()
@@ -202,7 +213,7 @@ def render_gallery(out: Path, *, seed: int) -> None:
         relief = float(result.heights.max() - result.heights.min())
         labels = [
             "sketch (red ridge, blue valley)",
-            f"synthesized heightmap, hillshade",
+            "synthesized heightmap, hillshade",
             f"3D, vertical exaggeration {EXAGGERATION:g}x",
         ]
         title = (f"{Path(sketch_file).stem} on {key}: {rows}x{cols} cells, "
@@ -214,7 +225,7 @@ def render_gallery(out: Path, *, seed: int) -> None:
 
 def _seam_window(result) -> tuple[int, int]:
     """Top-left corner of the ``CROP`` window with the most |Laplacian| on
-    patch boundaries, away from the output's edge."""
+    patch boundaries, wholly inside the output."""
     pid = result.patch_id
     edge = np.zeros(pid.shape, dtype=bool)
     edge[1:, :] |= pid[1:, :] != pid[:-1, :]
@@ -228,6 +239,7 @@ def _seam_window(result) -> tuple[int, int]:
 
 
 def render_seams(out: Path, *, seed: int) -> None:
+    """Synthesize ``SEAM_SKETCH`` with each merge setting and save the close-up grid."""
     sketch = read_sketch(SKETCH_DIR / SEAM_SKETCH)
     example = builtin_example(SEAM_EXAMPLE).load()
     cell = example.cell_size or (1.0, 1.0)
