@@ -249,18 +249,11 @@ def _write_debug(result, folder: Path) -> None:
 
 
 def _write_json_atomic(path: Path, data: dict) -> None:
-    import os
-    import tempfile
+    from .io._common import atomic_outputs, open_new
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(data, f)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
+        f.write(json.dumps(data).encode("utf-8"))
 
 
 # -- entry point --------------------------------------------------------------

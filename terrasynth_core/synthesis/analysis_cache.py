@@ -12,13 +12,13 @@ cache off.
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ..features import FeatureGraph, FeatureMaps
 from ..features.graph import FeatureNode, FeaturePath
+from ..io._common import atomic_outputs, open_new
 from .samples import FeatureSample
 
 #: Bump when the analysis changes, so old files are not reused.
@@ -69,14 +69,8 @@ def save(key: str, features: FeatureMaps, samples: dict, strong: np.ndarray, rel
         arrays.update(_sample_arrays(kind, samples[kind]))
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz.tmp")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                np.savez(f, **arrays)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
+            np.savez(f, **arrays)
     except OSError:
         pass
 
