@@ -1,0 +1,185 @@
+"""Elevation pins: heights the user sets at chosen cells (the paper's future
+work, §7 of Zhou et al. 2007: "constrain the Poisson solve").
+
+The synthesized terrain ``h`` is corrected by a field ``d`` that is exactly
+the pin's residual at each pin, zero (with zero slope) at ``radius`` cells
+from every pin, and otherwise as smooth as possible: it minimises the
+squared discrete Laplacian of ``d`` (a biharmonic, thin-plate solve).  The
+result keeps the synthesized gradients up to a smooth, local dome or dish.
+A plain Poisson (harmonic) correction would pull a single cell into a cone
+tip; the squared-Laplacian energy is its C1 counterpart, the continuity the
+paper names as future work for its seam solve.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from scipy import ndimage, sparse
+from scipy.sparse.linalg import spsolve
+
+from .errors import ParamsError
+
+
+@dataclass(frozen=True)
+class Pin:
+    """A wanted height at one output cell.
+
+    Parameters
+    ----------
+    row, col : int
+        Output cell.
+    height : float
+        Wanted height, metres (in the final output's frame).
+    """
+
+    row: int
+    col: int
+    height: float
+
+
+@dataclass(frozen=True)
+class PinError:
+    """How well a pin was met: ``error = height - target`` (metres)."""
+
+    row: int
+    col: int
+    target: float
+    height: float
+    error: float
+
+
+def check_pins(pins: Sequence[Pin], shape: tuple[int, int]) -> tuple[Pin, ...]:
+    """Validate pins against an output shape.
+
+    Raises
+    ------
+    ParamsError
+        A pin that is not a :class:`Pin`, lies outside the output, has a
+        non-finite height, or two pins on the same cell.
+    """
+    out = []
+    seen = set()
+    for pin in pins:
+        if not isinstance(pin, Pin):
+            raise ParamsError(f"pins must be Pin(row, col, height), got {pin!r}")
+        r, c = int(pin.row), int(pin.col)
+        if r != pin.row or c != pin.col or not (0 <= r < shape[0] and 0 <= c < shape[1]):
+            raise ParamsError(
+                f"pin at ({pin.row}, {pin.col}) is outside the {shape[0]}x{shape[1]} output "
+                f"(rows 0-{shape[0] - 1}, columns 0-{shape[1] - 1})"
+            )
+        if not math.isfinite(pin.height):
+            raise ParamsError(f"pin at ({r}, {c}) has a non-finite height {pin.height}")
+        if (r, c) in seen:
+            raise ParamsError(f"two pins on cell ({r}, {c}): keep one")
+        seen.add((r, c))
+        out.append(Pin(r, c, float(pin.height)))
+    return tuple(out)
+
+
+def apply_pins(heights: np.ndarray, pins: Sequence[Pin], *, radius: float,
+               locked: np.ndarray | None = None) -> tuple[np.ndarray, tuple[PinError, ...]]:
+    """Bend ``heights`` smoothly so every pin is met exactly.
+
+    Parameters
+    ----------
+    heights : ndarray of float32, shape (rows, cols)
+        Metres; not modified.
+    pins : sequence of Pin
+        Validated with :func:`check_pins`.
+    radius : float
+        Cells from a pin beyond which nothing changes (> 2).
+    locked : ndarray of bool, shape (rows, cols), optional
+        Cells that must not change (outside a local re-synthesis).  A pin on
+        a locked cell is reported but not enforced.
+
+    Returns
+    -------
+    heights : ndarray of float32, shape (rows, cols)
+    errors : tuple of PinError
+        One per pin, after the correction (float32 round-off for pins on
+        free cells).
+    """
+    pins = tuple(pins)
+    out = np.array(heights, dtype=np.float32, copy=True)
+    if pins:
+        if radius <= 2:
+            raise ParamsError(f"pin radius must be more than 2 cells, got {radius}")
+        locked = np.zeros(out.shape, bool) if locked is None else np.asarray(locked, bool)
+        # Pins whose discs overlap are solved together, others alone: each
+        # solve is no bigger than it needs to be.
+        reach = np.zeros(out.shape, bool)
+        for p in pins:
+            reach[p.row, p.col] = True
+        reach = ndimage.distance_transform_edt(~reach) < radius
+        groups, _ = ndimage.label(reach)
+        for g, box in enumerate(ndimage.find_objects(groups), start=1):
+            members = [p for p in pins if groups[p.row, p.col] == g]
+            r0, r1, c0, c1 = box[0].start, box[0].stop, box[1].start, box[1].stop
+            free = (groups[r0:r1, c0:c1] == g) & ~locked[r0:r1, c0:c1]
+            local = [(p.row - r0, p.col - c0, p.height - float(out[p.row, p.col])) for p in members
+                     if free[p.row - r0, p.col - c0]]
+            if local:
+                d = _smooth_correction(free, local)
+                out[r0:r1, c0:c1] += d.astype(np.float32)
+        # The solve meets the pins to round-off; float32 addition may not.
+        for p in pins:
+            if not locked[p.row, p.col]:
+                out[p.row, p.col] = np.float32(p.height)
+    errors = tuple(PinError(p.row, p.col, p.height, float(out[p.row, p.col]),
+                            float(out[p.row, p.col]) - p.height) for p in pins)
+    return out, errors
+
+
+def _smooth_correction(free: np.ndarray, pins: list[tuple[int, int, float]]) -> np.ndarray:
+    """The least-bending field that is ``value`` at each pin and 0 off ``free``.
+
+    Minimises ``sum (Laplacian d)^2`` over every cell of ``free`` and its
+    4-neighbours, with ``d = 0`` on cells outside ``free`` (so the field
+    leaves the free area with zero value and, through the Laplacian rows
+    just outside, zero slope).
+    """
+    shape = free.shape
+    pinned = np.zeros(shape, bool)
+    value = np.zeros(shape)
+    for r, c, v in pins:
+        pinned[r, c] = True
+        value[r, c] = v
+    unknown = free & ~pinned
+    n = int(unknown.sum())
+    if n == 0:
+        return value
+    # Unknowns first, then pinned cells (known values), then the zero
+    # border, which needs no columns at all.
+    index = np.full(shape, -1, dtype=np.int64)
+    index[unknown] = np.arange(n)
+    n_pin = int(pinned.sum())
+    index[pinned] = n + np.arange(n_pin)
+    rows_mask = ndimage.binary_dilation(free)
+    eq = np.full(shape, -1, dtype=np.int64)
+    eq[rows_mask] = np.arange(int(rows_mask.sum()))
+    # 5-point Laplacian rows: -4 at the cell, +1 at each neighbour that has
+    # a column (unknown or pinned); zero-border cells drop out.
+    padded = np.pad(index, 1, constant_values=-1)
+    centre = padded[1:-1, 1:-1]
+    entries_r, entries_c, entries_v = [], [], []
+    for dr, dc, w in ((0, 0, -4.0), (-1, 0, 1.0), (1, 0, 1.0), (0, -1, 1.0), (0, 1, 1.0)):
+        col = padded[1 + dr:1 + dr + shape[0], 1 + dc:1 + dc + shape[1]] if (dr or dc) else centre
+        use = rows_mask & (col >= 0)
+        entries_r.append(eq[use])
+        entries_c.append(col[use])
+        entries_v.append(np.full(int(use.sum()), w))
+    A = sparse.csr_matrix((np.concatenate(entries_v), (np.concatenate(entries_r), np.concatenate(entries_c))),
+                          shape=(int(rows_mask.sum()), n + n_pin))
+    A_u, A_p = A[:, :n], A[:, n:]
+    known = value[pinned] if n_pin else np.zeros(0)
+    # Order of pinned columns follows index[pinned] (row-major), as does value[pinned].
+    rhs = -(A_u.T @ (A_p @ known))
+    x = spsolve((A_u.T @ A_u).tocsc(), rhs)
+    out = value.copy()
+    out[unknown] = x
+    return out

@@ -1,0 +1,150 @@
+"""Water: painted sea, lakes and rivers brought to a water level, with beds
+carved below it and banks that ease down to the shore.
+
+Everything is a function of the distance to the shoreline (Euclidean
+distance transforms), so it is smooth, vectorised and independent of the
+order patches were placed in:
+
+- in the water, the bed lies ``depth * s(d_in / width)`` below the level,
+  where ``d_in`` is the distance to land and ``s`` a smoothstep: wide water
+  gets the full depth, a river a few cells wide a shallow bed.  Terrain
+  already deeper than the bed keeps its own shape (a soft minimum);
+- on land within ``bank_width`` cells of water, the height above the shore
+  level is scaled by ``s(d_out / bank_width)``: the land meets the water at
+  the level and rises back to the synthesized terrain with zero slope at
+  both ends, so a river carves a smooth valley, not a trench.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from .errors import ParamsError
+
+
+@dataclass(frozen=True, eq=False)
+class Water:
+    """Painted water and its level.
+
+    Parameters
+    ----------
+    mask : ndarray of bool, shape (rows, cols)
+        Sea, lakes and rivers.
+    level : float
+        Water surface height, metres (final output frame).
+    depth : float, optional
+        How far the bed of wide water lies below the level, metres.
+        Default 3 % of the terrain's height range.
+    bank_width : float, optional
+        Cells over which land eases down to the shore.  Default half a patch.
+    """
+
+    mask: np.ndarray
+    level: float
+    depth: float | None = None
+    bank_width: float | None = None
+
+    def checked(self, shape: tuple[int, int]) -> "Water":
+        """This water with its mask as a bool array of ``shape``.
+
+        Raises
+        ------
+        ParamsError
+            Wrong mask shape, non-finite level, negative depth or width.
+        """
+        mask = np.asarray(self.mask)
+        if mask.shape != tuple(shape):
+            raise ParamsError(f"water mask is {mask.shape[0]}x{mask.shape[1]} but the output is "
+                              f"{shape[0]}x{shape[1]}: paint it on the output grid")
+        if not math.isfinite(self.level):
+            raise ParamsError(f"water level must be a finite height in metres, got {self.level}")
+        for name, v in (("depth", self.depth), ("bank width", self.bank_width)):
+            if v is not None and not (math.isfinite(v) and v >= 0):
+                raise ParamsError(f"water {name} must be a non-negative number, got {v}")
+        return Water(mask.astype(bool), float(self.level), self.depth, self.bank_width)
+
+
+#: Cells over which wide water reaches its full depth.
+FULL_DEPTH_CELLS = 12.0
+#: Smoothing of the shore distance (Gaussian sigma, cells).
+SHORE_SMOOTHING = 1.5
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def apply_water(heights: np.ndarray, water: Water, *, bank_width: float,
+                locked: np.ndarray | None = None) -> np.ndarray:
+    """Bring painted water to its level and shape the beds and banks.
+
+    Parameters
+    ----------
+    heights : ndarray of float32, shape (rows, cols)
+        Metres; not modified.
+    water : Water
+        Checked against the shape (:meth:`Water.checked`).
+    bank_width : float
+        Used when ``water.bank_width`` is None, cells.
+    locked : ndarray of bool, shape (rows, cols), optional
+        Cells that must keep their heights (outside a local re-synthesis);
+        the shaping eases in from them over the bank width.
+
+    Returns
+    -------
+    ndarray of float32, shape (rows, cols)
+        Every water cell below the level; land next to water at the level
+        plus a lip, easing back to ``heights`` over the bank width.
+    """
+    mask = water.mask
+    out = np.array(heights, dtype=np.float32, copy=True)
+    if not mask.any():
+        return out
+    h = out.astype(np.float64)
+    span = float(np.ptp(h)) or 1.0
+    depth = 0.03 * span if water.depth is None else float(water.depth)
+    width = float(bank_width if water.bank_width is None else water.bank_width)
+    level = water.level
+    # A small step at the waterline keeps the painted shore exactly where
+    # the level cuts the terrain.
+    lip = max(0.05 * depth, 1e-3 * span)
+    if mask.all():
+        d_in = np.full(mask.shape, np.inf)
+        d_out = np.zeros(mask.shape)
+    else:
+        # Signed distance to the shore, lightly smoothed: a painted edge is
+        # a staircase of cells, and raw distances would print its steps
+        # into the banks as ripples.
+        signed = ndimage.distance_transform_edt(~mask) - ndimage.distance_transform_edt(mask)
+        signed = ndimage.gaussian_filter(signed, SHORE_SMOOTHING)
+        d_in = np.where(mask, np.maximum(-signed, 0.0) + 0.5, 0.0)
+        d_out = np.where(mask, 0.0, np.maximum(signed, 0.0) + 0.5)
+    bed = level - lip - depth * _smoothstep((d_in - 0.5) / FULL_DEPTH_CELLS)
+    # Soft minimum of the bed and deeper terrain (smooth where they cross).
+    k = max(0.25 * depth, 1e-3 * span)
+    wet = bed - k * np.logaddexp(0.0, (bed - h) / k) + k * math.log(2.0)
+    wet = np.minimum(wet, level - lip)
+    shore = level + lip
+    t = _smoothstep((d_out - 1.0) / max(width, 1.0)) if width > 0 else np.ones(mask.shape)
+    dry = shore + t * (h - shore)
+    # Land below the shore level is lifted too, fully at the shore and not
+    # at all at the bank's outer edge; beyond the bank it is left alone
+    # (see flooded_land()).
+    dry = dry + (1.0 - t) * np.maximum(shore - dry, 0.0)
+    new = np.where(mask, wet, dry)
+    if locked is not None and locked.any():
+        # Ease the change in from the locked cells over the bank width, so
+        # water shaped inside a re-synthesis does not end in a step.
+        ease = _smoothstep((ndimage.distance_transform_edt(~locked) - 0.5) / max(width, 1.0))
+        new = np.where(locked, h, h + ease * (new - h))
+    return new.astype(np.float32)
+
+
+def flooded_land(heights: np.ndarray, water: Water) -> int:
+    """Land cells below the water level (they would read as water)."""
+    return int((~water.mask & (heights < water.level)).sum())
