@@ -1,11 +1,21 @@
 """Feature-guided patch synthesis (Zhou et al. 2007): the session, its
-parameters, events and result."""
+parameters, artist controls, events and result."""
 
+from ..pins import Pin, PinError
+from ..water import Water
+from .controls import Controls, Stamp, Style
 from .events import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 from .params import SynthesisParams
 from .session import PatchRecord, Session, SynthesisResult
+from .variations import run_variations
 
 __all__ = [
+    "Controls",
+    "Pin",
+    "PinError",
+    "Stamp",
+    "Style",
+    "Water",
     "PatchPlaced",
     "PatchRecord",
     "Session",
@@ -14,4 +24,5 @@ __all__ = [
     "SynthesisFinished",
     "SynthesisParams",
     "SynthesisResult",
+    "run_variations",
 ]

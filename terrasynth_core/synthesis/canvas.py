@@ -34,33 +34,53 @@ class Canvas:
     params : SynthesisParams
     relief : float
         Typical height spread within a patch, metres (cost unit).
+    previous : ndarray of float32, shape (rows, cols), optional
+        Local re-synthesis: terrain that is already there ...
+    selection : ndarray of bool, shape (rows, cols), optional
+        ... and the only cells that may change.  All others are *locked*:
+        graph cuts keep them and seam solves hold them fixed.
     """
 
-    def __init__(self, shape: tuple[int, int], params: SynthesisParams, relief: float):
+    def __init__(self, shape: tuple[int, int], params: SynthesisParams, relief: float, *,
+                 previous: np.ndarray | None = None, selection: np.ndarray | None = None):
         self.shape = shape
         self.params = params
         self.relief = relief
-        self.heights = np.zeros(shape, dtype=np.float32)
-        self.filled = np.zeros(shape, dtype=bool)
+        if selection is None:
+            self.heights = np.zeros(shape, dtype=np.float32)
+            self.locked = np.zeros(shape, dtype=bool)
+        else:
+            self.heights = np.array(previous, dtype=np.float32, copy=True)
+            self.locked = ~np.asarray(selection, dtype=bool)
+        self.filled = self.locked.copy()
         # Centres of feature patches: later patches must not cut them away.
         self.protected = np.zeros(shape, dtype=bool)
         self.patch_id = np.full(shape, -1, dtype=np.int32)
         self.seams = np.zeros(shape, dtype=bool)
         self._pending = None
 
-    def cut(self, bbox, patch: np.ndarray, *, keep_new: np.ndarray | None = None) -> Cut:
-        """The seam for ``patch`` in window ``bbox`` (nothing is changed yet)."""
+    def cut(self, bbox, patch: np.ndarray, *, keep_new: np.ndarray | None = None,
+            relief: float | None = None) -> Cut:
+        """The seam for ``patch`` in window ``bbox`` (nothing is changed yet).
+
+        ``relief`` (metres) normalises the cost; default the canvas's.
+        """
         r0, r1, c0, c1 = bbox
         filled = self.filled[r0:r1, c0:c1]
-        if self.params.seam == "paste" or not filled.any():
+        locked = self.locked[r0:r1, c0:c1]
+        if keep_new is not None:
+            keep_new = keep_new & ~locked
+        if not filled.any():
             return Cut(np.ones(patch.shape, dtype=bool), np.zeros(patch.shape, dtype=bool), 0.0)
+        if self.params.seam == "paste":
+            return Cut(~locked, np.zeros(patch.shape, dtype=bool), 0.0)
         keep_existing = self.protected[r0:r1, c0:c1]
         if keep_new is not None:
             keep_existing = keep_existing & ~keep_new
         res = graph_cut_seam(self.heights[r0:r1, c0:c1], patch, filled,
-                             keep_new=keep_new, keep_existing=keep_existing)
-        norm = res.cost / (2.0 * self.relief * self.params.patch_size)
-        return Cut(res.take_new, res.seam, float(norm))
+                             keep_new=keep_new, keep_existing=keep_existing | locked)
+        norm = res.cost / (2.0 * (relief or self.relief) * self.params.patch_size)
+        return Cut(res.take_new & ~locked, res.seam, float(norm))
 
     def place(self, bbox, patch: np.ndarray, cut: Cut, index: int, *, protect: np.ndarray | None = None) -> None:
         """Merge ``patch`` into the output along ``cut`` (then call :meth:`blend`)."""
@@ -71,7 +91,9 @@ class Canvas:
         self._pending = (bbox, take, not take.all() or self._touches(bbox))
         win = self.heights[r0:r1, c0:c1]
         win[take] = patch[take]
-        self.filled[r0:r1, c0:c1] = True
+        # Cells the cut kept were filled already (a stamp may leave some of
+        # its window empty).
+        self.filled[r0:r1, c0:c1] |= take
         self.patch_id[r0:r1, c0:c1][take] = index
         self.seams[r0:r1, c0:c1] |= cut.seam
         if protect is not None:
@@ -112,8 +134,11 @@ class Canvas:
         inner[r0 - R0:r1 - R0, c0 - C0:c1 - C0] = True
         take_new = np.zeros(heights.shape, dtype=bool)
         take_new[r0 - R0:r1 - R0, c0 - C0:c1 - C0] = take
-        fixed = ~inner & self.filled[R0:R1, C0:C1]
-        solved = remove_seam(heights, take_new, inner, fixed=fixed, mode=self.params.blend)
+        filled = self.filled[R0:R1, C0:C1]
+        # Locked cells inside the window hold like the ring; empty cells
+        # (beside a stamp) take no part.
+        fixed = (~inner & filled) | (inner & self.locked[R0:R1, C0:C1])
+        solved = remove_seam(heights, take_new, inner & filled, fixed=fixed, mode=self.params.blend)
         self.heights[r0:r1, c0:c1] = solved[inner].reshape(r1 - r0, c1 - c0)
 
     def finish(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -14,7 +14,7 @@ import numpy as np
 #: Stages of a run, in order.
 STAGES = ("analyse", "features", "fill", "finish")
 
-PatchKind = Literal["branch", "end", "path", "fill"]
+PatchKind = Literal["stamp", "branch", "end", "path", "fill"]
 
 
 @dataclass(frozen=True)
@@ -36,7 +36,7 @@ class PatchPlaced:
     total : int
         Patches the run will place in all (fill counts are an estimate until
         the fill stage starts).
-    kind : {"branch", "end", "path", "fill"}
+    kind : {"stamp", "branch", "end", "path", "fill"}
     bbox : (r0, r1, c0, c1)
         Half-open output window the patch changed (after Poisson blending).
     heights : ndarray of float32, shape (r1 - r0, c1 - c0)

@@ -28,13 +28,16 @@ from ..errors import ParamsError, SynthesisCancelled
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
-from .analysis import ExampleAnalysis, prepare_example
-from .canvas import Canvas
+from ..pins import PinError, apply_pins
+from ..water import apply_water, flooded_land
+from .canvas import Canvas, Cut
+from .controls import Controls
 from .events import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 from .fill import FillSearch
 from .params import SynthesisParams
 from .pool import FeaturePool
 from .samples import FeatureSample, sketch_samples
+from .styles import build_layout
 
 
 @dataclass(frozen=True)
@@ -42,7 +45,8 @@ class PatchRecord:
     """What was placed where, and why (a debug product of the result).
 
     ``source`` is the example window's top-left corner for fill patches and
-    the example sample centre for feature patches, ``(row, col)``.
+    the example sample centre for feature patches, ``(row, col)``; stamps
+    have ``example`` -1 and ``source`` (stamp index, 0).
     """
 
     kind: str
@@ -78,6 +82,12 @@ class SynthesisResult:
     warnings : tuple of str
         Things the user should know (fallbacks, nodata handling, no strokes).
     params : SynthesisParams
+    style_map : ndarray of int16, shape (rows, cols), or None
+        Style label per cell (-1 = the plain examples) when styles were used.
+    pin_errors : tuple of PinError
+        Height minus wanted height at each pin, metres.
+    selection : ndarray of bool, shape (rows, cols), or None
+        The cells a local re-synthesis changed (None for a full run).
     """
 
     heights: np.ndarray
@@ -89,10 +99,13 @@ class SynthesisResult:
     total_seconds: float
     warnings: tuple[str, ...]
     params: SynthesisParams
+    style_map: np.ndarray | None = None
+    pin_errors: tuple[PinError, ...] = ()
+    selection: np.ndarray | None = None
 
     def counts(self) -> dict[str, int]:
-        """Patches placed by kind (branch, end, path, fill)."""
-        out = {"branch": 0, "end": 0, "path": 0, "fill": 0}
+        """Patches placed by kind (branch, end, path, fill, stamp)."""
+        out = {"branch": 0, "end": 0, "path": 0, "fill": 0, "stamp": 0}
         for p in self.patches:
             out[p.kind] += 1
         return out
@@ -106,12 +119,16 @@ class SynthesisResult:
             "timings": {k: round(v, 4) for k, v in self.timings.items()},
             "total_seconds": round(self.total_seconds, 4),
             "height_range": [float(self.heights.min()), float(self.heights.max())],
+            "pins": [{"row": e.row, "col": e.col, "target": e.target, "height": e.height, "error": e.error}
+                     for e in self.pin_errors],
             "warnings": list(self.warnings),
         }
 
 
 class Session:
-    """One synthesis problem: examples, a sketch, an output size, parameters.
+    """One synthesis problem: examples, a sketch, an output size, parameters,
+    and optionally the artist controls (style regions, water, stamps, pins,
+    height range, local re-synthesis).
 
     Everything is checked here, before any work; ``iter_run`` may be called
     again after changing nothing (same seed, same bytes) and a new session is
@@ -120,26 +137,38 @@ class Session:
     Parameters
     ----------
     examples : sequence of HeightField or 2-D arrays
-        Example DEMs (heights in metres).  Nodata is cropped away (or filled
-        when the valid rectangle is too small).
+        Example DEMs (heights in metres), the style of every cell no style
+        region claims.  Nodata is cropped away (or filled when the valid
+        rectangle is too small).  May be empty when styles cover the map.
     sketch : SketchMap or None
         Ridge and valley strokes; ``None`` or a blank sketch gives a
         non-feature synthesis (reported in the warnings).
     shape : (rows, cols), optional
-        Output size; default the sketch's.  The sketch is scaled to it.
+        Output size; default the sketch's (or the style map's, or the
+        previous result's).  The sketch is scaled to it.
     params : SynthesisParams
+    controls : Controls, optional
+        See :class:`~.controls.Controls`.
     """
 
     def __init__(self, examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | None = None, *,
-                 shape: tuple[int, int] | None = None, params: SynthesisParams = SynthesisParams()):
+                 shape: tuple[int, int] | None = None, params: SynthesisParams = SynthesisParams(),
+                 controls: Controls | None = None):
         if not isinstance(params, SynthesisParams):
             raise ParamsError(f"params must be SynthesisParams, got {type(params).__name__}")
-        if not examples:
+        controls = Controls() if controls is None else controls
+        if not isinstance(controls, Controls):
+            raise ParamsError(f"controls must be Controls, got {type(controls).__name__}")
+        examples = list(examples or ())
+        if not examples and not controls.styles:
             raise ParamsError("no example DEM given: synthesis needs at least one")
         if shape is None:
-            if sketch is None:
+            for candidate in (sketch, controls.style_map, controls.previous):
+                if candidate is not None:
+                    shape = candidate.shape
+                    break
+            else:
                 raise ParamsError("give an output shape when there is no sketch")
-            shape = sketch.shape
         rows, cols = (int(v) for v in shape)
         if min(rows, cols) < params.patch_size:
             raise ParamsError(
@@ -153,14 +182,10 @@ class Session:
         self.shape = (rows, cols)
         self.sketch = sketch
         self.params = params
-        self.warnings: list[str] = []
-        self.examples: list[ExampleAnalysis] = []
-        for i, ex in enumerate(examples):
-            name = getattr(ex, "source", None) or f"example {i + 1}"
-            analysis = prepare_example(ex, params.patch_size, name=str(name))
-            if analysis.note:
-                self.warnings.append(analysis.note)
-            self.examples.append(analysis)
+        self.controls = controls.checked(self.shape, params.patch_size, len(examples))
+        self.layout = build_layout(examples, self.controls, self.shape, params.patch_size)
+        self.examples = self.layout.examples
+        self.warnings: list[str] = list(self.layout.notes)
         self.sketch_maps = self._sketch_maps()
         self._check_features()
 
@@ -226,11 +251,14 @@ class _Run:
     def __init__(self, session: Session):
         self.s = session
         self.p = session.params
+        self.c = session.controls
+        self.lay = session.layout
         self.rng = np.random.default_rng(self.p.seed)
         self.radius = self.p.patch_size / 2
         self.warnings = list(session.warnings)
-        self.relief = float(np.mean([ex.relief for ex in session.examples]))
-        self.canvas = Canvas(session.shape, self.p, self.relief)
+        self.relief = float(np.mean(self.lay.relief))
+        self.canvas = Canvas(session.shape, self.p, self.relief, previous=self.c.previous,
+                             selection=self.c.selection)
         self.records: list[PatchRecord] = []
         self.timings: dict[str, float] = {}
 
@@ -239,28 +267,26 @@ class _Run:
         t = time.perf_counter()
         yield StageStarted("analyse", 0)
         samples = self._ordered_samples()
-        pools = {
-            kind: FeaturePool([(i, ex.samples[kind]) for i, ex in enumerate(self.s.examples)], self.radius,
-                              mirror=self.p.mirror)
-            for kind in ("ridge", "valley")
-        }
+        pools = self._pools()
         self.timings["analyse"] = time.perf_counter() - t
         yield StageFinished("analyse", self.timings["analyse"])
 
         t = time.perf_counter()
         fill_estimate = self._fill_estimate(len(samples))
-        total = len(samples) + fill_estimate
-        yield StageStarted("features", len(samples))
+        total = len(self.lay.stamps) + len(samples) + fill_estimate
+        yield StageStarted("features", len(self.lay.stamps) + len(samples))
+        for i, stamp in enumerate(self.lay.stamps):
+            yield self._event(self._place_stamp(i, stamp), total)
         fallbacks: dict[tuple[str, int, int], int] = {}
         # One helper thread prepares the next patch (ranking and warping, which
         # do not read the output) while this one merges the current patch.
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-prefetch") as pre:
             def prepare(i):
-                return pre.submit(self._prepare_feature, i, samples[i], pools[samples[i].kind])
+                return pre.submit(self._prepare_feature, i, samples[i], pools)
 
             pending = prepare(0) if samples else None
             for i, sample in enumerate(samples):
-                got = pools[sample.kind].nearest_degree(sample.degree)
+                got = self._pool(pools, sample).nearest_degree(sample.degree)
                 if got != sample.degree:
                     key = (sample.kind, sample.degree, got)
                     fallbacks[key] = fallbacks.get(key, 0) + 1
@@ -280,24 +306,43 @@ class _Run:
         windows = self._fill_windows()
         total = len(self.records) + len(windows)
         yield StageStarted("fill", len(windows))
+        used = {int(g) for g in np.unique(self.lay.group_map)}
         searches = [
-            FillSearch(ex.heights, (self.p.patch_size, self.p.patch_size), feature_mask=ex.strong_mask,
-                       coarse_factor=self.p.coarse_factor_for(ex.heights.shape), workers=self.p.thread_count)
-            for ex in self.s.examples
+            FillSearch(detail, (self.p.patch_size, self.p.patch_size), feature_mask=ex.strong_mask,
+                       coarse_factor=self.p.coarse_factor_for(detail.shape), workers=self.p.thread_count)
+            if any(i in self.lay.members[g] for g in used) else None
+            for i, (ex, detail) in enumerate(zip(self.lay.examples, self.lay.detail))
         ]
         self.timings["fill_setup"] = time.perf_counter() - t
         # The search for the next window runs on the helper thread (FFTs free
         # the interpreter) while this thread blends the patch just placed.  It
         # gets a copy of its window taken before that blend, so what it sees
-        # does not depend on timing: same seed, same bytes.
+        # does not depend on timing: same seed, same bytes.  Heights are
+        # matched relative to the level field.
+        level = self.lay.level
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-search") as pre:
             def search(bbox, n):
                 r0, r1, c0, c1 = bbox
-                target = self.canvas.heights[r0:r1, c0:c1].copy()
+                target = self.canvas.heights[r0:r1, c0:c1] - level[r0:r1, c0:c1]
                 filled = self.canvas.filled[r0:r1, c0:c1].copy()
+                members, relief = self._window_examples(bbox)
                 rng = np.random.default_rng([self.p.seed, 1, n])
-                return bbox, pre.submit(self._search_fill, searches, target, filled, rng)
+                return bbox, pre.submit(self._search_fill, searches, members, relief, target, filled, rng)
 
+            # A style region no feature reached starts from a window of its
+            # own terrain: grown only from its neighbours, it would copy
+            # their smoothness (the SSD prefers the example's smoothest
+            # windows there) instead of its own style.
+            for g, bbox in self._region_seeds(windows):
+                r0, r1, c0, c1 = bbox
+                rng = np.random.default_rng([self.p.seed, 2, g])
+                members = self.lay.members[g]
+                options = self._search_fill(searches, members, float(max(self.lay.relief[members])),
+                                            self.canvas.heights[r0:r1, c0:c1] - level[r0:r1, c0:c1],
+                                            self.canvas.filled[r0:r1, c0:c1].copy(), rng)
+                placed = self._choose_fill(bbox, options)
+                self.canvas.blend(placed.bbox)
+                yield self._event(placed, total)
             remaining = _WindowQueue(windows, self.canvas.filled)
             n_fill = 0
             bbox = remaining.pop()
@@ -317,6 +362,7 @@ class _Run:
         t = time.perf_counter()
         yield StageStarted("finish", 0)
         heights, patch_id, seams = self.canvas.finish()
+        heights, pin_errors = self._finish_heights(heights)
         self.timings["finish"] = time.perf_counter() - t
         yield StageFinished("finish", self.timings["finish"])
         result = SynthesisResult(
@@ -329,8 +375,36 @@ class _Run:
             total_seconds=time.perf_counter() - t_start,
             warnings=tuple(self.warnings),
             params=self.p,
+            style_map=None if self.c.style_map is None else self.c.style_map.copy(),
+            pin_errors=pin_errors,
+            selection=None if self.c.selection is None else self.c.selection.copy(),
         )
         yield SynthesisFinished(result)
+
+    # -- the finished heights ------------------------------------------------
+    def _finish_heights(self, heights: np.ndarray) -> tuple[np.ndarray, tuple[PinError, ...]]:
+        """Height range, then water, then pins (both in final metres)."""
+        locked = self.canvas.locked if self.c.resynthesis else None
+        if self.lay.remap is not None and locked is None:
+            lo, hi = self.lay.remap[:2]
+            span = float(heights.max() - heights.min())
+            if span > 0:
+                heights = (lo + (heights.astype(np.float64) - heights.min()) * ((hi - lo) / span)).astype(np.float32)
+        if self.c.water is not None:
+            heights = apply_water(heights, self.c.water, bank_width=self.p.patch_size / 2, locked=locked)
+            flooded = flooded_land(heights, self.c.water)
+            if flooded:
+                self.warnings.append(f"{flooded} land cells lie below the water level {self.c.water.level:g} m "
+                                     "away from painted water: paint them as water or raise the level")
+        heights, pin_errors = apply_pins(heights, self.c.pins, radius=self.c.pin_radius, locked=locked)
+        for e in pin_errors:
+            if locked is not None and locked[e.row, e.col]:
+                self.warnings.append(f"pin at ({e.row}, {e.col}) is outside the selection: left as it was")
+        if locked is not None:
+            # Every step above keeps locked cells; this makes the promise
+            # explicit (bit-identical outside the selection).
+            heights = np.where(locked, self.c.previous, heights).astype(np.float32)
+        return heights, pin_errors
 
     # -- order ----------------------------------------------------------------
     def _ordered_samples(self) -> list[FeatureSample]:
@@ -339,15 +413,28 @@ class _Run:
             comps.extend(sketch_samples(graph, self.radius, spacing=self.radius))
         # Longest networks first: they set the terrain's frame.
         comps.sort(key=lambda c: -len(c))
-        samples = [s for comp in comps for s in comp]
+        samples = [s for comp in comps for s in comp if self._sample_wanted(s)]
         if self.p.order == "raster":
             samples.sort(key=lambda s: (round(s.center[0]), round(s.center[1])))
         return samples
+
+    def _sample_wanted(self, sample: FeatureSample) -> bool:
+        """Stamps override the sketch under them; a re-synthesis only
+        places features centred in its selection."""
+        r = min(max(int(round(sample.center[0])), 0), self.s.shape[0] - 1)
+        c = min(max(int(round(sample.center[1])), 0), self.s.shape[1] - 1)
+        for st in self.lay.stamps:
+            r0, r1, c0, c1 = st.bbox
+            if r0 <= r < r1 and c0 <= c < c1 and st.valid[r - r0, c - c0]:
+                return False
+        return not self.canvas.locked[r, c]
 
     def _fill_estimate(self, n_features: int) -> int:
         step = self.p.patch_size - self.p.overlap_cells
         rows, cols = self.s.shape
         n = (-(-(rows - self.p.patch_size) // step) + 1) * (-(-(cols - self.p.patch_size) // step) + 1)
+        if self.c.resynthesis:
+            n = int(np.ceil(n * self.c.selection.mean())) + 4
         return max(n - n_features // 2, 0)
 
     def _fill_windows(self) -> list[tuple[int, int, int, int]]:
@@ -365,6 +452,65 @@ class _Run:
                     out.append((int(r), int(r + P), int(c), int(c + P)))
         return out
 
+    # -- styles ---------------------------------------------------------------
+    def _region_seeds(self, windows: list) -> list[tuple[int, tuple[int, int, int, int]]]:
+        """For each style group with no terrain yet (and more than one group
+        in the run), the empty window most inside it, nearest its centre."""
+        groups = self.lay.group_map
+        present = np.unique(groups)
+        if present.size < 2:
+            return []
+        out = []
+        for g in (int(v) for v in present):
+            region = groups == g
+            if (self.canvas.filled & region).any():
+                continue
+            centre = np.argwhere(region).mean(axis=0)
+            best = None
+            for bbox in windows:
+                r0, r1, c0, c1 = bbox
+                if self.canvas.filled[r0:r1, c0:c1].any():
+                    continue
+                share = region[r0:r1, c0:c1].mean()
+                dist = np.hypot((r0 + r1) / 2 - centre[0], (c0 + c1) / 2 - centre[1])
+                key = (-share, dist)
+                if best is None or key < best[0]:
+                    best = (key, bbox)
+            if best is not None and best[0][0] < -0.5:
+                out.append((g, best[1]))
+        return out
+
+    def _pools(self) -> dict:
+        """Feature pools per (kind, style group), and over all examples."""
+        pools = {}
+        everyone = list(range(len(self.lay.examples)))
+        for kind in ("ridge", "valley"):
+            for g, members in enumerate(self.lay.members + [everyone]):
+                key = (kind, g if g < len(self.lay.members) else None)
+                pools[key] = FeaturePool([(i, self.lay.examples[i].samples[kind]) for i in members], self.radius,
+                                         mirror=self.p.mirror)
+        return pools
+
+    def _pool(self, pools: dict, sample: FeatureSample) -> FeaturePool:
+        """The pool of the style under a sample; all examples when that style
+        has no feature of the kind (said once in the warnings)."""
+        g = self.lay.group_at(*sample.center)
+        pool = pools[(sample.kind, g)]
+        if pool.size() == 0:
+            note = (f"{self.lay.names[g]} has no {sample.kind} features for a {self.p.patch_size}-cell patch: "
+                    f"its sketched {sample.kind}s use the other styles' examples")
+            if note not in self.warnings:
+                self.warnings.append(note)
+            pool = pools[(sample.kind, None)]
+        return pool
+
+    def _window_examples(self, bbox) -> tuple[list[int], float]:
+        """Examples of the styles present in a window, and their largest relief."""
+        r0, r1, c0, c1 = bbox
+        groups = np.unique(self.lay.group_map[r0:r1, c0:c1])
+        members = sorted({i for g in groups for i in self.lay.members[int(g)]})
+        return members, float(max(self.lay.relief[i] for i in members))
+
     # -- placing --------------------------------------------------------------
     def _window(self, center: np.ndarray) -> tuple[int, int, int, int]:
         P = self.p.patch_size
@@ -373,7 +519,20 @@ class _Run:
         rows, cols = self.s.shape
         return max(r0, 0), min(r0 + P, rows), max(c0, 0), min(c0 + P, cols)
 
-    def _prepare_feature(self, index: int, sample: FeatureSample, pool: FeaturePool):
+    def _place_stamp(self, index: int, stamp) -> PatchRecord:
+        """Put a stamp on the level field (pasted: it is the reference the
+        terrain around it adapts to), its core protected from later cuts."""
+        r0, r1, c0, c1 = bbox = stamp.bbox
+        patch = stamp.detail + self.lay.level[r0:r1, c0:c1]
+        take = stamp.valid & ~self.canvas.locked[r0:r1, c0:c1]
+        self.canvas.place(bbox, patch, Cut(take, np.zeros(take.shape, bool), 0.0), len(self.records),
+                          protect=stamp.core & take)
+        self.canvas.blend(bbox)
+        rec = PatchRecord("stamp", None, bbox, -1, (float(index), 0.0), False, 0.0, 0.0, 0.0, 0.0)
+        self.records.append(rec)
+        return rec
+
+    def _prepare_feature(self, index: int, sample: FeatureSample, pools: dict):
         """Rank candidates for a sample and warp the best onto its window.
 
         Reads only the examples, never the output, so it can run ahead on
@@ -388,9 +547,9 @@ class _Run:
         if r1 - r0 < 4 or c1 - c0 < 4:
             return bbox, []
         warped = []
-        for cand in pool.rank(sample, 3 * self.p.k, rng):
+        for cand in self._pool(pools, sample).rank(sample, 3 * self.p.k, rng):
             tps = ThinPlateSpline.fit(cand.target, cand.control, regularization=1e-3)
-            patch, valid = warp_patch(self.s.examples[cand.example].heights, tps, (r0, c0),
+            patch, valid = warp_patch(self.lay.detail[cand.example], tps, (r0, c0),
                                       (r1 - r0, c1 - c0), return_valid=True)
             if valid >= 0.98:
                 warped.append((cand, patch))
@@ -402,23 +561,26 @@ class _Run:
             return None
         r0, r1, c0, c1 = bbox
         filled = self.canvas.filled[r0:r1, c0:c1]
-        existing = self.canvas.heights[r0:r1, c0:c1]
+        level = self.lay.level[r0:r1, c0:c1]
+        existing = self.canvas.heights[r0:r1, c0:c1] - level
+        relief = float(self.lay.relief[warped[0][0].example])
         evaluated = []
         for cand, patch in warped:
             ssd, offset = _overlap_ssd(existing, patch, filled)
-            score = self._match_cost(ssd, offset) + self.p.feature_weight * cand.deformation
+            score = self._match_cost(ssd, offset, relief) + self.p.feature_weight * cand.deformation
             evaluated.append((score, ssd, offset, patch, cand))
         evaluated.sort(key=lambda t: t[0])
         rr, cc = np.ogrid[r0:r1, c0:c1]
         keep_new = (rr - sample.center[0]) ** 2 + (cc - sample.center[1]) ** 2 <= (self.radius / 2) ** 2
         best = None
         for score, ssd, offset, patch, cand in evaluated[: self.p.k]:
-            cut = self.canvas.cut(bbox, patch + np.float32(offset), keep_new=keep_new)
+            placed = patch + np.float32(offset) + level
+            cut = self.canvas.cut(bbox, placed, keep_new=keep_new, relief=relief)
             total = score + cut.normalized_cost
             if best is None or total < best[0]:
-                best = (total, ssd, patch + np.float32(offset), cand, cut)
+                best = (total, ssd, placed, cand, cut)
         total, ssd, patch, cand, cut = best
-        self.canvas.place(bbox, patch, cut, len(self.records), protect=keep_new)
+        self.canvas.place(bbox, patch, cut, len(self.records), protect=keep_new & cut.take_new)
         self.canvas.blend(bbox)
         rec = PatchRecord(sample.patch_type, sample.kind, bbox, cand.example,
                           (float(cand.center[0]), float(cand.center[1])), cand.mirrored,
@@ -426,12 +588,12 @@ class _Run:
         self.records.append(rec)
         return rec
 
-    def _search_fill(self, searches: list[FillSearch], target, filled, rng) -> list:
+    def _search_fill(self, searches: list, members: list[int], relief: float, target, filled, rng) -> list:
         """Candidate example windows for one output window, best first."""
         options = []
-        for ei, search in enumerate(searches):
-            for pos, ssd, offset in search.best(target, filled, self.p.k, rng):
-                options.append((self._match_cost(ssd, offset), ssd, offset, ei, pos))
+        for ei in members:
+            for pos, ssd, offset in searches[ei].best(target, filled, self.p.k, rng):
+                options.append((self._match_cost(ssd, offset, relief), ssd, offset, ei, pos, relief))
         options.sort(key=lambda t: t[0])
         return options[: self.p.k]
 
@@ -439,10 +601,12 @@ class _Run:
         """Pick among the searched candidates by SSD plus seam cost and put it
         in the output (the caller blends it)."""
         P = self.p.patch_size
+        r0, r1, c0, c1 = bbox
+        level = self.lay.level[r0:r1, c0:c1]
         best = None
-        for score, ssd, offset, ei, (er, ec) in options:
-            patch = self.s.examples[ei].heights[er:er + P, ec:ec + P] + np.float32(offset)
-            cut = self.canvas.cut(bbox, patch)
+        for score, ssd, offset, ei, (er, ec), relief in options:
+            patch = self.lay.detail[ei][er:er + P, ec:ec + P] + np.float32(offset) + level
+            cut = self.canvas.cut(bbox, patch, relief=relief)
             total = score + cut.normalized_cost
             if best is None or total < best[0]:
                 best = (total, ssd, patch, ei, (er, ec), cut)
@@ -453,11 +617,12 @@ class _Run:
         self.records.append(rec)
         return rec
 
-    def _match_cost(self, ssd: float, offset: float) -> float:
+    def _match_cost(self, ssd: float, offset: float, relief: float) -> float:
         """Overlap mismatch in units of the relief, plus a penalty on the height
-        shift a candidate needs: without it the shifts random-walk and the
-        terrain drifts far outside the example's heights over many patches."""
-        return ssd / self.relief**2 + OFFSET_WEIGHT * (offset / self.relief) ** 2
+        shift a candidate needs away from the level field: without it the
+        shifts random-walk and the terrain drifts far outside the example's
+        heights over many patches."""
+        return ssd / relief**2 + OFFSET_WEIGHT * (offset / relief) ** 2
 
     def _event(self, rec: PatchRecord, total: int) -> PatchPlaced:
         r0, r1, c0, c1 = rec.bbox

@@ -1,0 +1,134 @@
+"""Which examples serve which output cells, at what level and scale.
+
+A run has style *groups*: the session's plain examples (one group, used for
+unpainted cells) and one group per :class:`~.controls.Style`.  Every example
+is synthesized as detail about its median height, times its style's relief
+scale; the level field (:func:`~.controls.level_field`) adds each region's
+base height back, smoothly across region borders.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .analysis import ExampleAnalysis, prepare_example
+from .controls import Controls, RenderedStamp, level_field, render_stamp
+
+
+@dataclass(frozen=True, eq=False)
+class StyleLayout:
+    """Examples, groups and the level field of one run.
+
+    Parameters
+    ----------
+    examples : list of ExampleAnalysis
+        Plain examples first, then one per style.
+    detail : list of ndarray of float32, shape (H_i, W_i)
+        Each example's heights minus its median, times its relief scale
+        (and the height-range factor).
+    relief : ndarray of float, shape (n_examples,)
+        Each example's relief after the same scaling, metres.
+    members : list of list of int
+        Example indices per group.
+    names : list of str
+        Group names for messages.
+    group_map : ndarray of int16, shape (rows, cols)
+        Group per output cell.
+    level : ndarray of float32, shape (rows, cols)
+        Large-scale elevation the detail sits on, metres.
+    stamps : list of RenderedStamp
+        With detail scaled like the examples'.
+    remap : (lo, hi, a, b) or None
+        Height range: the styles were scaled by ``a`` (``x -> a x + b`` on
+        predicted heights) towards ``(lo, hi)``; the result is mapped onto
+        it exactly at the end.
+    notes : list of str
+        Nodata handling, for the run's warnings.
+    """
+
+    examples: list
+    detail: list
+    relief: np.ndarray
+    members: list
+    names: list
+    group_map: np.ndarray
+    level: np.ndarray
+    stamps: list
+    remap: tuple | None
+    notes: list
+
+    def group_at(self, row: float, col: float) -> int:
+        rows, cols = self.group_map.shape
+        return int(self.group_map[min(max(int(round(row)), 0), rows - 1), min(max(int(round(col)), 0), cols - 1)])
+
+
+def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_size: int) -> StyleLayout:
+    """Analyse the examples and lay the styles out over the output.
+
+    Parameters
+    ----------
+    plain : list of HeightField or ndarray
+        The session's examples (the default style).
+    controls : Controls
+        Already checked against ``shape``.
+    shape : (rows, cols)
+    patch_size : int
+    """
+    fields, scales, bases, members, names = [], [], [], [], []
+    if plain:
+        members.append(list(range(len(plain))))
+        names.append("default examples")
+        fields.extend(plain)
+        scales.extend([1.0] * len(plain))
+        bases.append(None)
+    for i, style in enumerate(controls.styles):
+        members.append([len(fields)])
+        names.append(style.name or f"style {i + 1}")
+        fields.append(style.example)
+        scales.append(float(style.relief_scale))
+        bases.append(style.base)
+    examples: list[ExampleAnalysis] = []
+    notes = []
+    for i, ex in enumerate(fields):
+        name = getattr(ex, "source", None) or f"example {i + 1}"
+        analysis = prepare_example(ex, patch_size, name=str(name))
+        if analysis.note:
+            notes.append(analysis.note)
+        examples.append(analysis)
+    medians = np.array([float(np.median(ex.heights)) for ex in examples])
+    scales = np.array(scales)
+    base = np.array([float(np.mean(medians[m])) if b is None else float(b) for m, b in zip(members, bases)])
+
+    if controls.style_map is None:
+        group_map = np.zeros(shape, np.int16)
+    else:
+        # Label -1 is the plain examples' group (0 when there are any).
+        offset = 1 if plain else 0
+        group_map = (controls.style_map.astype(np.int16) + offset).astype(np.int16)
+        if not plain:
+            group_map = np.maximum(group_map, 0).astype(np.int16)
+
+    factor, remap = 1.0, None
+    if controls.height_range is not None:
+        lo, hi = controls.height_range
+        used = np.unique(group_map)
+        low = min(base[g] + scales[i] * (float(examples[i].heights.min()) - medians[i])
+                  for g in used for i in members[g])
+        high = max(base[g] + scales[i] * (float(examples[i].heights.max()) - medians[i])
+                   for g in used for i in members[g])
+        factor = (hi - lo) / max(high - low, 1e-6)
+        shift = lo - factor * low
+        base = factor * base + shift
+        remap = (lo, hi, factor, shift)
+    detail = [((ex.heights - np.float32(med)) * np.float32(s * factor)).astype(np.float32)
+              for ex, med, s in zip(examples, medians, scales)]
+    relief = np.array([ex.relief for ex in examples]) * scales * factor
+    level = level_field(group_map, base, patch_size)
+    stamps = []
+    for st in controls.stamps:
+        r = render_stamp(st, shape, patch_size)
+        stamps.append(RenderedStamp(r.bbox, (r.detail * np.float32(factor)).astype(np.float32), r.valid, r.core))
+    return StyleLayout(examples, detail, relief, members, names, group_map, level, stamps, remap, notes)
+
