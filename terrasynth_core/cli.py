@@ -12,6 +12,7 @@ import json
 import sys
 from pathlib import Path
 
+from .cli_controls import add_control_arguments
 from .errors import TerraSynthError
 
 EXIT_OK = 0
@@ -145,15 +146,22 @@ def cmd_synth(args: argparse.Namespace) -> int:
     from .features import read_sketch
     from .synthesis import SynthesisParams
 
-    if not args.example:
-        raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY)")
-    examples = [resolve_dem(e) for e in args.example]
-    sketch = read_sketch(args.sketch)
+    from .cli_controls import controls_from_args
+
+    if not args.example and not args.styles:
+        raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY), or --styles with --style")
+    if not args.sketch and not args.styles and not args.size:
+        raise TerraSynthError("give a --sketch (or --styles, or an output --size for a sketch-free run)")
+    if args.variations < 1:
+        raise TerraSynthError(f"--variations must be at least 1, got {args.variations}")
+    examples = [resolve_dem(e) for e in args.example or ()]
+    sketch = read_sketch(args.sketch) if args.sketch else None
     params = SynthesisParams(
         patch_size=args.patch_size, seed=args.seed, order=args.order, seam=args.seam, blend=args.blend,
         **({"overlap": args.overlap} if args.overlap is not None else {}),
     )
-    return _synthesize(examples, sketch, args.size, params, args)
+    controls = controls_from_args(args, have_examples=bool(examples))
+    return _synthesize(examples, sketch, args.size, params, args, controls)
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
@@ -166,11 +174,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return _synthesize(examples, sketch, None, SynthesisParams(seed=args.seed), args)
 
 
-def _synthesize(examples, sketch, size, params, args) -> int:
+def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     from tqdm import tqdm
 
-    from .heightfield import HeightField
-    from .io import MESH_EXTENSIONS, WRITE_EXTENSIONS, save_dem
+    from .io import MESH_EXTENSIONS, WRITE_EXTENSIONS
     from .synthesis import PatchPlaced, Session, StageStarted, SynthesisFinished
 
     out = Path(args.out)
@@ -182,9 +189,13 @@ def _synthesize(examples, sketch, size, params, args) -> int:
     # Checked before the run so a typo in the path does not cost a whole synthesis.
     if not out.parent.is_dir():
         raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
-    session = Session(examples, sketch, shape=size, params=params)
+    session = Session(examples, sketch, shape=size, params=params, controls=controls)
     for w in session.warnings:
         print(f"terrasynth-cli: note: {w}", file=sys.stderr)
+    cell = next((e.cell_size for e in [*examples, *(s.example for s in session.controls.styles)]
+                 if getattr(e, "cell_size", None)), None)
+    if getattr(args, "variations", 1) > 1:
+        return _variations(examples, sketch, size, params, controls, args, cell)
     bar = tqdm(total=0, desc="analyse", unit="patch", file=sys.stderr, disable=None, leave=False)
     result = None
     try:
@@ -198,26 +209,60 @@ def _synthesize(examples, sketch, size, params, args) -> int:
                 result = event.result
     finally:
         bar.close()
-    cell = examples[0].cell_size if isinstance(examples[0], HeightField) else None
-    field = HeightField(result.heights, cell_size=cell, source=str(out), format=None)
-    if out.suffix.lower() in MESH_EXTENSIONS:
-        from .io import save_mesh
-
-        save_mesh(field, out)
-    else:
-        save_dem(field, out)
+    _save_result(result, out, cell)
     if args.report:
         report = result.report()
         report["examples"] = [getattr(e, "source", None) for e in examples]
         _write_json_atomic(Path(args.report), report)
     if getattr(args, "debug_dir", None):
         _write_debug(result, Path(args.debug_dir))
-    counts = ", ".join(f"{v} {k}" for k, v in result.counts().items())
+    _summary(result, out, session.warnings)
+    return EXIT_OK
+
+
+def _save_result(result, out: Path, cell) -> None:
+    from .heightfield import HeightField
+    from .io import MESH_EXTENSIONS, save_dem, save_mesh
+
+    field = HeightField(result.heights, cell_size=cell, source=str(out), format=None)
+    if out.suffix.lower() in MESH_EXTENSIONS:
+        save_mesh(field, out)
+    else:
+        save_dem(field, out)
+
+
+def _summary(result, out: Path, said: list[str]) -> None:
+    """One line per output, pin errors, and warnings not said before."""
+    counts = ", ".join(f"{v} {k}" for k, v in result.counts().items() if v)
     print(f"wrote {out}: {result.heights.shape[0]}x{result.heights.shape[1]} in {result.total_seconds:.1f} s "
           f"({counts} patches)", file=sys.stderr)
+    span = float(result.heights.max() - result.heights.min()) or 1.0
+    for e in result.pin_errors:
+        print(f"  pin ({e.row}, {e.col}): wanted {e.target:.1f} m, got {e.height:.1f} m "
+              f"(error {e.error:+.3f} m, {100 * abs(e.error) / span:.4f} % of the height range)", file=sys.stderr)
     for w in result.warnings:
-        if w not in session.warnings:
+        if w not in said:
             print(f"terrasynth-cli: note: {w}", file=sys.stderr)
+
+
+def _variations(examples, sketch, size, params, controls, args, cell) -> int:
+    """``--variations N``: seeds SEED..SEED+N-1 in parallel, OUT_v1.. OUT_vN."""
+    from .synthesis import run_variations
+
+    out = Path(args.out)
+    seeds = [params.seed + i for i in range(args.variations)]
+    paths = [out.with_name(f"{out.stem}_v{i + 1}{out.suffix}") for i in range(len(seeds))]
+    print(f"terrasynth-cli: {len(seeds)} variations (seeds {seeds[0]}-{seeds[-1]}) in parallel", file=sys.stderr)
+
+    def done(i, result):
+        _save_result(result, paths[i], cell)
+        _summary(result, paths[i], [])
+
+    results = run_variations(examples, sketch, seeds=seeds, shape=size, params=params, controls=controls,
+                             progress=done)
+    if args.report:
+        _write_json_atomic(Path(args.report), {"variations": [
+            dict(r.report(), seed=s, file=str(p)) for r, s, p in zip(results, seeds, paths)]})
     return EXIT_OK
 
 
@@ -288,8 +333,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_features)
 
     p = sub.add_parser("synth", help="synthesize a terrain from example DEMs and a sketch")
-    p.add_argument("--example", action="append", metavar="DEM", help="example DEM (repeatable)")
-    p.add_argument("--sketch", required=True, help="sketch PNG: red ridges, blue valleys")
+    p.add_argument("--example", action="append", metavar="DEM",
+                   help="example DEM (repeatable); with --styles, the style of unlisted colours")
+    p.add_argument("--sketch", help="sketch PNG: red ridges, blue valleys")
     p.add_argument("--out", required=True, help="output file; the format follows the extension")
     p.add_argument("--size", type=_parse_size, help="output ROWSxCOLS (default: the sketch's; it is scaled)")
     p.add_argument("--patch-size", type=int, default=80)
@@ -300,6 +346,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--blend", choices=("poisson", "c1", "none"), default="c1")
     p.add_argument("--report", metavar="REPORT.json", help="parameters, patch counts and timings as JSON")
     p.add_argument("--debug-dir", metavar="DIR", help="write patch ids, seams and features there")
+    add_control_arguments(p)
     p.set_defaults(func=cmd_synth)
 
     p = sub.add_parser("demo", help="synthesize the built-in example with the built-in sketch")

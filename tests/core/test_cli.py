@@ -299,7 +299,7 @@ def test_synth_report_counts_and_timings(synth_run):
     assert report["params"]["patch_size"] == 32 and report["params"]["seed"] == 0
     assert report["params"]["order"] == "bfs"
     counts = report["patch_counts"]
-    assert set(counts) == {"branch", "end", "path", "fill"}
+    assert set(counts) == {"stamp", "branch", "end", "path", "fill"}
     assert counts["branch"] >= 1 and counts["end"] >= 3 and counts["fill"] >= 1
     patches = json.loads((synth_run / "debug" / "patches.json").read_text())["patches"]
     assert sum(counts.values()) == len(patches)
