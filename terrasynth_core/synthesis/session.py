@@ -566,7 +566,7 @@ class _Run:
         relief = float(self.lay.relief[warped[0][0].example])
         evaluated = []
         for cand, patch in warped:
-            ssd, offset = _overlap_ssd(existing, patch, filled)
+            ssd, offset = _settle(*_overlap_ssd(existing, patch, filled))
             score = self._match_cost(ssd, offset, relief) + self.p.feature_weight * cand.deformation
             evaluated.append((score, ssd, offset, patch, cand))
         evaluated.sort(key=lambda t: t[0])
@@ -593,6 +593,7 @@ class _Run:
         options = []
         for ei in members:
             for pos, ssd, offset in searches[ei].best(target, filled, self.p.k, rng):
+                ssd, offset = _settle(ssd, offset)
                 options.append((self._match_cost(ssd, offset, relief), ssd, offset, ei, pos, relief))
         options.sort(key=lambda t: t[0])
         return options[: self.p.k]
@@ -658,6 +659,22 @@ class _WindowQueue:
             if self.share[i] < 1.0:
                 return tuple(int(v) for v in self.boxes[i])
         return None
+
+
+def _settle(ssd: float, offset: float) -> tuple[float, float]:
+    """The height shift that minimises the match cost, SSD plus
+    ``OFFSET_WEIGHT * offset**2`` (both over the relief squared), and the SSD
+    it leaves.
+
+    Matching the overlap exactly would carry every patch at its neighbours'
+    level, so levels random-walk away from the level field over many
+    patches, and fronts that grew apart meet in a step.  Settling a fraction
+    ``w / (1 + w)`` of the way back to the level field at every patch keeps
+    the drift bounded; the small step it leaves in the overlap is what the
+    seam solve removes.
+    """
+    settled = offset / (1.0 + OFFSET_WEIGHT)
+    return ssd + (offset - settled) ** 2, settled
 
 
 def _overlap_ssd(existing: np.ndarray, patch: np.ndarray, filled: np.ndarray) -> tuple[float, float]:
