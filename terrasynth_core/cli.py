@@ -169,6 +169,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from .features import read_sketch
     from .synthesis import SynthesisParams
 
+    if args.map != "default":
+        from .presets import load_preset
+
+        preset = load_preset(args.map)
+        return _synthesize([], preset.sketch, preset.shape, SynthesisParams(seed=args.seed), args, preset.controls)
     examples = [builtin_example(DEFAULT_EXAMPLE).load()]
     sketch = read_sketch(resource_path("sketches", DEFAULT_SKETCH))
     return _synthesize(examples, sketch, None, SynthesisParams(seed=args.seed), args)
@@ -350,6 +355,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_synth)
 
     p = sub.add_parser("demo", help="synthesize the built-in example with the built-in sketch")
+    p.add_argument("--map", choices=("default", "middle-earth"), default="default",
+                   help="middle-earth: four styles, water, a stamp and pins (the paper's Middle-earth map)")
     p.add_argument("--out", required=True)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--report", metavar="REPORT.json")

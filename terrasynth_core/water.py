@@ -9,10 +9,11 @@ order patches were placed in:
   where ``d_in`` is the distance to land and ``s`` a smoothstep: wide water
   gets the full depth, a river a few cells wide a shallow bed.  Terrain
   already deeper than the bed keeps its own shape (a soft minimum);
-- on land within ``bank_width`` cells of water, the height above the shore
-  level is scaled by ``s(d_out / bank_width)``: the land meets the water at
-  the level and rises back to the synthesized terrain with zero slope at
-  both ends, so a river carves a smooth valley, not a trench.
+- on land within ``bank_width`` cells of water, the broad height above the
+  shore level is scaled by ``s(d_out / bank_width)`` and the fine detail by
+  ``s(4 d_out / bank_width)``: the land meets the water at the level and
+  rises back to the synthesized terrain with zero slope at both ends, so a
+  river carves a valley, not a trench, and its banks keep their texture.
 """
 
 from __future__ import annotations
@@ -131,7 +132,12 @@ def apply_water(heights: np.ndarray, water: Water, *, bank_width: float,
     wet = np.minimum(wet, level - lip)
     shore = level + lip
     t = _smoothstep((d_out - 1.0) / max(width, 1.0)) if width > 0 else np.ones(mask.shape)
-    dry = shore + t * (h - shore)
+    # The broad shape eases down over the whole bank; the fine detail
+    # returns within its first quarter, so banks keep the style's texture
+    # instead of becoming smooth ramps.
+    broad = ndimage.gaussian_filter(h, max(width / 4.0, 1.0), mode="nearest")
+    t_fine = _smoothstep((d_out - 1.0) / max(width / 4.0, 1.0))
+    dry = shore + t * (broad - shore) + t_fine * (h - broad)
     # Land below the shore level is lifted too, fully at the shore and not
     # at all at the bank's outer edge; beyond the bank it is left alone
     # (see flooded_land()).

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .analysis import ExampleAnalysis, prepare_example
-from .controls import Controls, RenderedStamp, level_field, render_stamp
+from .controls import Controls, RenderedStamp, level_field, render_stamp, steer_level
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,6 +126,9 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
               for ex, med, s in zip(examples, medians, scales)]
     relief = np.array([ex.relief for ex in examples]) * scales * factor
     level = level_field(group_map, base, patch_size)
+    if controls.selection is None:
+        # (A re-synthesis keeps the pins' surroundings it does not select.)
+        level = steer_level(level, controls.pins, patch_size)
     stamps = []
     for st in controls.stamps:
         r = render_stamp(st, shape, patch_size)
