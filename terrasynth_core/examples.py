@@ -132,8 +132,10 @@ def builtin_example(key: str) -> BuiltinExample:
 
 
 def builtin_sketches() -> list[Path]:
-    """Paths of the sketch maps shipped in ``resources/sketches``."""
-    return sorted(resource_path("sketches").glob("*.png"))
+    """Paths of the sketch maps shipped in ``resources/sketches`` (not the
+    style-region and water maps of the multi-style presets beside them)."""
+    return sorted(p for p in resource_path("sketches").glob("*.png")
+                  if not p.stem.endswith(("_styles", "_water")))
 
 
 def resolve_dem(spec: str | Path, *, size: tuple[int, int] | None = None) -> HeightField:

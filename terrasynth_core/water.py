@@ -111,9 +111,9 @@ def apply_water(heights: np.ndarray, water: Water, *, bank_width: float,
     depth = 0.03 * span if water.depth is None else float(water.depth)
     width = float(bank_width if water.bank_width is None else water.bank_width)
     level = water.level
-    # A small step at the waterline keeps the painted shore exactly where
-    # the level cuts the terrain.
-    lip = max(0.05 * depth, 1e-3 * span)
+    # A hair's step at the waterline keeps the painted shore exactly where
+    # the level cuts the terrain (too small to see in a hillshade).
+    lip = max(1e-4 * span, 0.01)
     if mask.all():
         d_in = np.full(mask.shape, np.inf)
         d_out = np.zeros(mask.shape)
@@ -125,11 +125,14 @@ def apply_water(heights: np.ndarray, water: Water, *, bank_width: float,
         signed = ndimage.gaussian_filter(signed, SHORE_SMOOTHING)
         d_in = np.where(mask, np.maximum(-signed, 0.0) + 0.5, 0.0)
         d_out = np.where(mask, 0.0, np.maximum(signed, 0.0) + 0.5)
-    bed = level - lip - depth * _smoothstep((d_in - 0.5) / FULL_DEPTH_CELLS)
-    # Soft minimum of the bed and deeper terrain (smooth where they cross).
+    t_in = _smoothstep((d_in - 0.5) / FULL_DEPTH_CELLS)
+    bed = level - lip - depth * t_in
+    # Terrain deeper than the bed keeps its shape (a soft minimum, smooth
+    # where they cross), fading in with the bed's depth so the water still
+    # meets the land at the level instead of under a cliff.
     k = max(0.25 * depth, 1e-3 * span)
-    wet = bed - k * np.logaddexp(0.0, (bed - h) / k) + k * math.log(2.0)
-    wet = np.minimum(wet, level - lip)
+    deeper = np.minimum(-k * np.logaddexp(0.0, (bed - h) / k) + k * math.log(2.0), 0.0)
+    wet = bed + t_in * deeper
     shore = level + lip
     t = _smoothstep((d_out - 1.0) / max(width, 1.0)) if width > 0 else np.ones(mask.shape)
     # The broad shape eases down over the whole bank; the fine detail

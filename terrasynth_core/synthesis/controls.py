@@ -163,10 +163,10 @@ class Controls:
             style_map = np.zeros(shape, np.int16)
         if not styles and n_default == 0:
             raise ParamsError("no example DEM given: synthesis needs an example or a style")
-        water = self.water.checked(shape) if self.water is not None else None
-        if water is not None:
-            water = Water(_fit_map("water mask", water.mask, shape, order=0).astype(bool), water.level,
-                          water.depth, water.bank_width)
+        water = None
+        if self.water is not None:
+            fitted = _fit_map("water mask", np.asarray(self.water.mask), shape, order=0)
+            water = Water(fitted, self.water.level, self.water.depth, self.water.bank_width).checked(shape)
         for i, st in enumerate(self.stamps):
             if not isinstance(st, Stamp):
                 raise ParamsError(f"stamp {i + 1} must be a Stamp, got {type(st).__name__}")

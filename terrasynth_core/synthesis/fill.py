@@ -12,7 +12,14 @@ Expanded, it needs three correlations of the example with the template
 (``E^2 * m``, ``E * mO``, ``E * m``), each an FFT product: O(n log n) for all
 positions together.  The search runs on a down-sampled copy of the example
 (``coarse_factor``), keeps the k best well-separated positions and refines
-each at full resolution.  Positions whose window centre holds a strong
+each at full resolution.
+
+Windows are *ranked* by that SSD divided by the sum of the two windows'
+variances over the overlap (a correlation-like score).  Plain SSD favours
+the example's smoothest windows whenever the terrain around is rough (a
+smooth window is never far from anything), so a style filled by SSD alone
+comes out smoother than its example; the normalised rank removes that
+bias.  The SSD itself is still what is returned, for the match cost.  Positions whose window centre holds a strong
 example feature are excluded, so fill patches do not add ridges or valleys
 the sketch did not ask for.
 """
@@ -131,10 +138,14 @@ class FillSearch:
         # Circular cross-correlations (no wrap-around for positions that fit);
         # the two terms linear in the spectra share one inverse transform.
         conj_m = np.conj(F_m)
-        quad = fft.irfft2(self.F_e2 * conj_m - 2.0 * self.F_e * np.conj(F_mo), self.fshape,
-                          workers=self.workers)[:ar, :ac]
+        s_e2m = fft.irfft2(self.F_e2 * conj_m, self.fshape, workers=self.workers)[:ar, :ac]
+        s_emo = fft.irfft2(self.F_e * np.conj(F_mo), self.fshape, workers=self.workers)[:ar, :ac]
         s_em = fft.irfft2(self.F_e * conj_m, self.fshape, workers=self.workers)[:ar, :ac]
-        ssd = quad + sum_mo2 - (s_em - sum_mo) ** 2 / sum_m
+        ssd = s_e2m - 2.0 * s_emo + sum_mo2 - (s_em - sum_mo) ** 2 / sum_m
+        # Ranked by SSD over the two windows' variances (see the module notes).
+        var_c = s_e2m - s_em**2 / sum_m
+        var_t = sum_mo2 - sum_mo**2 / sum_m
+        ssd = ssd / (np.maximum(var_c, 0.0) + var_t + 1e-6 * sum_m)
         ssd[~self.allowed] = np.inf
         # k best, at least a quarter window apart so they differ.
         picks = []
@@ -173,6 +184,7 @@ class FillSearch:
                 diff = o - e
                 off = diff.mean()
                 ssd = float(((diff - off) ** 2).sum() / n)
-                if best is None or ssd < best[1]:
-                    best = ((r, c), ssd, float(off))
-        return best
+                score = ssd / (e.var() + o.var() + 1e-6)
+                if best is None or score < best[0]:
+                    best = (score, (r, c), ssd, float(off))
+        return best[1:]

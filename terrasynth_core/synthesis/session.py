@@ -593,8 +593,17 @@ class _Run:
         options = []
         for ei in members:
             for pos, ssd, offset in searches[ei].best(target, filled, self.p.k, rng):
-                ssd, offset = _settle(ssd, offset)
-                options.append((self._match_cost(ssd, offset, relief), ssd, offset, ei, pos, relief))
+                # Fill windows are anchored by their mean level: the search
+                # favours some parts of an example (often its smooth valley
+                # floors), and a region built from them would sit below its
+                # style's level.  Feature patches keep their own level, so
+                # sketched ridges still stand above their surroundings.
+                er, ec = pos
+                P = self.p.patch_size
+                mean = float(self.lay.detail[ei][er:er + P, ec:ec + P].mean())
+                ssd, offset = _settle(ssd, offset, mean)
+                cost = self._match_cost(ssd, offset + mean, relief)
+                options.append((cost, ssd, offset, ei, pos, relief))
         options.sort(key=lambda t: t[0])
         return options[: self.p.k]
 
@@ -661,10 +670,13 @@ class _WindowQueue:
         return None
 
 
-def _settle(ssd: float, offset: float) -> tuple[float, float]:
-    """The height shift that minimises the match cost, SSD plus
-    ``OFFSET_WEIGHT * offset**2`` (both over the relief squared), and the SSD
-    it leaves.
+def _settle(ssd: float, offset: float, mean: float = 0.0) -> tuple[float, float]:
+    """The height shift that minimises the match cost, and the SSD it leaves.
+
+    The cost is the overlap SSD plus ``OFFSET_WEIGHT * (shift + mean)**2``
+    (both over the relief squared), where ``mean`` is the candidate's mean
+    detail (0 to anchor the shift alone): its minimiser is
+    ``(offset - w mean) / (1 + w)`` for the SSD-optimal ``offset``.
 
     Matching the overlap exactly would carry every patch at its neighbours'
     level, so levels random-walk away from the level field over many
@@ -673,7 +685,7 @@ def _settle(ssd: float, offset: float) -> tuple[float, float]:
     the drift bounded; the small step it leaves in the overlap is what the
     seam solve removes.
     """
-    settled = offset / (1.0 + OFFSET_WEIGHT)
+    settled = (offset - OFFSET_WEIGHT * mean) / (1.0 + OFFSET_WEIGHT)
     return ssd + (offset - settled) ** 2, settled
 
 

@@ -108,3 +108,34 @@ def test_option_parsers():
     assert parse_stamp("x@5,6") == ("x", None, (5.0, 6.0), 0.0, 1.0)
     with pytest.raises(ParamsError, match="relief=NUMBER"):
         parse_style("#AABBCC=x,depth=3")
+
+
+def test_middle_earth_demo_meets_its_pins_and_water(capsys, tmp_path):
+    """The built-in multi-style map end to end: four styles, water, a stamp, pins."""
+    from terrasynth_core.presets import load_preset
+
+    preset = load_preset("middle-earth")
+    assert len(preset.controls.styles) >= 3 and preset.controls.water is not None
+    assert preset.controls.stamps and preset.controls.pins
+    code, _, err = run(capsys, "demo", "--map", "middle-earth", "--out", tmp_path / "me.tif",
+                       "--report", tmp_path / "me.json")
+    assert code == EXIT_OK, err
+    h = load_dem(tmp_path / "me.tif").heights
+    assert h.shape == preset.shape
+    report = json.loads((tmp_path / "me.json").read_text())
+    span = float(h.max() - h.min())
+    assert all(abs(p["error"]) < 0.01 * span for p in report["pins"])
+    water = preset.controls.water
+    assert (h[water.mask] < water.level).all()
+    # Each painted region sits at its own style's level: the high range is
+    # the highest region, the lowland the lowest (medians, metres).
+    labels = preset.controls.style_map
+    medians = {s.name: float(np.median(h[(labels == i) & ~water.mask])) for i, s in enumerate(preset.controls.styles)}
+    assert max(medians, key=medians.get) == "high mountains"
+
+
+def test_unknown_preset_is_an_error():
+    from terrasynth_core.presets import load_preset
+
+    with pytest.raises(ParamsError, match="middle-earth"):
+        load_preset("narnia")

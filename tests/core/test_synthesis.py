@@ -172,6 +172,28 @@ def test_fft_search_matches_brute_force(example):
     assert ssd < 1e-3 and offset == pytest.approx(123.0, abs=1e-3)
 
 
+def test_fft_search_ranks_by_normalised_ssd_like_brute_force(example):
+    """The search ranks windows by the SSD over the two windows' variances
+    (so rough candidates are not beaten by smooth ones just for being
+    smooth): its best pick is the brute-force best."""
+    E = example.heights[:120, :120].astype(np.float64)
+    search = FillSearch(example.heights[:120, :120], (24, 24), coarse_factor=1)
+    filled = np.zeros((24, 24), bool)
+    filled[:8, :] = True
+    filled[:, :6] = True
+    rng = np.random.default_rng(1)
+    target = E[30:54, 40:64] + rng.normal(0, 20, (24, 24))
+    o = target[filled]
+    scores = np.full((97, 97), np.inf)
+    for r in range(97):
+        for c in range(97):
+            e = E[r:r + 24, c:c + 24][filled]
+            d = o - e
+            scores[r, c] = ((d - d.mean()) ** 2).mean() / (e.var() + o.var() + 1e-6)
+    (r, c), _, _ = search.best(target, filled, 1, rng)[0]
+    assert (r, c) == np.unravel_index(np.argmin(scores), scores.shape)
+
+
 def test_analysis_disk_cache_round_trips_and_survives_damage(example, tmp_path, monkeypatch):
     from terrasynth_core.synthesis import analysis as an
 
