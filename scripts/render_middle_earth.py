@@ -1,0 +1,211 @@
+"""Render the README pictures of the Middle-earth demo.
+
+Usage::
+
+    python scripts/render_middle_earth.py [--out docs/images] [--seed S] [--size ROWSxCOLS]
+
+Synthesizes the demo (``resources/sketches/middle_earth*``, see
+``scripts/make_middle_earth.py``) and writes, under ``--out``:
+
+* ``middle_earth_map.png``: the input (style regions in their flat
+  colours, water in blue, ridge and valley strokes, the stamp's footprint
+  and the pins) beside the result (elevation colours under a hillshade,
+  water in blue by depth), at most 1200 px wide;
+* ``middle_earth_3d.png``: an off-screen pyvista view of the result from
+  the south-east, vertical exaggeration 2.5x, water in blue.
+
+Both are kept under 400 KB (quantized to 256 colours when needed).  The
+output has no single cell size (the examples' range from 30 m to 93 m);
+the pictures use 90 m, that of most of the SRTM examples.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+from make_middle_earth import STYLES, load_demo
+from render_gallery import MARGIN, MAX_WIDTH, compose, terrain_colours
+from terrasynth_core.analysis import hillshade
+from terrasynth_core.synthesis import Session, SynthesisParams
+
+REPO = Path(__file__).resolve().parents[1]
+#: Cell size the pictures assume, metres (see the module docstring).
+CELL = (90.0, 90.0)
+EXAGGERATION = 2.5
+#: Camera: degrees from south towards east, and above the horizon.
+VIEW_AZIMUTH = 25.0
+VIEW_ELEVATION = 38.0
+MAX_BYTES = 400_000
+#: Water colour from the shore (shallow) to full depth.
+SHALLOW_RGB = np.array((120, 170, 215), np.float64)
+DEEP_RGB = np.array((30, 70, 140), np.float64)
+STAMP_RGB = (255, 140, 0)
+PIN_RGB = (255, 230, 0)
+
+
+# -- colours --------------------------------------------------------------------
+def map_colours(heights: np.ndarray, water: np.ndarray, level: float) -> np.ndarray:
+    """Elevation colours on land (spanning the land's heights), blues by
+    depth in water; float (rows, cols, 3) in [0, 255]."""
+    land = np.where(water, np.nan, heights.astype(np.float64))
+    rgb = np.nan_to_num(terrain_colours(land))
+    if water.any():
+        depth = np.clip(level - heights[water], 0.0, None)
+        t = (depth / max(float(np.percentile(depth, 95)), 1e-6)).clip(0.0, 1.0)[:, None]
+        rgb[water] = (1 - t) * SHALLOW_RGB + t * DEEP_RGB
+    return rgb
+
+
+def shaded_map(heights: np.ndarray, water: np.ndarray, level: float) -> np.ndarray:
+    """Map colours darkened by a north-west hillshade of the terrain with
+    the water surface flat, uint8 (rows, cols, 3)."""
+    surface = np.where(water, np.float32(level), heights)
+    shade = np.nan_to_num(hillshade(surface, cell_size=CELL), nan=1.0)
+    # As render_gallery.shaded_relief: flat ground keeps its colour.
+    light = np.clip(0.15 + 1.2 * shade, 0.0, 1.25)[..., None]
+    return np.clip(map_colours(heights, water, level) * light, 0, 255).astype(np.uint8)
+
+
+def input_map(controls, sketch, colours: list[str], stamp_bbox) -> Image.Image:
+    """Style colours (``"#rrggbb"`` of style 0, 1, ...), water, strokes,
+    the stamp's footprint and the pins."""
+    palette = np.array([_rgb(c) for c in colours], np.uint8)
+    rgb = palette[controls.style_map].copy()
+    rgb[controls.water.mask] = SHALLOW_RGB.astype(np.uint8)
+    rgb[sketch.ridge_mask] = (220, 0, 0)
+    rgb[sketch.valley_mask] = (0, 40, 230)
+    img = Image.fromarray(rgb)
+    draw = ImageDraw.Draw(img)
+    if stamp_bbox is not None:
+        r0, r1, c0, c1 = stamp_bbox
+        draw.rectangle((c0, r0, c1 - 1, r1 - 1), outline=STAMP_RGB, width=3)
+    for p in controls.pins:
+        draw.ellipse((p.col - 7, p.row - 7, p.col + 7, p.row + 7), fill=PIN_RGB, outline=(0, 0, 0), width=2)
+    return img
+
+
+def _rgb(hex_colour: str) -> tuple[int, int, int]:
+    return tuple(int(hex_colour[i:i + 2], 16) for i in (1, 3, 5))
+
+
+# -- 3D ---------------------------------------------------------------------------
+def render_3d(heights: np.ndarray, colours: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """Off-screen pyvista view of ``heights`` painted with ``colours``.
+
+    Camera as in ``render_gallery.render_3d`` but from ``VIEW_AZIMUTH``;
+    the white margin is trimmed, so the image fits in ``size`` (width,
+    height) with the terrain's own aspect: uint8 (h, w, 3).
+    """
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    rows, cols = heights.shape
+    # Rows run south, y runs north: flip so the map is not mirrored.
+    z = np.ascontiguousarray(heights[::-1], dtype=np.float64)
+    grid = pv.ImageData(dimensions=(cols, rows, 1), spacing=(CELL[1], CELL[0], 1.0))
+    grid.point_data["z"] = (z - z.min()).ravel()
+    grid.point_data["colour"] = np.ascontiguousarray(colours[::-1]).reshape(-1, 3).astype(np.uint8)
+    surface = grid.warp_by_scalar("z", factor=EXAGGERATION)
+    plotter = pv.Plotter(off_screen=True, window_size=(2 * size[0], 2 * size[1]))
+    plotter.set_background("white")
+    plotter.add_mesh(surface, scalars="colour", rgb=True, smooth_shading=True, show_scalar_bar=False)
+    centre = np.array(surface.center)
+    x0, x1, y0, y1, _, _ = surface.bounds
+    az, el = math.radians(VIEW_AZIMUTH), math.radians(VIEW_ELEVATION)
+    direction = np.array([math.sin(az) * math.cos(el), -math.cos(az) * math.cos(el), math.sin(el)])
+    eye = centre + 2.0 * max(x1 - x0, y1 - y0) * direction
+    plotter.camera_position = [tuple(eye), tuple(centre), (0.0, 0.0, 1.0)]
+    plotter.reset_camera()
+    plotter.camera.zoom(1.45)
+    shot = plotter.screenshot(None, return_img=True)[:, :, :3]
+    plotter.close()
+    # Trim the white around the terrain, then shrink (cheap anti-aliasing).
+    rows, cols = np.nonzero((shot < 250).any(axis=2))
+    pad = 8
+    shot = shot[max(rows.min() - pad, 0):rows.max() + pad, max(cols.min() - pad, 0):cols.max() + pad]
+    f = min(size[0] / shot.shape[1], size[1] / shot.shape[0])
+    return np.asarray(Image.fromarray(shot).resize((round(shot.shape[1] * f), round(shot.shape[0] * f)),
+                                                   Image.LANCZOS))
+
+
+# -- saving -----------------------------------------------------------------------
+def save_small(img: Image.Image, path: Path) -> int:
+    """Save as PNG under ``MAX_BYTES``, quantizing to 256 colours if needed."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    img.save(path, optimize=True)
+    if path.stat().st_size >= MAX_BYTES:
+        img.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path, optimize=True)
+    size = path.stat().st_size
+    if size >= MAX_BYTES:
+        raise RuntimeError(f"{path} is {size} bytes, above the {MAX_BYTES}-byte budget")
+    return size
+
+
+def _shape(text: str) -> tuple[int, int]:
+    try:
+        rows, cols = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size {text!r}: expected ROWSxCOLS, e.g. 384x512") from None
+    return rows, cols
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=REPO / "docs" / "images", help="output folder")
+    parser.add_argument("--seed", type=int, default=0, help="synthesis seed (default 0)")
+    parser.add_argument("--size", type=_shape, default=None, metavar="ROWSxCOLS",
+                        help="output size (default the map's 768x1024)")
+    args = parser.parse_args(argv)
+
+    sketch, controls, scale = load_demo(shape=args.size)
+    params = SynthesisParams(seed=args.seed, patch_size=max(32, round(SynthesisParams().patch_size * scale)))
+    t = time.perf_counter()
+    session = Session([], sketch, params=params, controls=controls)
+    result = session.run()
+    seconds = time.perf_counter() - t
+    for w in result.warnings:
+        print(f"warning: {w}")
+    heights = result.heights
+    water, level = session.controls.water.mask, session.controls.water.level
+    stamp_bbox = next((p.bbox for p in result.patches if p.kind == "stamp"), None)
+    rows, cols = heights.shape
+    land = heights[~water]
+    summary = (f"{rows}x{cols} cells, land {land.min():.0f} to {land.max():.0f} m, water level {level:g} m, "
+               f"{seconds:.0f} s")
+
+    panel = (MAX_WIDTH - 3 * MARGIN) // 2
+    fit = [img.resize((panel, round(panel * rows / cols)), Image.LANCZOS)
+           for img in (input_map(session.controls, session.sketch, [c for _, c, _ in STYLES], stamp_bbox),
+                       Image.fromarray(shaded_map(heights, water, level)))]
+    names = " | ".join(f"{name}: {dem.removeprefix('builtin:')}" for name, _, dem in STYLES)
+    labels = ["input: style regions, water, sketch, stamp (orange), pins (yellow)",
+              "result: elevation colours, hillshade, water"]
+    picture = compose(fit, labels, f"Middle-earth demo: {summary}", columns=2)
+    footer = Image.new("RGB", (picture.size[0], 24), "white")
+    ImageDraw.Draw(footer).text((MARGIN, 4), names, fill=(60, 60, 60), font=ImageFont.load_default(size=14))
+    both = Image.new("RGB", (picture.size[0], picture.size[1] + footer.size[1]), "white")
+    both.paste(picture, (0, 0))
+    both.paste(footer, (0, picture.size[1]))
+    path = args.out / "middle_earth_map.png"
+    print(f"wrote {path} ({save_small(both, path) // 1000} KB)")
+
+    colours = map_colours(heights, water, level)
+    # The 3D view shows the water surface, not its bed.
+    view = render_3d(np.where(water, np.float32(level), heights), colours, (MAX_WIDTH - 2 * MARGIN, 720))
+    picture = compose([Image.fromarray(view)], [f"3D from the south-east, vertical exaggeration {EXAGGERATION:g}x, "
+                                                f"{CELL[0]:g} m cells"],
+                      f"Middle-earth demo in 3D: {summary}", columns=1)
+    path = args.out / "middle_earth_3d.png"
+    print(f"wrote {path} ({save_small(picture, path) // 1000} KB)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
