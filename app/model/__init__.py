@@ -1,11 +1,14 @@
 """The app's document model: plain Python, no Qt.
 
-:class:`Document` holds the :class:`Sketch` (with undo history), the chosen
-:class:`ExampleRef` list, the synthesis parameters and the last
-:class:`TerrainResult`; :func:`save_project` / :func:`load_project` write and
-read it as one file; :class:`RecoveryStore` autosaves it.
+:class:`Document` holds the :class:`Sketch` (strokes, style regions and
+water, with undo history), the chosen :class:`ExampleRef` list, the styles
+(:class:`StyleSpec`), elevation pins, stamps (:class:`StampSpec`), the
+synthesis parameters and the last :class:`TerrainResult`;
+:func:`save_project` / :func:`load_project` write and read it as one file;
+:class:`RecoveryStore` autosaves it.
 """
 
+from .controls import StampSpec, StyleSpec, fitting_scale
 from .document import Document, SynthesisRequest
 from .events import Event
 from .examples import ExampleRef, builtin_refs
@@ -13,10 +16,12 @@ from .history import SketchEdit, SketchHistory
 from .project import PROJECT_EXTENSION, ProjectError, load_project, save_project
 from .recovery import RecoveryStore
 from .result import TerrainResult
-from .sketch import TOOLS, Sketch, capsule_coverage
+from .sketch import REGION_TOOLS, STROKE_TOOLS, TOOLS, Sketch, capsule_coverage
 
 __all__ = [
     "PROJECT_EXTENSION",
+    "REGION_TOOLS",
+    "STROKE_TOOLS",
     "TOOLS",
     "Document",
     "Event",
@@ -26,10 +31,13 @@ __all__ = [
     "Sketch",
     "SketchEdit",
     "SketchHistory",
+    "StampSpec",
+    "StyleSpec",
     "SynthesisRequest",
     "TerrainResult",
     "builtin_refs",
     "capsule_coverage",
+    "fitting_scale",
     "load_project",
     "save_project",
 ]

@@ -1,4 +1,5 @@
-"""The document: sketch, examples, parameters and the last result.
+"""The document: sketch and regions, examples, styles, pins, stamps,
+parameters and the last result.
 
 Views subscribe to its events and translate user actions into its methods;
 nothing here knows about Qt, so the whole editing logic is testable with
@@ -7,18 +8,27 @@ plain pytest.
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
 
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.examples import DEFAULT_EXAMPLE, DEFAULT_SKETCH, resource_path
 from terrasynth_core.features import SketchMap, read_sketch
-from terrasynth_core.synthesis import Session, SynthesisParams
+from terrasynth_core.synthesis import Controls, Pin, Session, SynthesisParams, Water, run_variations
 
+from .controls import STYLE_PALETTE, StampSpec, StyleSpec
 from .events import Event
 from .examples import ExampleRef
 from .result import TerrainResult
-from .sketch import Sketch
+from .sketch import MAX_STYLE_ID, Sketch, capsule_coverage
+
+#: Marks "keep the current value" for keyword arguments that accept None.
+_KEEP = object()
 
 
 class Document:
@@ -27,27 +37,54 @@ class Document:
     Parameters
     ----------
     sketch : Sketch
+        Strokes, style regions and water.
     examples : list of ExampleRef
+        The plain examples: the style of every cell no style region claims.
     params : SynthesisParams, optional
     result : TerrainResult or None, optional
     path : Path or None, optional
         File the document was read from or last saved to.
+    styles : sequence of StyleSpec, optional
+        Styles the sketch's style layer refers to by id.
+    water_level : float, default 0
+        Level of the painted water, metres.
+    height_range : (low, high) or None, optional
+        Final heights are mapped onto it, metres.
+    pins : sequence of Pin, optional
+        Wanted heights at output cells.
+    stamps : sequence of StampSpec, optional
+        DEMs placed as they are.
+    next_style_id : int, default 0
+        Lowest id a new style may take (ids are never reused).
 
     Attributes
     ----------
     changed : Event
         Emitted with what changed: ``"examples"``, ``"params"``,
-        ``"result"``, ``"path"`` or ``"dirty"`` (the unsaved-changes flag).
-        Sketch edits are announced by ``document.sketch.changed``.
+        ``"result"``, ``"styles"``, ``"water_level"``, ``"height_range"``,
+        ``"pins"``, ``"stamps"``, ``"selection"``, ``"path"`` or ``"dirty"``
+        (the unsaved-changes flag).  Sketch edits are announced by
+        ``document.sketch.changed``.  The selection is not saved and does
+        not make the document dirty.
     """
 
     def __init__(self, sketch: Sketch, examples: list[ExampleRef], *, params: SynthesisParams | None = None,
-                 result: TerrainResult | None = None, path: Path | None = None) -> None:
+                 result: TerrainResult | None = None, path: Path | None = None,
+                 styles: Sequence[StyleSpec] = (), water_level: float = 0.0,
+                 height_range: tuple[float, float] | None = None, pins: Sequence[Pin] = (),
+                 stamps: Sequence[StampSpec] = (), next_style_id: int = 0) -> None:
         self.sketch = sketch
         self._examples = list(examples)
         self._params = params if params is not None else SynthesisParams()
         self._result = result
         self._path = Path(path) if path is not None else None
+        self._styles = list(styles)
+        self._water_level = _finite(water_level, "water level")
+        self._height_range = _checked_range(height_range)
+        self._pins = list(pins)
+        self._stamps = list(stamps)
+        self._next_style_id = int(next_style_id)
+        self._selection: np.ndarray | None = None
         self.changed = Event()
         # Every change bumps the generation; the document is dirty while it
         # differs from the generation last saved.
@@ -79,6 +116,41 @@ class Document:
         return self._path
 
     @property
+    def styles(self) -> list[StyleSpec]:
+        return list(self._styles)
+
+    @property
+    def water_level(self) -> float:
+        return self._water_level
+
+    @property
+    def height_range(self) -> tuple[float, float] | None:
+        return self._height_range
+
+    @property
+    def pins(self) -> list[Pin]:
+        return list(self._pins)
+
+    @property
+    def stamps(self) -> list[StampSpec]:
+        return list(self._stamps)
+
+    @property
+    def next_style_id(self) -> int:
+        """Id the next added style gets: above every id used so far."""
+        layer_max = int(self.sketch.style.max()) if self.sketch.style.size else -1
+        return max([self._next_style_id, layer_max + 1] + [s.id + 1 for s in self._styles])
+
+    @property
+    def selection(self) -> np.ndarray | None:
+        """Cells chosen for re-synthesis, bool (rows, cols) read-only, or None."""
+        if self._selection is None:
+            return None
+        view = self._selection.view()
+        view.flags.writeable = False
+        return view
+
+    @property
     def output_shape(self) -> tuple[int, int]:
         """Size of the terrain to synthesize: the sketch's."""
         return self.sketch.shape
@@ -98,7 +170,7 @@ class Document:
         """File name for the window title, ``"Untitled"`` before the first save."""
         return self._path.name if self._path is not None else "Untitled"
 
-    # -- edits ----------------------------------------------------------------------
+    # -- examples, parameters, result ------------------------------------------------
     def set_examples(self, examples: list[ExampleRef]) -> None:
         examples = list(examples)
         if examples == self._examples:
@@ -126,6 +198,161 @@ class Document:
         self._result = result
         self._touch("result")
 
+    # -- styles ---------------------------------------------------------------------------
+    def style(self, style_id: int) -> StyleSpec:
+        """The style with ``style_id``.
+
+        Raises
+        ------
+        KeyError
+            When there is none.
+        """
+        for spec in self._styles:
+            if spec.id == style_id:
+                return spec
+        raise KeyError(f"no style with id {style_id}")
+
+    def add_style(self, example: ExampleRef, *, name: str | None = None, color: str | None = None,
+                  relief_scale: float = 1.0, base: float | None = None) -> StyleSpec:
+        """Add a style with a new id; the name defaults to the example's, the
+        colour to the first palette colour not in use."""
+        style_id = self.next_style_id
+        if style_id > MAX_STYLE_ID:
+            raise ParamsError(f"no style ids left (the largest is {MAX_STYLE_ID})")
+        if color is None:
+            taken = {s.color for s in self._styles}
+            free = [c for c in STYLE_PALETTE if c not in taken]
+            color = free[0] if free else STYLE_PALETTE[len(self._styles) % len(STYLE_PALETTE)]
+        spec = StyleSpec(style_id, example.label if name is None else name, color, example, relief_scale, base)
+        self._styles.append(spec)
+        self._next_style_id = style_id + 1
+        self._touch("styles")
+        return spec
+
+    def update_style(self, style_id: int, **changes) -> StyleSpec:
+        """Change fields of a style (``name``, ``color``, ``example``,
+        ``relief_scale``, ``base``); its id stays."""
+        if "id" in changes:
+            raise ParamsError("a style's id cannot change")
+        old = self.style(style_id)
+        new = dataclasses.replace(old, **changes)
+        if new != old:
+            self._styles[self._styles.index(old)] = new
+            self._touch("styles")
+        return new
+
+    def remove_style(self, style_id: int) -> None:
+        """Remove a style; its painted cells fall back to the plain examples
+        (ids are never reused, so they never turn into another style)."""
+        spec = self.style(style_id)
+        self._styles.remove(spec)
+        self._touch("styles")
+
+    # -- water and height range ------------------------------------------------------
+    def set_water_level(self, level: float) -> None:
+        level = _finite(level, "water level")
+        if level != self._water_level:
+            self._water_level = level
+            self._touch("water_level")
+
+    def suggested_water_level(self) -> float | None:
+        """A level from the current terrain: the median height under the
+        painted water, or the 10th percentile of all heights when none is
+        painted; None without a terrain of the sketch's size."""
+        result = self._result
+        if result is None or result.shape != self.output_shape:
+            return None
+        water = self.sketch.water
+        heights = result.heights[water] if water.any() else result.heights
+        return round(float(np.percentile(heights, 50 if water.any() else 10)), 1)
+
+    def set_height_range(self, height_range: tuple[float, float] | None) -> None:
+        height_range = _checked_range(height_range)
+        if height_range != self._height_range:
+            self._height_range = height_range
+            self._touch("height_range")
+
+    # -- pins -----------------------------------------------------------------------------
+    def add_pin(self, row: int, col: int, height: float) -> Pin:
+        """Pin cell ``(row, col)`` to ``height`` metres (replacing a pin on that cell)."""
+        rows, cols = self.output_shape
+        row, col = int(row), int(col)
+        if not (0 <= row < rows and 0 <= col < cols):
+            raise ParamsError(f"pin at ({row}, {col}) is outside the {rows}x{cols} output")
+        pin = Pin(row, col, _finite(height, "pin height"))
+        self._pins = [p for p in self._pins if (p.row, p.col) != (row, col)] + [pin]
+        self._touch("pins")
+        return pin
+
+    def update_pin(self, index: int, height: float) -> None:
+        old = self._pins[index]
+        self._pins[index] = Pin(old.row, old.col, _finite(height, "pin height"))
+        if self._pins[index] != old:
+            self._touch("pins")
+
+    def remove_pin(self, index: int) -> None:
+        del self._pins[index]
+        self._touch("pins")
+
+    # -- stamps ---------------------------------------------------------------------------
+    def add_stamp(self, stamp: StampSpec) -> None:
+        rows, cols = self.output_shape
+        r, c = stamp.center
+        if not (0 <= r < rows and 0 <= c < cols):
+            raise ParamsError(f"stamp centre ({r:g}, {c:g}) is outside the {rows}x{cols} output")
+        self._stamps.append(stamp)
+        self._touch("stamps")
+
+    def update_stamp(self, index: int, **changes) -> StampSpec:
+        """Change fields of stamp ``index`` (``center``, ``rotation``, ``scale``...)."""
+        old = self._stamps[index]
+        new = dataclasses.replace(old, **changes)
+        if new != old:
+            self._stamps[index] = new
+            self._touch("stamps")
+        return new
+
+    def remove_stamp(self, index: int) -> None:
+        del self._stamps[index]
+        self._touch("stamps")
+
+    # -- selection --------------------------------------------------------------------------
+    def set_selection(self, mask: np.ndarray | None) -> None:
+        """Replace the selection (None or an all-False mask clears it)."""
+        if mask is not None:
+            mask = np.asarray(mask, dtype=bool)
+            if mask.shape != self.output_shape:
+                raise ParamsError(f"selection is {mask.shape} but the output is "
+                                  f"{self.output_shape[0]}x{self.output_shape[1]}")
+            mask = mask.copy() if mask.any() else None
+        self._selection = mask
+        self.changed.emit("selection")
+
+    def select_rect(self, r0: int, r1: int, c0: int, c1: int, *, add: bool = False) -> None:
+        """Select the half-open window rows ``r0:r1``, columns ``c0:c1``
+        (clipped to the output); ``add`` keeps what was selected."""
+        rows, cols = self.output_shape
+        mask = self._selection.copy() if add and self._selection is not None else np.zeros((rows, cols), bool)
+        mask[max(int(r0), 0):min(int(r1), rows), max(int(c0), 0):min(int(c1), cols)] = True
+        self.set_selection(mask)
+
+    def paint_selection(self, p0: tuple[float, float], p1: tuple[float, float], *, radius: float,
+                        add: bool = True) -> None:
+        """Add (or with ``add=False`` remove) the cells a round brush of
+        ``radius`` cells covers from ``p0`` to ``p1`` ((row, col))."""
+        bbox, coverage = capsule_coverage(self.output_shape, p0, p1, max(float(radius), 0.5), 1.0)
+        if bbox is None:
+            return
+        mask = self._selection.copy() if self._selection is not None else np.zeros(self.output_shape, bool)
+        r0, r1, c0, c1 = bbox
+        mask[r0:r1, c0:c1][coverage >= 128] = add
+        self.set_selection(mask)
+
+    def clear_selection(self) -> None:
+        if self._selection is not None:
+            self.set_selection(None)
+
+    # -- files ------------------------------------------------------------------------------
     def mark_saved(self, path: Path) -> None:
         """Record that the document was written to ``path``."""
         self._path = Path(path)
@@ -141,25 +368,39 @@ class Document:
         """Take over ``other``'s contents (a project was opened).
 
         The sketch object stays the same, so views stay connected; its history
-        is cleared.  The result is clean unless ``other`` was dirty.
+        is cleared, and so is the selection.  The result is clean unless
+        ``other`` was dirty.
         """
-        self.sketch.reset(other.sketch.ridge, other.sketch.valley)
+        s = other.sketch
+        self.sketch.reset(s.ridge, s.valley, style=s.style, water=s.water)
         self._examples = other.examples
         self._params = other.params
         self._result = other.result
         self._path = other.path
+        self._styles = other.styles
+        self._water_level = other.water_level
+        self._height_range = other.height_range
+        self._pins = other.pins
+        self._stamps = other.stamps
+        self._next_style_id = other.next_style_id
+        self._selection = None
         self._generation += 1
         self._saved_generation = self._generation if not other.dirty else -1
-        for what in ("examples", "params", "result", "path", "dirty"):
+        for what in ("examples", "params", "styles", "water_level", "height_range", "pins", "stamps", "result",
+                     "selection", "path", "dirty"):
             self.changed.emit(what)
 
-    def snapshot(self) -> "Document":
-        """A copy whose sketch no later edit can touch (for autosaving on a thread).
+    def snapshot(self, *, path: Path | None | object = _KEEP) -> "Document":
+        """A copy whose sketch no later edit can touch (for autosaving on a
+        thread, or recovery); ``path`` replaces the file it belongs to.
 
         The result's arrays are shared: nothing writes into a result.
         """
-        copy = Document(Sketch(self.sketch.ridge, self.sketch.valley), self._examples, params=self._params,
-                        result=self._result, path=self._path)
+        s = self.sketch
+        copy = Document(Sketch(s.ridge, s.valley, style=s.style, water=s.water), self._examples,
+                        params=self._params, result=self._result, path=self._path if path is _KEEP else path,
+                        styles=self._styles, water_level=self._water_level, height_range=self._height_range,
+                        pins=self._pins, stamps=self._stamps, next_style_id=self.next_style_id)
         if self.dirty:
             copy.mark_unsaved()
         return copy
@@ -171,14 +412,54 @@ class Document:
         Raises
         ------
         ParamsError
-            When no example is chosen.
+            When no example is chosen and styles do not cover the sketch.
         """
-        if not self._examples:
-            raise ParamsError("no example DEM chosen: add one from the example library")
+        styles, style_map = self._style_map()
+        if not self._examples and (style_map is None or (style_map < 0).any()):
+            raise ParamsError("no example DEM chosen: add one from the example library"
+                              + (" or paint every cell with a style" if styles else ""))
         sketch_map = self.sketch.to_sketch_map() if self.sketch.has_strokes else None
-        return SynthesisRequest(tuple(self._examples), sketch_map, self.output_shape, self._params)
+        return SynthesisRequest(
+            tuple(self._examples), sketch_map, self.output_shape, self._params, styles=styles, style_map=style_map,
+            water=np.array(self.sketch.water) if self.sketch.has_water else None, water_level=self._water_level,
+            height_range=self._height_range, pins=tuple(self._pins), stamps=tuple(self._stamps))
+
+    def resynthesis_request(self, seed: int) -> "SynthesisRequest":
+        """What to synthesize to replace the selected cells of the current
+        terrain with a new variant (seed ``seed``); the rest stays as it is.
+
+        Raises
+        ------
+        ParamsError
+            No terrain, a terrain of another size than the sketch, or no
+            selection.
+        """
+        result = self._result
+        if result is None:
+            raise ParamsError("there is no terrain to change: synthesize one first")
+        if result.shape != self.output_shape:
+            raise ParamsError(f"the terrain is {result.shape[0]}x{result.shape[1]} but the sketch is "
+                              f"{self.output_shape[0]}x{self.output_shape[1]}: synthesize it again first")
+        if self._selection is None:
+            raise ParamsError("nothing is selected: select the part of the terrain to synthesize again")
+        request = self.synthesis_request()
+        return dataclasses.replace(request, params=dataclasses.replace(self._params, seed=int(seed)),
+                                   previous=result.heights, selection=self._selection.copy())
 
     # -- internals --------------------------------------------------------------------
+    def _style_map(self) -> tuple[tuple[StyleSpec, ...], np.ndarray | None]:
+        """The styles painted somewhere, and the core's label map (index
+        into them per cell, -1 elsewhere); ``((), None)`` when none is."""
+        labels = self.sketch.style.astype(np.int32) + 1  # 0 = no style
+        counts = np.bincount(labels.ravel(), minlength=1)
+        used = tuple(s for s in self._styles if s.id + 1 < counts.size and counts[s.id + 1])
+        if not used:
+            return (), None
+        lut = np.full(counts.size, -1, np.int16)
+        for index, spec in enumerate(used):
+            lut[spec.id + 1] = index
+        return used, lut[labels]
+
     def _touch(self, what: str) -> None:
         was_dirty = self.dirty
         self._generation += 1
@@ -187,13 +468,15 @@ class Document:
         if not was_dirty or what == "dirty":
             self.changed.emit("dirty")
 
-    def _sketch_changed(self, _bbox) -> None:
+    def _sketch_changed(self, bbox) -> None:
         # During a stroke the sketch changes on every mouse move; the document
         # only needs to know it is dirty.
         was_dirty = self.dirty
         self._generation += 1
         if not was_dirty:
             self.changed.emit("dirty")
+        if bbox is None and self._selection is not None and self._selection.shape != self.output_shape:
+            self.set_selection(None)
 
 
 @dataclass(frozen=True, eq=False)
@@ -202,12 +485,53 @@ class SynthesisRequest:
 
     :meth:`make_session` does the slow part (reading and analysing the
     examples) and is meant to be called on a worker thread.
+
+    Parameters
+    ----------
+    examples : tuple of ExampleRef
+    sketch_map : SketchMap or None
+    shape : (rows, cols)
+    params : SynthesisParams
+    styles : tuple of StyleSpec
+        The styles painted somewhere, in ``style_map`` index order.
+    style_map : ndarray of int16, shape (rows, cols), or None
+        Index into ``styles`` per cell, -1 for the plain examples.
+    water : ndarray of bool, shape (rows, cols), or None
+    water_level : float
+    height_range : (low, high) or None
+    pins : tuple of Pin
+    stamps : tuple of StampSpec
+    previous : ndarray of float32, shape (rows, cols), or None
+        For a re-synthesis: the terrain to keep outside ``selection``.
+    selection : ndarray of bool, shape (rows, cols), or None
     """
 
     examples: tuple[ExampleRef, ...]
     sketch_map: SketchMap | None
     shape: tuple[int, int]
     params: SynthesisParams
+    styles: tuple[StyleSpec, ...] = ()
+    style_map: np.ndarray | None = None
+    water: np.ndarray | None = None
+    water_level: float = 0.0
+    height_range: tuple[float, float] | None = None
+    pins: tuple[Pin, ...] = ()
+    stamps: tuple[StampSpec, ...] = ()
+    previous: np.ndarray | None = None
+    selection: np.ndarray | None = None
+
+    def make_controls(self) -> Controls:
+        """The core controls, style and stamp DEMs read (slow)."""
+        return Controls(
+            styles=tuple(spec.to_core() for spec in self.styles),
+            style_map=self.style_map,
+            water=Water(self.water, self.water_level) if self.water is not None else None,
+            stamps=tuple(spec.to_core() for spec in self.stamps),
+            pins=self.pins,
+            height_range=self.height_range,
+            previous=self.previous,
+            selection=self.selection,
+        )
 
     def make_session(self) -> Session:
         """Load the examples and build the validated core session.
@@ -218,5 +542,63 @@ class SynthesisRequest:
             For an unreadable example or inconsistent inputs.
         """
         fields = [ref.load() for ref in self.examples]
-        return Session(fields, self.sketch_map, shape=self.shape, params=self.params)
+        return Session(fields, self.sketch_map, shape=self.shape, params=self.params, controls=self.make_controls())
 
+    def source_fields(self) -> list:
+        """The height fields of the plain examples, then of the styles (slow)."""
+        return [ref.load() for ref in self.examples] + [spec.example.load() for spec in self.styles]
+
+    def cell_size(self) -> tuple[float, float] | None:
+        """Ground size of an output cell: that of the first example (or style), metres."""
+        return self.source_fields()[0].cell_size
+
+    def make_variations(self, seeds: Sequence[int], *, progress: Callable | None = None,
+                        cancel: Callable[[], bool] | None = None, workers: int | None = None) -> list[TerrainResult]:
+        """One terrain per seed, made in parallel processes.
+
+        Parameters
+        ----------
+        seeds : sequence of int
+            Distinct, non-negative.
+        progress : callable(index, TerrainResult), optional
+            Called (in this thread) as each variation finishes.
+        cancel : callable() -> bool, optional
+            Polled; True stops them all (``SynthesisCancelled`` is raised).
+        workers : int, optional
+            Processes; default one per core, at most one per seed.
+
+        Returns
+        -------
+        list of TerrainResult
+            In the order of ``seeds``.
+        """
+        fields = [ref.load() for ref in self.examples]
+        cell_size = self.cell_size()
+        terrains: dict[int, TerrainResult] = {}
+
+        def finished(index: int, result) -> None:
+            # The core reports every variation here, so the objects handed to
+            # ``progress`` are the ones returned.
+            terrains[index] = TerrainResult.from_synthesis(result, cell_size=cell_size)
+            if progress is not None:
+                progress(index, terrains[index])
+
+        results = run_variations(fields, self.sketch_map, seeds=seeds, shape=self.shape, params=self.params,
+                                 controls=self.make_controls(), workers=workers, progress=finished, cancel=cancel)
+        return [terrains[i] for i in range(len(results))]
+
+
+def _finite(value: float, what: str) -> float:
+    value = float(value)
+    if not math.isfinite(value):
+        raise ParamsError(f"{what} must be a finite number of metres, got {value}")
+    return value
+
+
+def _checked_range(height_range) -> tuple[float, float] | None:
+    if height_range is None:
+        return None
+    lo, hi = (float(v) for v in height_range)
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+        raise ParamsError(f"height range must be two finite heights LOW < HIGH, got {tuple(height_range)}")
+    return lo, hi

@@ -1,8 +1,8 @@
 """Undo and redo of sketch edits: one stroke is one step.
 
-An edit records only the window it touched, as ``(bbox, old, new)`` for both
-stroke layers (napari's Labels layer does the same), so a long history of
-small strokes on a large sketch stays small.
+An edit records only the layers it changed and only the window it touched,
+as ``(bbox, old, new)`` (napari's Labels layer does the same), so a long
+history of small strokes on a large sketch stays small.
 """
 
 from __future__ import annotations
@@ -17,28 +17,28 @@ BBox = tuple[int, int, int, int]
 
 @dataclass(frozen=True, eq=False)
 class SketchEdit:
-    """One undoable change of the sketch layers.
+    """One undoable change of some sketch layers.
 
     Parameters
     ----------
     bbox : (r0, r1, c0, c1) or None
-        Window the edit changed; ``None`` when the whole sketch was replaced
-        (its shape may have changed too).
-    old_ridge, old_valley : ndarray of uint8
-        Layer contents before the edit, shape of ``bbox`` (or whole layers).
-    new_ridge, new_valley : ndarray of uint8
-        Layer contents after the edit.
+        Window the edit changed; ``None`` when whole layers were replaced
+        (their shape may have changed too).
+    old : dict of str -> ndarray
+        Contents before the edit of each layer it changed (``"ridge"``,
+        ``"valley"``, ``"style"``, ``"water"``), shape of ``bbox`` (or whole
+        layers).
+    new : dict of str -> ndarray
+        Contents after the edit, same keys.
     """
 
     bbox: BBox | None
-    old_ridge: np.ndarray
-    old_valley: np.ndarray
-    new_ridge: np.ndarray
-    new_valley: np.ndarray
+    old: dict[str, np.ndarray]
+    new: dict[str, np.ndarray]
 
     @property
     def nbytes(self) -> int:
-        return self.old_ridge.nbytes * 2 + self.new_ridge.nbytes * 2
+        return sum(a.nbytes for a in self.old.values()) + sum(a.nbytes for a in self.new.values())
 
 
 class SketchHistory:

@@ -3,14 +3,18 @@
 Layout of the zip::
 
     project.json        format, version, examples, params, sketch shape,
+                        styles, water level, height range, pins, stamps,
                         result metadata (cell size, report, feature graphs)
     sketch_ridge.npy    uint8 (rows, cols) stroke intensities
     sketch_valley.npy   uint8 (rows, cols)
+    sketch_style.npy    int16 (rows, cols) style ids, -1 none (version 2)
+    sketch_water.npy    bool (rows, cols) (version 2)
     result_heights.npy  float32 (rows, cols), when there is a result
     result_patch_id.npy int32
     result_seams.npy    bool
 
-Writes go to a temporary file in the target's folder that then replaces the
+Version 1 files (before styles, water, pins and stamps) still load, with
+none of them.  Writes go to a temporary file in the target's folder that then replaces the
 target, so a crash mid-save never leaves a truncated project.
 """
 
@@ -27,8 +31,9 @@ import numpy as np
 
 from terrasynth_core.errors import TerraSynthError
 from terrasynth_core.features import FeatureGraph, FeatureMaps
-from terrasynth_core.synthesis import SynthesisParams
+from terrasynth_core.synthesis import Pin, SynthesisParams
 
+from .controls import StampSpec, StyleSpec
 from .document import Document
 from .examples import ExampleRef
 from .result import TerrainResult
@@ -37,7 +42,7 @@ from .sketch import Sketch
 #: Extension of project files.
 PROJECT_EXTENSION = ".tsproj"
 FORMAT_NAME = "terrasynth-project"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 
 class ProjectError(TerraSynthError):
@@ -67,13 +72,23 @@ def save_project(document: Document, path: str | os.PathLike, *, mark_saved: boo
         When the file cannot be written.
     """
     path = Path(path)
-    arrays = {"sketch_ridge": np.asarray(document.sketch.ridge), "sketch_valley": np.asarray(document.sketch.valley)}
+    sketch = document.sketch
+    arrays = {"sketch_ridge": np.asarray(sketch.ridge), "sketch_valley": np.asarray(sketch.valley),
+              "sketch_style": np.asarray(sketch.style), "sketch_water": np.asarray(sketch.water)}
     meta: dict = {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
         "examples": [_example_entry(ref, path.parent) for ref in document.examples],
         "params": document.params.to_dict(),
-        "sketch": {"shape": list(document.sketch.shape)},
+        "sketch": {"shape": list(sketch.shape)},
+        "styles": [dict(spec.to_dict(), example=_example_entry(spec.example, path.parent))
+                   for spec in document.styles],
+        "next_style_id": document.next_style_id,
+        "water_level": document.water_level,
+        "height_range": list(document.height_range) if document.height_range is not None else None,
+        "pins": [{"row": p.row, "col": p.col, "height": p.height} for p in document.pins],
+        "stamps": [dict(spec.to_dict(), example=_example_entry(spec.example, path.parent))
+                   for spec in document.stamps],
         "result": None,
     }
     result = document.result
@@ -111,7 +126,10 @@ def load_project(path: str | os.PathLike) -> Document:
                     f"{path} is a version {meta['version']} project; this TerraSynth reads up to version "
                     f"{FORMAT_VERSION}"
                 )
-            sketch = Sketch(_array(zf, "sketch_ridge"), _array(zf, "sketch_valley"))
+            names = set(zf.namelist())
+            regions = {name: _array(zf, f"sketch_{name}") for name in ("style", "water")
+                       if f"sketch_{name}.npy" in names}
+            sketch = Sketch(_array(zf, "sketch_ridge"), _array(zf, "sketch_valley"), **regions)
             result = None
             if meta.get("result") is not None:
                 info = meta["result"]
@@ -124,9 +142,20 @@ def load_project(path: str | os.PathLike) -> Document:
                     sketch_features=_feature_maps(features, shape) if features is not None else None,
                     cell_size=tuple(info["cell_size"]) if info.get("cell_size") is not None else None,
                     report=info.get("report") or {},
+                    pin_errors=TerrainResult.pin_errors_of(info.get("report") or {}),
                 )
         examples = [_example_ref(entry, path.parent) for entry in meta["examples"]]
         params = SynthesisParams.from_dict(meta["params"])
+        styles = [StyleSpec.from_dict(entry, _example_ref(entry["example"], path.parent))
+                  for entry in meta.get("styles", [])]
+        stamps = [StampSpec.from_dict(entry, _example_ref(entry["example"], path.parent))
+                  for entry in meta.get("stamps", [])]
+        pins = [Pin(int(p["row"]), int(p["col"]), float(p["height"])) for p in meta.get("pins", [])]
+        height_range = meta.get("height_range")
+        document = Document(sketch, examples, params=params, result=result, path=path, styles=styles,
+                            water_level=float(meta.get("water_level", 0.0)),
+                            height_range=tuple(height_range) if height_range is not None else None,
+                            pins=pins, stamps=stamps, next_style_id=int(meta.get("next_style_id", 0)))
     except ProjectError:
         raise
     except TerraSynthError as exc:
@@ -135,7 +164,6 @@ def load_project(path: str | os.PathLike) -> Document:
         raise ProjectError(f"project file {path} does not exist") from None
     except (OSError, zipfile.BadZipFile, KeyError, ValueError, TypeError) as exc:
         raise ProjectError(f"{path} is damaged or not a TerraSynth project: {exc}") from None
-    document = Document(sketch, examples, params=params, result=result, path=path)
     document.mark_saved(path)
     return document
 

@@ -9,7 +9,6 @@ from pathlib import Path
 
 from .document import Document
 from .project import load_project, save_project
-from .sketch import Sketch
 
 RECOVERY_NAME = "recovery.tsproj"
 _INFO_NAME = "recovery.json"
@@ -65,8 +64,7 @@ class RecoveryStore:
             original = json.loads(self._info.read_text()).get("original")
         except (OSError, ValueError):
             original = None
-        recovered = Document(Sketch(document.sketch.ridge, document.sketch.valley), document.examples, params=document.params,
-                             result=document.result, path=Path(original) if original else None)
+        recovered = document.snapshot(path=Path(original) if original else None)
         recovered.mark_unsaved()
         return recovered
 

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from terrasynth_core.features import FeatureMaps
+from terrasynth_core.synthesis import PinError
 
 
 @dataclass(frozen=True, eq=False)
@@ -29,7 +30,10 @@ class TerrainResult:
     cell_size : (dy, dx) or None
         Ground size of a cell in metres (that of the first example).
     report : dict
-        The run's JSON-ready summary (parameters, counts, timings, warnings).
+        The run's JSON-ready summary (parameters, counts, timings, pins,
+        warnings).
+    pin_errors : tuple of PinError
+        How well each elevation pin was met (height - target, metres).
     """
 
     heights: np.ndarray
@@ -38,6 +42,7 @@ class TerrainResult:
     sketch_features: FeatureMaps | None = None
     cell_size: tuple[float, float] | None = None
     report: dict = field(default_factory=dict)
+    pin_errors: tuple[PinError, ...] = ()
 
     def __post_init__(self):
         heights = np.asarray(self.heights, dtype=np.float32)
@@ -49,6 +54,7 @@ class TerrainResult:
         object.__setattr__(self, "heights", heights)
         object.__setattr__(self, "patch_id", np.asarray(self.patch_id, dtype=np.int32))
         object.__setattr__(self, "seam_mask", np.asarray(self.seam_mask, dtype=bool))
+        object.__setattr__(self, "pin_errors", tuple(self.pin_errors))
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -58,8 +64,25 @@ class TerrainResult:
     def warnings(self) -> list[str]:
         return list(self.report.get("warnings", []))
 
+    @property
+    def seed(self) -> int | None:
+        """The seed the terrain was made with, when the report says."""
+        seed = self.report.get("params", {}).get("seed")
+        return None if seed is None else int(seed)
+
+    @property
+    def relief(self) -> float:
+        """Height range of the terrain, metres (max - min)."""
+        return float(self.heights.max() - self.heights.min())
+
     @classmethod
     def from_synthesis(cls, result, *, cell_size: tuple[float, float] | None = None) -> "TerrainResult":
         """Keep what the app needs of a core ``SynthesisResult``."""
         return cls(result.heights, result.patch_id, result.seam_mask, result.sketch_features,
-                   cell_size, result.report())
+                   cell_size, result.report(), tuple(result.pin_errors))
+
+    @staticmethod
+    def pin_errors_of(report: dict) -> tuple[PinError, ...]:
+        """The pin errors a run's :meth:`report` lists (read back from a project)."""
+        return tuple(PinError(int(p["row"]), int(p["col"]), float(p["target"]), float(p["height"]),
+                              float(p["error"])) for p in report.get("pins", []))
