@@ -1,9 +1,12 @@
-"""Thread workers: the core's ``iter_run`` and slow one-off jobs off the GUI thread.
+"""Thread workers: the core's ``iter_run``, variations and slow one-off jobs
+off the GUI thread.
 
 :class:`SynthesisRunner` owns at most one current run.  Each run drains
 ``session.iter_run()`` on its own ``QThread`` and turns every event into a
 signal; starting a new run cancels the old one, whose late events are
 dropped.  Cancelling closes the generator at the next patch boundary.
+:class:`VariationsRunner` does the same for a batch of variations (which
+the core makes in worker processes).
 """
 
 from __future__ import annotations
@@ -13,9 +16,9 @@ import threading
 import traceback
 from typing import Callable
 
-from PySide6.QtCore import QObject, QRunnable, QThread, QThreadPool, Signal, Slot
+from PySide6.QtCore import QObject, QRunnable, Qt, QThread, QThreadPool, Signal, Slot
 
-from terrasynth_core.errors import TerraSynthError
+from terrasynth_core.errors import SynthesisCancelled, TerraSynthError
 from terrasynth_core.synthesis import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 
 log = logging.getLogger(__name__)
@@ -209,7 +212,9 @@ class _Run(QObject):
         worker.synthesis_failed.connect(self._synthesis_failed)
         worker.synthesis_cancelled.connect(self._synthesis_cancelled)
         worker.done.connect(self._done)
-        worker.done.connect(self.thread.quit)
+        # Direct: QThread.quit is thread-safe, and a queued call would wait for
+        # the GUI thread, which may be blocked in wait() at exit.
+        worker.done.connect(self.thread.quit, Qt.DirectConnection)
         self.thread.finished.connect(self._thread_finished)
 
     @Slot(object)
@@ -239,6 +244,164 @@ class _Run(QObject):
     @Slot()
     def _synthesis_cancelled(self) -> None:
         self.runner._forward(self, "synthesis_cancelled")
+
+    @Slot()
+    def _done(self) -> None:
+        self.runner._run_done(self)
+
+    @Slot()
+    def _thread_finished(self) -> None:
+        self.runner._thread_finished(self)
+
+
+class VariationsWorker(QObject):
+    """Runs one batch of variations on the thread it is moved to.
+
+    Parameters
+    ----------
+    job : callable
+        ``job(progress, cancel)`` returns the list of core results;
+        ``progress(index, result)`` is to be called as each one finishes and
+        ``cancel()`` polled (e.g. ``SynthesisRequest.make_variations``).
+
+    Signals
+    -------
+    variation_finished(int, object)
+        Variation ``index`` is done; carries its ``SynthesisResult``.
+    variations_finished(object)
+        The list of all results, in seed order.
+    variations_failed(str)
+        One-line message; the batch is over.
+    variations_cancelled()
+        The batch stopped on request.
+    done()
+        Always last.
+    """
+
+    variation_finished = Signal(int, object)
+    variations_finished = Signal(object)
+    variations_failed = Signal(str)
+    variations_cancelled = Signal()
+    done = Signal()
+
+    def __init__(self, job: Callable[[Callable, Callable], list]) -> None:
+        super().__init__()
+        self._job = job
+        self._cancel = threading.Event()
+
+    def cancel(self) -> None:
+        """Ask the batch to stop (callable from any thread)."""
+        self._cancel.set()
+
+    @Slot()
+    def run(self) -> None:
+        try:
+            results = self._job(self.variation_finished.emit, self._cancel.is_set)
+        except SynthesisCancelled:
+            self.variations_cancelled.emit()
+        except Exception as exc:  # shown to the user, never lost in a thread
+            _log_failure("variations", exc)
+            self.variations_failed.emit(describe_error(exc))
+        else:
+            if self._cancel.is_set():
+                self.variations_cancelled.emit()
+            else:
+                self.variations_finished.emit(results)
+        finally:
+            self.done.emit()
+
+
+class VariationsRunner(QObject):
+    """Starts batches of variations, one current at a time, and forwards
+    their signals (those of :class:`VariationsWorker`, for the current batch
+    only).  ``running_changed(bool)`` tells when a batch starts or ends."""
+
+    variation_finished = Signal(int, object)
+    variations_finished = Signal(object)
+    variations_failed = Signal(str)
+    variations_cancelled = Signal()
+    running_changed = Signal(bool)
+
+    def __init__(self, parent: QObject | None = None) -> None:
+        super().__init__(parent)
+        self._current: _VariationsRun | None = None
+        self._runs: set[_VariationsRun] = set()
+
+    @property
+    def running(self) -> bool:
+        return self._current is not None
+
+    def start(self, job: Callable[[Callable, Callable], list]) -> None:
+        """Start a batch, cancelling the current one."""
+        self.cancel()
+        run = _VariationsRun(self, VariationsWorker(job))
+        self._runs.add(run)
+        self._current = run
+        self.running_changed.emit(True)
+        run.thread.start()
+
+    def cancel(self) -> None:
+        if self._current is not None:
+            self._current.worker.cancel()
+
+    def wait(self, msecs: int = 30_000) -> bool:
+        """Cancel everything and wait for the threads (at exit); False on timeout."""
+        for run in list(self._runs):
+            run.worker.cancel()
+        ok = True
+        for run in list(self._runs):
+            ok &= run.thread.wait(msecs)
+        return ok
+
+    def _forward(self, run: "_VariationsRun", signal: str, *args) -> None:
+        if run is self._current:
+            getattr(self, signal).emit(*args)
+
+    def _run_done(self, run: "_VariationsRun") -> None:
+        if run is self._current:
+            self._current = None
+            self.running_changed.emit(False)
+
+    def _thread_finished(self, run: "_VariationsRun") -> None:
+        self._runs.discard(run)
+
+
+class _VariationsRun(QObject):
+    """One batch: a worker, its thread, and GUI-thread slots relaying the
+    worker's queued signals to the runner while the batch is current."""
+
+    def __init__(self, runner: VariationsRunner, worker: VariationsWorker) -> None:
+        super().__init__()
+        self.runner = runner
+        self.worker = worker
+        self.thread = QThread()
+        worker.moveToThread(self.thread)
+        self.thread.started.connect(worker.run)
+        worker.variation_finished.connect(self._variation_finished)
+        worker.variations_finished.connect(self._variations_finished)
+        worker.variations_failed.connect(self._variations_failed)
+        worker.variations_cancelled.connect(self._variations_cancelled)
+        worker.done.connect(self._done)
+        # Direct: QThread.quit is thread-safe, and a queued call would wait for
+        # the GUI thread, which may be blocked in wait() at exit.
+        worker.done.connect(self.thread.quit, Qt.DirectConnection)
+        self.thread.finished.connect(self._thread_finished)
+
+    @Slot(int, object)
+    def _variation_finished(self, index: int, result) -> None:
+        self.runner._forward(self, "variation_finished", index, result)
+
+    @Slot(object)
+    def _variations_finished(self, results) -> None:
+        self.runner._forward(self, "variations_finished", results)
+
+    @Slot(str)
+    def _variations_failed(self, message: str) -> None:
+        self.runner._forward(self, "variations_failed", message)
+
+    @Slot()
+    def _variations_cancelled(self) -> None:
+        self.runner._forward(self, "variations_cancelled")
 
     @Slot()
     def _done(self) -> None:

@@ -45,6 +45,7 @@ class HeightmapView(QWidget):
         super().__init__(parent)
         self.heights: np.ndarray | None = None  # GUI-side buffer, NaN = not yet synthesized
         self._rgba: np.ndarray | None = None
+        self._rgba_result: TerrainResult | None = None  # the finished result _rgba shows, if any
         self._cell_size: tuple[float, float] | None = None
         self._vrange = (0.0, 1.0)
         self._result: TerrainResult | None = None
@@ -106,16 +107,28 @@ class HeightmapView(QWidget):
 
     # -- live run ---------------------------------------------------------------------------
     def begin_run(self, shape: tuple[int, int], *, cell_size: tuple[float, float] | None,
-                  vrange: tuple[float, float]) -> None:
+                  vrange: tuple[float, float], base: np.ndarray | None = None) -> None:
         """Start showing a new run on an empty canvas of ``shape``.
 
         ``vrange`` (metres) fixes the colours for the run, so pasting a patch
-        never needs recolouring the whole image.
+        never needs recolouring the whole image.  ``base`` (float32, shape
+        ``shape``) is the terrain a re-synthesis starts from, shown under the
+        new patches; default an empty canvas.  When ``base`` is the terrain on
+        screen, its image and colours are kept (no recolouring).
         """
         reshaped = self.heights is None or self.heights.shape != tuple(shape)
         self._features_generation += 1
-        self.heights = np.full(shape, np.nan, np.float32)
-        self._rgba = np.zeros(tuple(shape) + (4,), np.uint8)
+        if base is None:
+            self.heights = np.full(shape, np.nan, np.float32)
+            self._rgba = np.zeros(tuple(shape) + (4,), np.uint8)
+        elif self._rgba_result is not None and self._rgba_result.heights is base:
+            self.heights = np.array(base, dtype=np.float32)
+            self._rgba = self._rgba.copy()
+            vrange = self._vrange
+        else:
+            self.heights = np.array(base, dtype=np.float32)
+            self._rgba = shaded_terrain(self.heights, cell_size=cell_size, vrange=vrange)
+        self._rgba_result = None
         self._cell_size = cell_size
         self._vrange = vrange
         self.last_bbox = None
@@ -178,6 +191,7 @@ class HeightmapView(QWidget):
         if result is None:
             self.heights = None
             self._rgba = None
+            self._rgba_result = None
             self.image.clear()
             self.placeholder.setVisible(True)
             self._update_overlays()
@@ -199,6 +213,7 @@ class HeightmapView(QWidget):
             return  # another result or run came meanwhile
         reshaped = self._rgba is None or self._rgba.shape != rgba.shape
         self._rgba = rgba
+        self._rgba_result = self._result
         self._dirty = True
         self._refresh()
         self.patch_image.setImage(patches, autoLevels=False, levels=None)

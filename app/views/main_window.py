@@ -5,40 +5,48 @@ panels translate user actions into document edits, and a
 :class:`~terrasynth_app.workers.SynthesisRunner` runs the core off the GUI
 thread.  Every error a worker reports lands in a dialog and the status bar;
 a failed or cancelled run leaves the previous result and the sketch as they
-were.
+were.  A re-synthesis of the selection runs the same way and replaces the
+terrain only when it finishes; variations run in worker processes behind a
+:class:`~terrasynth_app.workers.VariationsRunner` and are shown in a dialog.
 """
 
 from __future__ import annotations
 
 import logging
+import secrets
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 from PySide6.QtCore import QSettings, Qt, QTimer, Signal
 from PySide6.QtGui import QAction, QKeySequence
-from PySide6.QtWidgets import (QDockWidget, QFileDialog, QLabel, QMainWindow, QMessageBox, QProgressBar, QSplitter,
-                               QTabWidget)
+from PySide6.QtWidgets import (QDockWidget, QFileDialog, QFrame, QInputDialog, QLabel, QMainWindow, QMessageBox,
+                               QProgressBar, QScrollArea, QSplitter, QTabWidget)
 
 from terrasynth_core.errors import TerraSynthError
 from terrasynth_core.features import read_sketch, save_sketch
 from terrasynth_core.io import READ_EXTENSIONS, load_dem
 
+from ..model.controls import StampSpec, fitting_scale
 from ..model.dem_features import dem_feature_layers
 from ..model.document import Document, SynthesisRequest
 from ..model.export import export_terrain
 from ..model.project import PROJECT_EXTENSION, load_project, save_project
 from ..model.recovery import RecoveryStore
 from ..model.result import TerrainResult
-from ..workers import SynthesisRunner, run_in_background
+from ..workers import SynthesisRunner, VariationsRunner, run_in_background
 from .dialogs import NewSketchDialog
 from .example_panel import ExamplePanel
 from .export_dialog import ExportDialog
 from .heightmap_view import HeightmapView
-from .params_panel import ParamsPanel
+from .params_panel import MAX_SEED, ParamsPanel
+from .pin_stamp_panel import PinStampPanel
 from .sketch_canvas import SketchCanvas
+from .style_panel import HEIGHT_LIMITS, StylePanel
+from .terrain_colors import height_range
 from .terrain_view_3d import TerrainView3D
+from .variations_dialog import VariationsDialog
 
 log = logging.getLogger(__name__)
 
@@ -50,26 +58,43 @@ PROGRESS_MS = 100
 RECENT_KEY = "recent_files"
 MAX_RECENT = 8
 _PROJECT_FILTER = f"TerraSynth projects (*{PROJECT_EXTENSION})"
+#: Variations a batch may have.
+VARIATION_COUNTS = (2, 8)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class RunInfo:
     """What the views need before the first patch arrives (made on the worker)."""
 
     shape: tuple[int, int]
     cell_size: tuple[float, float] | None
     vrange: tuple[float, float]
+    base: np.ndarray | None = None  # the terrain a re-synthesis starts from
 
 
 def run_info(request: SynthesisRequest) -> RunInfo:
-    """Cell size of the first example and the examples' joint height range."""
-    fields = [ref.load() for ref in request.examples]
-    low = min(f.min for f in fields)
-    high = max(f.max for f in fields)
+    """Cell size of the first example and the colour range of the run: the
+    terrain being re-synthesized, or the examples' and styles' joint height
+    range."""
+    fields = request.source_fields()
+    if request.previous is not None:
+        return RunInfo(request.shape, fields[0].cell_size, height_range(request.previous), request.previous)
+    low = min([f.min for f in fields] + [s.base for s in request.styles if s.base is not None])
+    high = max([f.max for f in fields] + [s.base for s in request.styles if s.base is not None])
     # Patches are shifted to match their neighbours, so the output may leave
     # the examples' range a little; a margin keeps its tints from clipping.
     margin = 0.1 * (high - low)
     return RunInfo(request.shape, fields[0].cell_size, (low - margin, high + margin))
+
+
+def new_seeds(count: int) -> list[int]:
+    """``count`` distinct random seeds the seed box can show."""
+    seeds: list[int] = []
+    while len(seeds) < count:
+        seed = secrets.randbelow(MAX_SEED + 1)
+        if seed not in seeds:
+            seeds.append(seed)
+    return seeds
 
 
 class MainWindow(QMainWindow):
@@ -101,6 +126,8 @@ class MainWindow(QMainWindow):
         self.settings = settings if settings is not None else QSettings(APP_NAME, APP_NAME)
         self.recovery = recovery
         self.runner = SynthesisRunner(self)
+        self.variations_runner = VariationsRunner(self)
+        self.variations_dialog: VariationsDialog | None = None
         self._run_info: RunInfo | None = None
         self._run_started = 0.0
         self._progress: tuple[int, int] | None = None  # (done, total) not shown yet
@@ -109,7 +136,7 @@ class MainWindow(QMainWindow):
         self._autosaved_generation = -1
         self.resize(1500, 900)
 
-        self.canvas = SketchCanvas(self.document.sketch)
+        self.canvas = SketchCanvas(self.document.sketch, document=self.document)
         self.heightmap = HeightmapView()
         self.view3d = TerrainView3D()
         self.result_tabs = QTabWidget()
@@ -123,13 +150,28 @@ class MainWindow(QMainWindow):
 
         self.examples = ExamplePanel(self.document)
         self.params = ParamsPanel(self.document)
+        self.styles = StylePanel(self.document)
+        self.pins_stamps = PinStampPanel(self.document)
+        self.docks: dict[str, QDockWidget] = {}
         for title, widget, name in (("Examples", self.examples, "examples_dock"),
-                                    ("Parameters", self.params, "params_dock")):
+                                    ("Parameters", self.params, "params_dock"),
+                                    ("Regions", self.styles, "regions_dock"),
+                                    ("Pins and stamps", self.pins_stamps, "pins_stamps_dock")):
             dock = QDockWidget(title, self)
             dock.setObjectName(name)
+            if widget in (self.styles, self.pins_stamps):
+                # Tall panels scroll rather than make the window taller than the screen.
+                widget = QScrollArea(widget=widget, widgetResizable=True, frameShape=QFrame.NoFrame)
             dock.setWidget(widget)
             dock.setFeatures(QDockWidget.DockWidgetMovable | QDockWidget.DockWidgetFloatable)
-            self.addDockWidget(Qt.LeftDockWidgetArea, dock)
+            self.docks[name] = dock
+        self.addDockWidget(Qt.LeftDockWidgetArea, self.docks["examples_dock"])
+        self.addDockWidget(Qt.LeftDockWidgetArea, self.docks["params_dock"])
+        # The control panels share the examples' and parameters' places, as tabs.
+        self.tabifyDockWidget(self.docks["examples_dock"], self.docks["regions_dock"])
+        self.tabifyDockWidget(self.docks["params_dock"], self.docks["pins_stamps_dock"])
+        self.docks["examples_dock"].raise_()
+        self.docks["params_dock"].raise_()
 
         self.stage_label = QLabel("Ready")
         self.progress = QProgressBar(maximumWidth=260, textVisible=True)
@@ -142,9 +184,16 @@ class MainWindow(QMainWindow):
 
         self._build_actions()
         self._connect_runner()
+        self._connect_variations()
         self.document.changed.connect(self._document_changed)
         self.examples.load_failed.connect(self._example_failed)
         self.examples.item_unreadable.connect(self._example_unreadable)
+        self.styles.style_selected.connect(self.canvas.set_current_style)
+        self.styles.style_load_failed.connect(self._example_failed)
+        self.pins_stamps.stamp_source_failed.connect(self._example_failed)
+        self.canvas.pin_requested.connect(self.add_pin_at)
+        self.canvas.stamp_requested.connect(self.place_stamp)
+        self.canvas.notice.connect(lambda message: self.statusBar().showMessage(message, 10_000))
         self._update_title()
         self.heightmap.show_result(self.document.result)
         self.view3d.show_result(self.document.result)
@@ -169,6 +218,11 @@ class MainWindow(QMainWindow):
         self.cancel_action.setEnabled(False)
         self.randomize_action = self._action("Randomize seed", self.params.randomize_seed,
                                              tip="Pick a new random seed")
+        self.resynthesize_action = self._action(
+            "Re-synthesize selection", self.resynthesize_selection, shortcut=QKeySequence("Ctrl+Shift+R"),
+            tip="Synthesize the selected cells again with a new seed; the rest of the terrain stays as it is")
+        self.variations_action = self._action("Make variations…", lambda: self.make_variations(),
+                                              tip="Synthesize several terrains with different seeds and pick one")
         self.export_action = self._action("Export terrain…", self.export_terrain, shortcut=QKeySequence("Ctrl+E"),
                                           tip="Write the terrain as a DEM or a mesh")
         new_project = self._action("New project", self.new_project, shortcut=QKeySequence.New)
@@ -200,10 +254,13 @@ class MainWindow(QMainWindow):
         edit_menu.addActions([self.canvas.undo_action, self.canvas.redo_action, self.canvas.clear_action])
         synth_menu = self.menuBar().addMenu("&Synthesis")
         synth_menu.addActions([self.synthesize_action, self.cancel_action, self.randomize_action])
+        synth_menu.addSeparator()
+        synth_menu.addActions([self.resynthesize_action, self.variations_action])
 
         toolbar = self.addToolBar("Main")
         toolbar.setObjectName("main_toolbar")
-        toolbar.addActions([self.synthesize_action, self.cancel_action, self.randomize_action, self.export_action])
+        toolbar.addActions([self.synthesize_action, self.cancel_action, self.randomize_action,
+                            self.resynthesize_action, self.variations_action, self.export_action])
 
     # -- synthesis ------------------------------------------------------------------------------------
     def _connect_runner(self) -> None:
@@ -223,6 +280,19 @@ class MainWindow(QMainWindow):
         except TerraSynthError as exc:
             self.report_error("Cannot synthesize", str(exc))
             return
+        self._start(request)
+
+    def resynthesize_selection(self) -> None:
+        """Synthesize the selected cells again with a new random seed; the
+        new terrain replaces the current one when (and only if) it finishes."""
+        try:
+            request = self.document.resynthesis_request(seed=new_seeds(1)[0])
+        except TerraSynthError as exc:
+            self.report_error("Cannot re-synthesize", str(exc))
+            return
+        self._start(request)
+
+    def _start(self, request: SynthesisRequest) -> None:
         self.stage_label.setText("Reading examples…")
         self.progress.setRange(0, 0)  # busy until the first stage says how many patches
         self.time_label.clear()
@@ -235,8 +305,8 @@ class MainWindow(QMainWindow):
     def _session_ready(self, info: RunInfo) -> None:
         self._run_info = info
         self._run_started = time.perf_counter()
-        self.heightmap.begin_run(info.shape, cell_size=info.cell_size, vrange=info.vrange)
-        self.view3d.begin_run(info.shape, cell_size=info.cell_size, vrange=info.vrange)
+        self.heightmap.begin_run(info.shape, cell_size=info.cell_size, vrange=info.vrange, base=info.base)
+        self.view3d.begin_run(info.shape, cell_size=info.cell_size, vrange=info.vrange, base=info.base)
 
     def _stage_started(self, stage: str, total: int) -> None:
         names = {"analyse": "Analysing the sketch", "features": "Placing feature patches",
@@ -274,9 +344,10 @@ class MainWindow(QMainWindow):
         self.document.set_result(terrain)
         warnings = "; ".join(result.warnings)
         self.stage_label.setText("Done")
-        self.statusBar().showMessage(
-            f"Synthesized {terrain.shape[0]} x {terrain.shape[1]} in {result.total_seconds:.1f} s"
-            + (f" - {warnings}" if warnings else ""), 20_000)
+        what = (f"Re-synthesized {int(result.selection.sum())} cells (seed {result.params.seed})"
+                if result.selection is not None else f"Synthesized {terrain.shape[0]} x {terrain.shape[1]}")
+        self.statusBar().showMessage(f"{what} in {result.total_seconds:.1f} s"
+                                     + (f" - {warnings}" if warnings else ""), 20_000)
 
     def _synthesis_failed(self, message: str) -> None:
         self.stage_label.setText("Failed")
@@ -299,6 +370,102 @@ class MainWindow(QMainWindow):
 
     def _running_changed(self, running: bool) -> None:
         self.cancel_action.setEnabled(running)
+
+    # -- variations -----------------------------------------------------------------------------------
+    def make_variations(self, count: int | None = None) -> None:
+        """Make ``count`` variations with new seeds (asked when None) and show them as they come."""
+        if count is None:
+            count, ok = QInputDialog.getInt(self, "Make variations", "How many variations?", 4, *VARIATION_COUNTS)
+            if not ok:
+                return
+        try:
+            request = self.document.synthesis_request()
+        except TerraSynthError as exc:
+            self.report_error("Cannot make variations", str(exc))
+            return
+        seeds = new_seeds(count)
+        if self.variations_dialog is not None:
+            self.variations_dialog.close()
+        dialog = VariationsDialog(seeds, self)
+        dialog.chosen.connect(self.use_variation)
+        dialog.cancel_requested.connect(self.variations_runner.cancel)
+        self.variations_dialog = dialog
+        self.variations_runner.start(
+            lambda progress, cancel: request.make_variations(seeds, progress=progress, cancel=cancel))
+        dialog.show()
+        self.statusBar().showMessage(f"Making {count} variations…")
+
+    def use_variation(self, seed: int, terrain: TerrainResult) -> None:
+        """Make a variation the current terrain and its seed the document's."""
+        self.document.set_params(replace(self.document.params, seed=seed))
+        self.document.set_result(terrain)
+        self.statusBar().showMessage(f"Using the variation with seed {seed}", 10_000)
+
+    def _connect_variations(self) -> None:
+        r = self.variations_runner
+        r.variation_finished.connect(self._variation_finished)
+        r.variations_finished.connect(self._variations_finished)
+        r.variations_failed.connect(self._variations_failed)
+        r.variations_cancelled.connect(self._variations_cancelled)
+        r.running_changed.connect(self._variations_running_changed)
+
+    def _variation_finished(self, index: int, terrain: TerrainResult) -> None:
+        if self.variations_dialog is not None:
+            self.variations_dialog.show_result(index, terrain)
+
+    def _variations_finished(self, terrains) -> None:
+        if self.variations_dialog is not None:
+            self.variations_dialog.finish(f"{len(terrains)} variations made: pick one")
+        self.statusBar().showMessage(f"{len(terrains)} variations made", 10_000)
+
+    def _variations_failed(self, message: str) -> None:
+        if self.variations_dialog is not None:
+            self.variations_dialog.finish(f"Failed: {message}")
+        self.report_error("Variations failed", message)
+
+    def _variations_cancelled(self) -> None:
+        if self.variations_dialog is not None:
+            self.variations_dialog.finish("Cancelled")
+        self.statusBar().showMessage("Variations cancelled", 10_000)
+
+    def _variations_running_changed(self, running: bool) -> None:
+        self.variations_action.setText("Making variations…" if running else "Make variations…")
+
+    # -- pins and stamps ---------------------------------------------------------------------------------
+    def add_pin_at(self, row: int, col: int) -> None:
+        """Ask the height for a pin at ``(row, col)`` (the terrain's height
+        there by default) and add it."""
+        result = self.document.result
+        if result is not None and result.shape == self.document.output_shape:
+            default = float(result.heights[row, col])
+        elif self.document.height_range is not None:
+            default = sum(self.document.height_range) / 2
+        else:
+            default = 0.0
+        height, ok = QInputDialog.getDouble(self, "Elevation pin", f"Height of cell ({row}, {col}) in metres:",
+                                            round(default, 1), *HEIGHT_LIMITS, 1)
+        if not ok:
+            return
+        try:
+            self.document.add_pin(row, col, height)
+        except TerraSynthError as exc:
+            self.report_error("Cannot add the pin", str(exc))
+
+    def place_stamp(self, row: float, col: float) -> None:
+        """Place the stamp DEM chosen in the Pins and stamps panel centred on ``(row, col)``."""
+        source = self.pins_stamps.stamp_source
+        if source is None:
+            self.statusBar().showMessage("Choose the DEM to stamp in the Pins and stamps panel first "
+                                         "(or wait until it is read)", 10_000)
+            return
+        ref, shape = source
+        try:
+            self.document.add_stamp(StampSpec(ref, (row, col), shape,
+                                              scale=fitting_scale(shape, self.document.output_shape)))
+        except TerraSynthError as exc:
+            self.report_error("Cannot place the stamp", str(exc))
+            return
+        self.docks["pins_stamps_dock"].raise_()
 
     # -- errors ------------------------------------------------------------------------------------------
     def report_error(self, title: str, message: str) -> None:
@@ -544,6 +711,7 @@ class MainWindow(QMainWindow):
             return
         self._autosave_timer.stop()
         self.runner.wait()
+        self.variations_runner.wait()
         if self.recovery is not None:
             self.recovery.discard()
         if self.view3d.plotter is not None:

@@ -6,6 +6,11 @@ double-click or Enter finishes the line (Esc drops it).  The wheel zooms and
 the middle button pans.  The feature graph the synthesis will follow
 (ridges, valleys, branch points and endpoints) can be overlaid; it is
 recomputed off the GUI thread when the strokes settle.
+
+Given the document, the canvas also paints style regions and water with
+the same brushes, selects cells for re-synthesis (a dragged rectangle,
+Shift adds; or a brush, Ctrl removes) and places elevation pins and stamps:
+a click there is reported by signal, and the window asks for the details.
 """
 
 from __future__ import annotations
@@ -13,20 +18,25 @@ from __future__ import annotations
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import QEvent, QObject, QPointF, Qt, QTimer, Signal
-from PySide6.QtGui import QAction, QActionGroup, QKeySequence, QPen, QColor
-from PySide6.QtWidgets import (QCheckBox, QDoubleSpinBox, QGraphicsEllipseItem, QLabel, QSpinBox,
-                               QToolBar, QVBoxLayout, QWidget)
+from PySide6.QtGui import QAction, QActionGroup, QColor, QKeySequence, QPen
+from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QGraphicsEllipseItem, QGraphicsRectItem,
+                               QLabel, QSpinBox, QToolBar, QVBoxLayout, QWidget)
 
 from terrasynth_core.features import sketch_features
 
-from ..model.sketch import Sketch
+from ..model.document import Document
+from ..model.sketch import TOOLS, Sketch
 from ..workers import run_in_background
+from .controls_overlay import ControlsOverlay
 from .feature_overlay import FeatureGraphOverlay, legend_text
+from .style_panel import swatch
 
 #: Delay after the last edit before the feature graph is recomputed, in ms.
 GRAPH_DELAY_MS = 400
 #: Coalescing delay of image refreshes while painting, in ms (about 60/s).
 REFRESH_MS = 16
+#: Tools that act on the document rather than paint the sketch.
+DOCUMENT_TOOLS = ("select", "select_brush", "pin", "stamp")
 
 
 class SketchCanvas(QWidget):
@@ -36,18 +46,33 @@ class SketchCanvas(QWidget):
     ----------
     sketch : Sketch
         The document's sketch; the canvas follows its ``changed`` event.
+    document : Document, optional
+        The document owning ``sketch``; with it the canvas gets the style,
+        water, selection, pin and stamp tools and draws them.
 
     Signals
     -------
     feature_graph_updated(object)
         The overlay's new ``FeatureMaps`` after a background recompute.
+    pin_requested(int, int)
+        The pin tool clicked output cell ``(row, col)``.
+    stamp_requested(float, float)
+        The stamp tool clicked the cell ``(row, col)``.
+    notice(str)
+        Something the user should read (e.g. why a tool did nothing).
     """
 
     feature_graph_updated = Signal(object)
+    pin_requested = Signal(int, int)
+    stamp_requested = Signal(float, float)
+    notice = Signal(str)
 
-    def __init__(self, sketch: Sketch, parent: QWidget | None = None) -> None:
+    def __init__(self, sketch: Sketch, parent: QWidget | None = None, *, document: Document | None = None) -> None:
         super().__init__(parent)
         self.sketch = sketch
+        self.document = document
+        self._drag: str | None = None  # tool of the drag in progress
+        self._rect_start: tuple[float, float] | None = None
         self._stroking = False
         self._last_point: tuple[float, float] | None = None
         self._poly_points: list[tuple[float, float]] = []
@@ -72,14 +97,25 @@ class SketchCanvas(QWidget):
         self._cursor.setZValue(40)
         self._cursor.setVisible(False)
         self.view_box.addItem(self._cursor)
+        self._rubber_band = QGraphicsRectItem()
+        pen = QPen(QColor(200, 150, 0), 1.5, Qt.DashLine)
+        pen.setCosmetic(True)
+        self._rubber_band.setPen(pen)
+        self._rubber_band.setZValue(40)
+        self._rubber_band.setVisible(False)
+        self.view_box.addItem(self._rubber_band)
+        self.controls_overlay = ControlsOverlay(self.view_box, document) if document is not None else None
         self.view_box.autoRange(padding=0.02)
 
         self._build_toolbar()
+        self.region_bars = self._build_region_bars() if document is not None else []
         self.legend = QLabel(legend_text())
         self.legend.setVisible(False)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.toolbar)
+        for bar in self.region_bars:
+            layout.addWidget(bar)
         layout.addWidget(self.options_bar)
         layout.addWidget(self.view, 1)
         layout.addWidget(self.legend)
@@ -95,6 +131,8 @@ class SketchCanvas(QWidget):
         sketch.changed.connect(self._sketch_changed)
         sketch.history_changed.connect(self._update_history_actions)
         self._update_history_actions()
+        if document is not None:
+            document.changed.connect(self._document_changed)
 
     # -- toolbar --------------------------------------------------------------------
     def _build_toolbar(self) -> None:
@@ -147,6 +185,40 @@ class SketchCanvas(QWidget):
         self.graph_check.toggled.connect(self._graph_toggled)
         self.options_bar.addWidget(self.graph_check)
 
+    def _build_region_bars(self) -> list[QToolBar]:
+        """Two rows: the region brushes, then selection, pins and stamps."""
+        regions = QToolBar("Region tools")
+        marks = QToolBar("Selection, pins and stamps")
+        self.style_combo = QComboBox(minimumContentsLength=10)
+        self.style_combo.setSizeAdjustPolicy(QComboBox.AdjustToMinimumContentsLengthWithIcon)
+        self.style_combo.setToolTip("The style the Style brush paints (add styles in the Regions panel)")
+        self.clear_selection_action = QAction("Clear selection", self, toolTip="Select nothing")
+        self.clear_selection_action.triggered.connect(self.document.clear_selection)
+        for bar, tool, text, tip in (
+            (regions, "style", "Style", "Paint the chosen terrain style"),
+            (regions, "style_erase", "Unstyle", "Erase style regions: back to the plain examples"),
+            (regions, "water", "Water", "Paint sea, lakes and rivers (level in the Regions panel)"),
+            (regions, "water_erase", "Dry", "Erase water"),
+            (marks, "select", "Select", "Drag a rectangle to select cells for re-synthesis (Shift adds)"),
+            (marks, "select_brush", "Select brush", "Paint cells into the selection (Ctrl removes them)"),
+            (marks, "pin", "Pin", "Click to pin the terrain's height at a cell"),
+            (marks, "stamp", "Stamp", "Click to place the stamp DEM chosen in the Pins and stamps panel"),
+        ):
+            action = QAction(text, self, checkable=True, toolTip=tip)
+            self.tool_group.addAction(action)
+            self.tool_actions[tool] = action
+            bar.addAction(action)
+            if tool == "style":
+                bar.addWidget(self.style_combo)
+            elif tool == "select_brush":
+                bar.addAction(self.clear_selection_action)
+                bar.addSeparator()
+        for bar in (regions, marks):
+            bar.setToolButtonStyle(Qt.ToolButtonTextOnly)
+        self._known_styles: set[int] = set()
+        self._update_style_combo()
+        return [regions, marks]
+
     # -- tool state ----------------------------------------------------------------------
     @property
     def tool(self) -> str:
@@ -157,6 +229,35 @@ class SketchCanvas(QWidget):
 
     def set_tool(self, tool: str) -> None:
         self.tool_actions[tool].setChecked(True)
+
+    @property
+    def current_style(self) -> int | None:
+        """Id of the style the Style brush paints, None when there is none."""
+        if self.document is None or self.style_combo.currentIndex() < 0:
+            return None
+        return self.style_combo.currentData()
+
+    def set_current_style(self, style_id: int) -> None:
+        self.style_combo.setCurrentIndex(self.style_combo.findData(style_id))
+
+    def _update_style_combo(self) -> None:
+        styles = self.document.styles
+        current = self.current_style
+        new = [s.id for s in styles if s.id not in self._known_styles]
+        self._known_styles = {s.id for s in styles}
+        self.style_combo.blockSignals(True)
+        self.style_combo.clear()
+        for spec in styles:
+            self.style_combo.addItem(swatch(spec.color, 14), spec.name, spec.id)
+        # A style just added is the one the user wants to paint next.
+        chosen = new[-1] if new else current
+        index = self.style_combo.findData(chosen) if chosen is not None else -1
+        self.style_combo.setCurrentIndex(index if index >= 0 else (0 if styles else -1))
+        self.style_combo.blockSignals(False)
+
+    def _document_changed(self, what: str) -> None:
+        if what == "styles":
+            self._update_style_combo()
 
     @property
     def brush_radius(self) -> float:
@@ -186,10 +287,10 @@ class SketchCanvas(QWidget):
                     self.finish_polyline()
                 return True
             if kind == QEvent.MouseMove:
-                self._move(self.cell_at(event.position()))
-                return self._stroking
+                self._move(self.cell_at(event.position()), event.modifiers())
+                return self._stroking or self._drag is not None
             if kind == QEvent.MouseButtonRelease and event.button() == Qt.LeftButton:
-                self._release(self.cell_at(event.position()))
+                self._release(self.cell_at(event.position()), event.modifiers())
                 return True
             if kind == QEvent.Leave:
                 self._cursor.setVisible(False)
@@ -202,35 +303,91 @@ class SketchCanvas(QWidget):
                 return True
         return super().eventFilter(obj, event)
 
+    def _brush_options(self) -> dict | None:
+        """Keyword arguments of the current sketch brush; None (and a notice)
+        when the Style brush has no style to paint."""
+        options = dict(radius=self.brush_radius, hardness=self.hardness_spin.value())
+        if self.tool == "style":
+            if self.current_style is None:
+                self.notice.emit("Add a style in the Regions panel before painting styles")
+                return None
+            options["style"] = self.current_style
+        return options
+
     def _press(self, cell: tuple[float, float], modifiers) -> None:
         self.view.setFocus()
+        tool = self.tool
+        if tool in DOCUMENT_TOOLS:
+            self._press_document_tool(tool, cell, modifiers)
+            return
+        options = self._brush_options()
+        if options is None:
+            return
         if self.polyline_action.isChecked():
             self._add_poly_point(cell)
             return
-        options = dict(radius=self.brush_radius, hardness=self.hardness_spin.value())
         if modifiers & Qt.ShiftModifier and self._last_point is not None:
-            self.sketch.draw_polyline([self._last_point, cell], self.tool, **options)
+            self.sketch.draw_polyline([self._last_point, cell], tool, **options)
             self._last_point = cell
             return
-        self.sketch.begin_stroke(self.tool, *cell, **options)
+        self.sketch.begin_stroke(tool, *cell, **options)
         self._stroking = True
 
-    def _move(self, cell: tuple[float, float]) -> None:
+    def _press_document_tool(self, tool: str, cell: tuple[float, float], modifiers) -> None:
+        rows, cols = self.sketch.shape
+        row, col = int(round(cell[0])), int(round(cell[1]))
+        inside = 0 <= row < rows and 0 <= col < cols
+        if tool == "pin":
+            if inside:
+                self.pin_requested.emit(row, col)
+        elif tool == "stamp":
+            if inside:
+                self.stamp_requested.emit(float(row), float(col))
+        elif tool == "select":
+            self._drag = tool
+            self._rect_start = cell
+            self._show_rubber_band(cell)
+        else:
+            self._drag = tool
+            self._last_point = cell
+            self.document.paint_selection(cell, cell, radius=self.brush_radius,
+                                          add=not modifiers & Qt.ControlModifier)
+
+    def _move(self, cell: tuple[float, float], modifiers=Qt.NoModifier) -> None:
         r = self.brush_radius
         self._cursor.setRect(cell[1] + 0.5 - r, cell[0] + 0.5 - r, 2 * r, 2 * r)
-        self._cursor.setVisible(True)
+        self._cursor.setVisible(self.tool not in ("select", "pin", "stamp"))
         if self._stroking:
             self.sketch.stroke_to(*cell)
+        elif self._drag == "select":
+            self._show_rubber_band(cell)
+        elif self._drag == "select_brush":
+            self.document.paint_selection(self._last_point, cell, radius=r, add=not modifiers & Qt.ControlModifier)
+            self._last_point = cell
         elif self._poly_points:
             self._show_poly_preview(cell)
 
-    def _release(self, cell: tuple[float, float]) -> None:
+    def _release(self, cell: tuple[float, float], modifiers=Qt.NoModifier) -> None:
+        drag, self._drag = self._drag, None
+        if drag == "select":
+            self._rubber_band.setVisible(False)
+            (r0, r1), (c0, c1) = _cell_span(self._rect_start[0], cell[0]), _cell_span(self._rect_start[1], cell[1])
+            self.document.select_rect(r0, r1, c0, c1, add=bool(modifiers & Qt.ShiftModifier))
+            return
+        if drag == "select_brush":
+            self._last_point = None
+            return
         if not self._stroking:
             return
         self.sketch.stroke_to(*cell)
         self.sketch.end_stroke()
         self._stroking = False
         self._last_point = cell
+
+    def _show_rubber_band(self, cell: tuple[float, float]) -> None:
+        (r0, r1), (c0, c1) = _cell_span(self._rect_start[0], cell[0]), _cell_span(self._rect_start[1], cell[1])
+        self._rubber_band.setRect(c0, r0, c1 - c0, r1 - r0)
+        self._rubber_band.setVisible(True)
 
     # -- polyline -----------------------------------------------------------------------
     def _add_poly_point(self, cell: tuple[float, float]) -> None:
@@ -250,9 +407,9 @@ class SketchCanvas(QWidget):
         """Draw the polyline clicked so far as one stroke."""
         points, self._poly_points = self._poly_points, []
         self._poly_preview.setData([], [])
-        if points:
-            self.sketch.draw_polyline(points, self.tool, radius=self.brush_radius,
-                                      hardness=self.hardness_spin.value())
+        options = self._brush_options() if points and self.tool in TOOLS else None
+        if options is not None:
+            self.sketch.draw_polyline(points, self.tool, **options)
             self._last_point = points[-1]
 
     def cancel_polyline(self) -> None:
@@ -307,3 +464,10 @@ class SketchCanvas(QWidget):
 
     def _graph_failed(self, message: str) -> None:
         self.legend.setText(f"Feature graph unavailable: {message}")
+
+
+def _cell_span(a: float, b: float) -> tuple[int, int]:
+    """Half-open range of the cells from coordinate ``a`` to ``b`` (both
+    included; cell ``i`` covers ``[i - 0.5, i + 0.5)``)."""
+    lo, hi = min(a, b), max(a, b)
+    return int(np.floor(lo + 0.5)), int(np.floor(hi + 0.5)) + 1

@@ -168,9 +168,10 @@ class TerrainView3D(QWidget):
 
     # -- data ---------------------------------------------------------------------------------
     def begin_run(self, shape: tuple[int, int], *, cell_size: tuple[float, float] | None,
-                  vrange: tuple[float, float]) -> None:
-        """A new run of ``shape``: start from a flat floor and redraw as patches come."""
-        self.heights = np.full(shape, np.nan, np.float32)
+                  vrange: tuple[float, float], base: np.ndarray | None = None) -> None:
+        """A new run of ``shape``: start from a flat floor (or from ``base``,
+        the terrain a re-synthesis changes) and redraw as patches come."""
+        self.heights = np.full(shape, np.nan, np.float32) if base is None else np.array(base, dtype=np.float32)
         self._cell_size = cell_size or (DEFAULT_CELL_M, DEFAULT_CELL_M)
         self._vrange = vrange
         self._dirty = True
