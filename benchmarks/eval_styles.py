@@ -70,6 +70,7 @@ from scipy import ndimage
 from scipy.stats import wasserstein_distance
 
 from eval_synthesis import _json_ready, high_frequency
+from terrasynth_core.cli import parse_size
 from terrasynth_core.examples import resolve_dem
 from terrasynth_core.synthesis import Controls, Session, SynthesisParams
 
@@ -435,17 +436,9 @@ def markdown(report: dict) -> str:
     return "\n".join(out)
 
 
-def _shape(text: str) -> tuple[int, int]:
-    try:
-        rows, cols = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"size {text!r}: expected ROWSxCOLS, e.g. 384x512") from None
-    return rows, cols
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--size", type=_shape, default=None, metavar="ROWSxCOLS",
+    parser.add_argument("--size", type=parse_size, default=None, metavar="ROWSxCOLS",
                         help="output size (default the map's 768x1024; keep the 3:4 aspect)")
     parser.add_argument("--patch", type=int, default=None, metavar="N",
                         help="patch size (default 80 scaled with the size, at least 32)")

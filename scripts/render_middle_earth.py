@@ -33,6 +33,7 @@ from PIL import Image, ImageDraw, ImageFont
 from make_middle_earth import STYLES, load_demo
 from render_gallery import MARGIN, MAX_WIDTH, compose, terrain_colours
 from terrasynth_core.analysis import hillshade
+from terrasynth_core.cli import parse_size
 from terrasynth_core.synthesis import Session, SynthesisParams
 
 REPO = Path(__file__).resolve().parents[1]
@@ -148,19 +149,11 @@ def save_small(img: Image.Image, path: Path) -> int:
     return size
 
 
-def _shape(text: str) -> tuple[int, int]:
-    try:
-        rows, cols = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"size {text!r}: expected ROWSxCOLS, e.g. 384x512") from None
-    return rows, cols
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=REPO / "docs" / "images", help="output folder")
     parser.add_argument("--seed", type=int, default=0, help="synthesis seed (default 0)")
-    parser.add_argument("--size", type=_shape, default=None, metavar="ROWSxCOLS",
+    parser.add_argument("--size", type=parse_size, default=None, metavar="ROWSxCOLS",
                         help="output size (default the map's 768x1024)")
     args = parser.parse_args(argv)
 

@@ -20,7 +20,7 @@ EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
 
-def _parse_size(text: str) -> tuple[int, int]:
+def parse_size(text: str) -> tuple[int, int]:
     """``ROWSxCOLS`` (or a single ``N`` for a square) -> (rows, cols)."""
     parts = text.lower().split("x")
     try:
@@ -318,13 +318,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("info", help="shape, height range, nodata and cell size of a DEM")
     p.add_argument("dem")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
-    p.add_argument("--size", type=_parse_size, help="ROWSxCOLS of a headerless .r16/.r32")
+    p.add_argument("--size", type=parse_size, help="ROWSxCOLS of a headerless .r16/.r32")
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("convert", help="convert a DEM between formats (by extension), or to a mesh")
     p.add_argument("input")
     p.add_argument("output")
-    p.add_argument("--size", type=_parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
+    p.add_argument("--size", type=parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
     p.add_argument("--vertical-scale", type=float, default=1.0, help="height multiplier for meshes")
     p.set_defaults(func=cmd_convert)
 
@@ -334,7 +334,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--kind", choices=("ridge", "valley", "both"), default="both")
     p.add_argument("--json", metavar="OUT.json", help="write the feature graphs as JSON")
     p.add_argument("--overlay", metavar="OUT.png", help="write a hillshade with ridges red, valleys blue")
-    p.add_argument("--size", type=_parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
+    p.add_argument("--size", type=parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
     p.set_defaults(func=cmd_features)
 
     p = sub.add_parser("synth", help="synthesize a terrain from example DEMs and a sketch")
@@ -342,7 +342,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="example DEM (repeatable); with --styles, the style of unlisted colours")
     p.add_argument("--sketch", help="sketch PNG: red ridges, blue valleys")
     p.add_argument("--out", required=True, help="output file; the format follows the extension")
-    p.add_argument("--size", type=_parse_size, help="output ROWSxCOLS (default: the sketch's; it is scaled)")
+    p.add_argument("--size", type=parse_size, help="output ROWSxCOLS (default: the sketch's; it is scaled)")
     p.add_argument("--patch-size", type=int, default=80)
     p.add_argument("--overlap", type=int, default=None, help="overlap in cells (default a third of the patch)")
     p.add_argument("--seed", type=int, default=0)
