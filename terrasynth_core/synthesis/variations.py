@@ -27,10 +27,10 @@ POLL_SECONDS = 0.1
 
 def run_variations(examples: Sequence, sketch=None, *, seeds: Sequence[int], shape=None,
                    params: SynthesisParams = SynthesisParams(), controls: Controls | None = None,
-                   workers: int | None = None,
+                   workers: int | None = None, example_sets: Sequence[Sequence] | None = None,
                    progress: Callable[[int, SynthesisResult], None] | None = None,
                    cancel: Callable[[], bool] | None = None) -> list[SynthesisResult]:
-    """Synthesize one result per seed, in parallel.
+    """Synthesize one result per seed (or per example set), in parallel.
 
     Parameters
     ----------
@@ -38,7 +38,11 @@ def run_variations(examples: Sequence, sketch=None, *, seeds: Sequence[int], sha
         As for :class:`~.session.Session`; ``params.seed`` is replaced by
         each seed.
     seeds : sequence of int
-        One variation per seed, all different.
+        One variation per seed, all different unless ``example_sets``
+        tells the variations apart.
+    example_sets : sequence of sequences of examples, optional
+        Variation ``i`` uses ``example_sets[i]`` instead of ``examples``
+        (the same sketch in other styles); as many as ``seeds``.
     workers : int, optional
         Processes; default one per core, at most one per seed.  1 runs the
         variations one after another in this process.
@@ -62,20 +66,27 @@ def run_variations(examples: Sequence, sketch=None, *, seeds: Sequence[int], sha
     seeds = [int(s) for s in seeds]
     if not seeds:
         raise ParamsError("variations need at least one seed")
-    if len(set(seeds)) != len(seeds):
-        raise ParamsError(f"variation seeds repeat: {seeds}")
+    if example_sets is None:
+        sets = [list(examples)] * len(seeds)
+        if len(set(seeds)) != len(seeds):
+            raise ParamsError(f"variation seeds repeat: {seeds}")
+    else:
+        sets = [list(e) for e in example_sets]
+        if len(sets) != len(seeds):
+            raise ParamsError(f"{len(sets)} example sets for {len(seeds)} seeds: give one set per variation")
     if any(s < 0 for s in seeds):
         raise ParamsError(f"seeds must be non-negative integers, got {seeds}")
     cores = os.cpu_count() or 1
     workers = min(len(seeds), cores) if workers is None else int(workers)
     if workers < 1:
         raise ParamsError(f"workers must be at least 1, got {workers}")
-    # Validate (and analyse the examples into the cache) here, once.
-    Session(examples, sketch, shape=shape, params=dataclasses.replace(params, seed=seeds[0]), controls=controls)
+    # Validate (and analyse the examples into the cache) here, once per set.
+    for ex in sets[:1] if example_sets is None else sets:
+        Session(ex, sketch, shape=shape, params=dataclasses.replace(params, seed=seeds[0]), controls=controls)
     results: list[SynthesisResult | None] = [None] * len(seeds)
     if workers == 1:
         for i, seed in enumerate(seeds):
-            session = Session(examples, sketch, shape=shape, params=dataclasses.replace(params, seed=seed),
+            session = Session(sets[i], sketch, shape=shape, params=dataclasses.replace(params, seed=seed),
                               controls=controls)
             results[i] = session.run(cancel=cancel)
             if progress is not None:
@@ -88,7 +99,7 @@ def run_variations(examples: Sequence, sketch=None, *, seeds: Sequence[int], sha
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
                              initargs=(stop,)) as pool:
         futures = {
-            pool.submit(_one, examples, sketch, shape, dataclasses.replace(per_process, seed=seed), controls): i
+            pool.submit(_one, sets[i], sketch, shape, dataclasses.replace(per_process, seed=seed), controls): i
             for i, seed in enumerate(seeds)
         }
         pending = set(futures)

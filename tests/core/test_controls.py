@@ -233,6 +233,14 @@ def test_variations_in_processes_match_single_runs(lowland):
         run_variations([lowland], sketch, seeds=[1, 1], params=P)
 
 
+def test_variations_over_examples(lowland, highland):
+    results = run_variations([], None, seeds=[3, 3], shape=(96, 96), params=P, workers=1,
+                             example_sets=[[lowland], [highland]])
+    assert np.median(results[1].heights) - np.median(results[0].heights) > 1000
+    with pytest.raises(ParamsError, match="one set per variation"):
+        run_variations([], None, seeds=[1, 2], shape=(96, 96), params=P, example_sets=[[lowland]])
+
+
 def test_label_and_water_pngs(tmp_path):
     rgb = np.zeros((20, 30, 3), np.uint8)
     rgb[:, :15] = (0, 128, 0)
