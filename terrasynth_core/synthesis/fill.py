@@ -14,9 +14,8 @@ positions together.  The search runs on a down-sampled copy of the example
 (``coarse_factor``), keeps the k best well-separated positions and refines
 each at full resolution.
 
-Windows are *ranked* by that SSD divided by the sum of the two variances
-(the example window's, the output's over the overlap): a correlation-like
-score.  Plain SSD favours
+Windows are *ranked* by that SSD divided by the sum of the two windows'
+variances over the overlap (a correlation-like score).  Plain SSD favours
 the example's smoothest windows whenever the terrain around is rough (a
 smooth window is never far from anything), so a style filled by SSD alone
 comes out smoother than its example; the normalised rank removes that
@@ -82,16 +81,6 @@ class FillSearch:
             if (~near).sum() >= 16:
                 allowed &= ~near
         self.allowed = allowed
-        # Each window's own height variance (full resolution, by summed-area
-        # tables), for the normalised rank.
-        c1 = np.pad(np.cumsum(np.cumsum(centred.astype(np.float64), 0), 1), ((1, 0), (1, 0)))
-        c2 = np.pad(np.cumsum(np.cumsum(centred.astype(np.float64) ** 2, 0), 1), ((1, 0), (1, 0)))
-
-        def box(c):
-            return c[h:, w:] - c[:-h, w:] - c[h:, :-w] + c[:-h, :-w]
-
-        n = float(h * w)
-        self.window_var = np.maximum(box(c2) / n - (box(c1) / n) ** 2, 0.0)
 
     def best(self, target: np.ndarray, filled: np.ndarray, count: int, rng: np.random.Generator
              ) -> list[tuple[tuple[int, int], float, float]]:
@@ -149,14 +138,14 @@ class FillSearch:
         # Circular cross-correlations (no wrap-around for positions that fit);
         # the two terms linear in the spectra share one inverse transform.
         conj_m = np.conj(F_m)
-        quad = fft.irfft2(self.F_e2 * conj_m - 2.0 * self.F_e * np.conj(F_mo), self.fshape,
-                          workers=self.workers)[:ar, :ac]
+        s_e2m = fft.irfft2(self.F_e2 * conj_m, self.fshape, workers=self.workers)[:ar, :ac]
+        s_emo = fft.irfft2(self.F_e * np.conj(F_mo), self.fshape, workers=self.workers)[:ar, :ac]
         s_em = fft.irfft2(self.F_e * conj_m, self.fshape, workers=self.workers)[:ar, :ac]
-        ssd = quad + sum_mo2 - (s_em - sum_mo) ** 2 / sum_m
+        ssd = s_e2m - 2.0 * s_emo + sum_mo2 - (s_em - sum_mo) ** 2 / sum_m
         # Ranked by SSD over the two windows' variances (see the module notes).
-        var_c = self.window_var[::f, ::f][:ar, :ac] * sum_m
+        var_c = s_e2m - s_em**2 / sum_m
         var_t = sum_mo2 - sum_mo**2 / sum_m
-        ssd = ssd / (var_c + var_t + 1e-6 * sum_m)
+        ssd = ssd / (np.maximum(var_c, 0.0) + var_t + 1e-6 * sum_m)
         ssd[~self.allowed] = np.inf
         # k best, at least a quarter window apart so they differ.
         picks = []
@@ -195,7 +184,7 @@ class FillSearch:
                 diff = o - e
                 off = diff.mean()
                 ssd = float(((diff - off) ** 2).sum() / n)
-                score = ssd / (self.window_var[r, c] + o.var() + 1e-6)
+                score = ssd / (e.var() + o.var() + 1e-6)
                 if best is None or score < best[0]:
                     best = (score, (r, c), ssd, float(off))
         return best[1:]
