@@ -129,7 +129,65 @@ class SynthesisWorker(QObject):
             events.close()
 
 
-class SynthesisRunner(QObject):
+class _OneAtATime(QObject):
+    """Bookkeeping shared by the runners: one current job, older ones still
+    alive until their threads end, their late signals dropped.
+
+    Subclasses define the forwarded signals and ``running_changed(bool)``;
+    a run is an object with ``worker`` (having ``cancel()``) and ``thread``.
+    """
+
+    running_changed: Signal
+    #: Milliseconds :meth:`wait` allows each thread at exit.
+    WAIT_MS = 10_000
+
+    def __init__(self, parent: QObject | None = None) -> None:
+        super().__init__(parent)
+        self._current = None
+        self._runs: set = set()  # alive until their thread ends
+
+    @property
+    def running(self) -> bool:
+        return self._current is not None
+
+    def _start(self, run) -> None:
+        self.cancel()
+        self._runs.add(run)
+        self._current = run
+        self.running_changed.emit(True)
+        run.thread.start()
+
+    def cancel(self) -> None:
+        """Cancel the current job; its cancelled signal is still forwarded."""
+        if self._current is not None:
+            self._current.worker.cancel()
+            # Keep it current until it says it stopped, so the views learn
+            # the job ended; only a newer one replaces it.
+
+    def wait(self, msecs: int | None = None) -> bool:
+        """Cancel everything and wait for the threads (at exit); False on timeout."""
+        for run in list(self._runs):
+            run.worker.cancel()
+        ok = True
+        for run in list(self._runs):
+            ok &= run.thread.wait(self.WAIT_MS if msecs is None else msecs)
+        return ok
+
+    # -- called by the runs on the GUI thread ------------------------------------
+    def _forward(self, run, signal: str, *args) -> None:
+        if run is self._current:
+            getattr(self, signal).emit(*args)
+
+    def _run_done(self, run) -> None:
+        if run is self._current:
+            self._current = None
+            self.running_changed.emit(False)
+
+    def _thread_finished(self, run) -> None:
+        self._runs.discard(run)
+
+
+class SynthesisRunner(_OneAtATime):
     """Starts synthesis runs, one current at a time, and forwards their signals.
 
     Signals have the meaning of :class:`SynthesisWorker`'s, for the current
@@ -145,52 +203,9 @@ class SynthesisRunner(QObject):
     synthesis_cancelled = Signal()
     running_changed = Signal(bool)
 
-    def __init__(self, parent: QObject | None = None) -> None:
-        super().__init__(parent)
-        self._current: _Run | None = None
-        self._runs: set[_Run] = set()  # alive until their thread ends
-
-    @property
-    def running(self) -> bool:
-        return self._current is not None
-
     def start(self, make_session: Callable[[], object], prepare: Callable[[], object] | None = None) -> None:
         """Start a run, cancelling the current one."""
-        self.cancel()
-        run = _Run(self, SynthesisWorker(make_session, prepare))
-        self._runs.add(run)
-        self._current = run
-        self.running_changed.emit(True)
-        run.thread.start()
-
-    def cancel(self) -> None:
-        """Cancel the current run; its ``synthesis_cancelled`` is still forwarded."""
-        if self._current is not None:
-            self._current.worker.cancel()
-            # Keep it current until it says it stopped, so the views learn
-            # the run ended; only a newer run replaces it.
-
-    def wait(self, msecs: int = 10_000) -> bool:
-        """Cancel everything and wait for the threads (at exit); False on timeout."""
-        for run in list(self._runs):
-            run.worker.cancel()
-        ok = True
-        for run in list(self._runs):
-            ok &= run.thread.wait(msecs)
-        return ok
-
-    # -- called by _Run on the GUI thread --------------------------------------
-    def _forward(self, run: "_Run", signal: str, *args) -> None:
-        if run is self._current:
-            getattr(self, signal).emit(*args)
-
-    def _run_done(self, run: "_Run") -> None:
-        if run is self._current:
-            self._current = None
-            self.running_changed.emit(False)
-
-    def _thread_finished(self, run: "_Run") -> None:
-        self._runs.discard(run)
+        self._start(_Run(self, SynthesisWorker(make_session, prepare)))
 
 
 class _Run(QObject):
@@ -311,7 +326,7 @@ class VariationsWorker(QObject):
             self.done.emit()
 
 
-class VariationsRunner(QObject):
+class VariationsRunner(_OneAtATime):
     """Starts batches of variations, one current at a time, and forwards
     their signals (those of :class:`VariationsWorker`, for the current batch
     only).  ``running_changed(bool)`` tells when a batch starts or ends."""
@@ -322,48 +337,11 @@ class VariationsRunner(QObject):
     variations_cancelled = Signal()
     running_changed = Signal(bool)
 
-    def __init__(self, parent: QObject | None = None) -> None:
-        super().__init__(parent)
-        self._current: _VariationsRun | None = None
-        self._runs: set[_VariationsRun] = set()
-
-    @property
-    def running(self) -> bool:
-        return self._current is not None
+    WAIT_MS = 30_000
 
     def start(self, job: Callable[[Callable, Callable], list]) -> None:
         """Start a batch, cancelling the current one."""
-        self.cancel()
-        run = _VariationsRun(self, VariationsWorker(job))
-        self._runs.add(run)
-        self._current = run
-        self.running_changed.emit(True)
-        run.thread.start()
-
-    def cancel(self) -> None:
-        if self._current is not None:
-            self._current.worker.cancel()
-
-    def wait(self, msecs: int = 30_000) -> bool:
-        """Cancel everything and wait for the threads (at exit); False on timeout."""
-        for run in list(self._runs):
-            run.worker.cancel()
-        ok = True
-        for run in list(self._runs):
-            ok &= run.thread.wait(msecs)
-        return ok
-
-    def _forward(self, run: "_VariationsRun", signal: str, *args) -> None:
-        if run is self._current:
-            getattr(self, signal).emit(*args)
-
-    def _run_done(self, run: "_VariationsRun") -> None:
-        if run is self._current:
-            self._current = None
-            self.running_changed.emit(False)
-
-    def _thread_finished(self, run: "_VariationsRun") -> None:
-        self._runs.discard(run)
+        self._start(_VariationsRun(self, VariationsWorker(job)))
 
 
 class _VariationsRun(QObject):
