@@ -280,8 +280,8 @@ class Sketch:
         _check_layers(ridge, valley)
         new = {"ridge": ridge.astype(np.uint8, copy=True), "valley": valley.astype(np.uint8, copy=True)}
         if ridge.shape != self.shape:
-            new["style"] = _resized(self._layers["style"], ridge.shape)
-            new["water"] = _resized(self._layers["water"], ridge.shape)
+            new["style"] = resize_nearest(self._layers["style"], ridge.shape)
+            new["water"] = resize_nearest(self._layers["water"], ridge.shape)
         self._replace_layers(new)
 
     def replace_with_map(self, sketch_map: SketchMap) -> None:
@@ -505,8 +505,12 @@ def _region_layers(shape: tuple[int, int], style: np.ndarray | None,
     return {"style": style_layer, "water": water_layer}
 
 
-def _resized(layer: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """``layer`` resampled to ``shape`` by nearest cell (labels stay labels)."""
+def resize_nearest(layer: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """``layer`` resampled to ``shape`` (rows, cols) by nearest cell, so
+    labels and masks stay labels and masks; a new array, or ``layer``
+    itself when it already has ``shape``."""
+    if layer.shape == tuple(shape):
+        return layer
     rows = np.minimum(((np.arange(shape[0]) + 0.5) * layer.shape[0] / shape[0]).astype(int), layer.shape[0] - 1)
     cols = np.minimum(((np.arange(shape[1]) + 0.5) * layer.shape[1] / shape[1]).astype(int), layer.shape[1] - 1)
     return layer[np.ix_(rows, cols)]

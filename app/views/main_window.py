@@ -31,9 +31,11 @@ from terrasynth_core.io import READ_EXTENSIONS, load_dem
 from ..model.controls import StampSpec, fitting_scale
 from ..model.dem_features import dem_feature_layers
 from ..model.document import Document, SynthesisRequest
+from ..model.example_maps import EXAMPLE_MAPS, example_map_document
 from ..model.export import export_terrain
 from ..model.project import PROJECT_EXTENSION, load_project, save_project
 from ..model.recovery import RecoveryStore
+from ..model.region_maps import style_layer_from_png, water_layer_from_png
 from ..model.result import TerrainResult
 from ..workers import SynthesisRunner, VariationsRunner, run_in_background
 from .dialogs import NewSketchDialog
@@ -115,9 +117,12 @@ class MainWindow(QMainWindow):
     -------
     export_finished(str)
         A file was exported; carries its path.
+    example_map_opened(str)
+        A built-in example map became the document; carries its key.
     """
 
     export_finished = Signal(str)
+    example_map_opened = Signal(str)
 
     def __init__(self, document: Document | None = None, *, settings: QSettings | None = None,
                  recovery: RecoveryStore | None = None, autosave_ms: int = AUTOSAVE_MS) -> None:
@@ -235,6 +240,16 @@ class MainWindow(QMainWindow):
         save_sketch_action = self._action("Save sketch PNG…", lambda: self.save_sketch())
         import_features = self._action("Import DEM features as sketch…", lambda: self.import_dem_features(),
                                        tip="Trace the ridges and valleys of a DEM into the sketch")
+        import_styles = self._action("Import style regions PNG…", lambda: self.import_style_regions(),
+                                     tip="Paint the style layer from a PNG with one flat colour per style: each "
+                                         "colour goes to the style of the nearest colour")
+        import_water = self._action("Import water mask PNG…", lambda: self.import_water_mask(),
+                                    tip="Paint the water layer from a PNG: dark paint on a light ground is water")
+        self.example_map_actions = {
+            key: self._action(title, lambda _=False, key=key: self.open_example_map(key),
+                              tip=f"Open the built-in {title} map: styles, water, stamp and pins, "
+                                  "ready to synthesize")
+            for key, title in EXAMPLE_MAPS.items()}
         quit_action = self._action("Quit", self.close, shortcut=QKeySequence.Quit)
 
         file_menu = self.menuBar().addMenu("&File")
@@ -242,9 +257,11 @@ class MainWindow(QMainWindow):
             file_menu.addAction(action)
         self.recent_menu = file_menu.addMenu("Open recent")
         self._update_recent_menu()
+        file_menu.addMenu("Open example map").addActions(list(self.example_map_actions.values()))
         file_menu.addActions([self.save_action, save_as])
         file_menu.addSeparator()
         file_menu.addActions([new_sketch, open_sketch, save_sketch_action, import_features])
+        file_menu.addActions([import_styles, import_water])
         file_menu.addSeparator()
         file_menu.addAction(self.export_action)
         file_menu.addSeparator()
@@ -542,6 +559,40 @@ class MainWindow(QMainWindow):
     def _features_import_failed(self, message: str) -> None:
         self.report_error("Cannot import DEM features", message)
 
+    # -- region maps -------------------------------------------------------------------------------------
+    def import_style_regions(self, path: str | None = None) -> None:
+        """Replace the style layer with a style-region PNG (one undo step)."""
+        if path is None:
+            path, _ = QFileDialog.getOpenFileName(self, "Import style regions", "", "Style regions (*.png)")
+            if not path:
+                return
+        doc = self.document
+        try:
+            layer = style_layer_from_png(path, doc.styles, doc.output_shape)
+        except TerraSynthError as exc:
+            self.report_error("Cannot import style regions", str(exc))
+            return
+        doc.sketch.replace_regions(style=layer)
+        unstyled = float((layer < 0).mean())
+        self.statusBar().showMessage(
+            f"Imported style regions from {path}" + (f"; {100 * unstyled:.0f} % of the cells match no style's "
+                                                     "colour and use the plain examples" if unstyled else ""),
+            10_000)
+
+    def import_water_mask(self, path: str | None = None) -> None:
+        """Replace the water layer with a water-mask PNG (one undo step)."""
+        if path is None:
+            path, _ = QFileDialog.getOpenFileName(self, "Import water mask", "", "Water mask (*.png)")
+            if not path:
+                return
+        try:
+            layer = water_layer_from_png(path, self.document.output_shape)
+        except TerraSynthError as exc:
+            self.report_error("Cannot import water mask", str(exc))
+            return
+        self.document.sketch.replace_regions(water=layer)
+        self.statusBar().showMessage(f"Imported the water mask {path}: {100 * layer.mean():.0f} % water", 10_000)
+
     # -- projects ---------------------------------------------------------------------------------------
     def maybe_save(self) -> bool:
         """Ask about unsaved changes; False when the user cancels."""
@@ -558,6 +609,27 @@ class MainWindow(QMainWindow):
         if self.maybe_save():
             self.runner.cancel()
             self.document.assign(Document.default())
+
+    def open_example_map(self, key: str) -> None:
+        """Make the built-in map ``key`` the document (after asking about
+        unsaved changes); it is read on the thread pool and
+        :attr:`example_map_opened` follows."""
+        if not self.maybe_save():
+            return
+        self.statusBar().showMessage(f"Reading the {EXAMPLE_MAPS[key]} example map…")
+        run_in_background(lambda: (key, example_map_document(key)), self._example_map_read,
+                          self._example_map_failed)
+
+    def _example_map_read(self, value) -> None:
+        key, document = value
+        self.runner.cancel()
+        self.document.assign(document)
+        self.docks["regions_dock"].raise_()
+        self.statusBar().showMessage(f"Opened the {EXAMPLE_MAPS[key]} example map: press Synthesize", 10_000)
+        self.example_map_opened.emit(key)
+
+    def _example_map_failed(self, message: str) -> None:
+        self.report_error("Cannot open the example map", message)
 
     def open_project(self, path: str | None = None) -> bool:
         if not self.maybe_save():

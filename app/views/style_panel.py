@@ -68,6 +68,9 @@ class StylePanel(QWidget):
 
         self.list = QListWidget()
         self.list.setWordWrap(True)
+        # Items take two or three lines: room for about three styles before
+        # the list scrolls (the panel itself scrolls in its dock).
+        self.list.setMinimumHeight(9 * self.list.fontMetrics().lineSpacing())
         self.list.currentItemChanged.connect(self._current_changed)
         self.add_button = QToolButton(text="Add style", popupMode=QToolButton.InstantPopup)
         self.add_button.setToolTip("A new style from a built-in example or a DEM file; paint it with the Style brush")
