@@ -29,7 +29,7 @@ import sys
 import time
 from pathlib import Path
 
-from terrasynth_core.analysis import feature_tpi_score
+from terrasynth_core.measures import feature_tpi_score
 from terrasynth_core.features import extract_features
 from terrasynth_core.features.overlay import render_overlay, save_overlay
 from terrasynth_core.io import load_dem

@@ -70,7 +70,7 @@ from scipy import ndimage
 from scipy.stats import wasserstein_distance
 
 from eval_synthesis import _json_ready, high_frequency
-from terrasynth_core.cli import parse_size
+from terrasynth_core.cli.main import parse_size
 from terrasynth_core.examples import resolve_dem
 from terrasynth_core.synthesis import Controls, Session, SynthesisParams
 

@@ -21,7 +21,7 @@ against the same strokes.
 * ``TPI r/v``: topographic position index along the sketch's ridge and
   valley centre lines (the sketch's own feature graphs), in standard
   deviations of the output's TPI, radius 15 cells
-  (:func:`~terrasynth_core.analysis.feature_tpi_score`).  Ridges should be
+  (:func:`~terrasynth_core.measures.feature_tpi_score`).  Ridges should be
   clearly positive, valleys clearly negative; chance is about 0.
 * ``recall r/v``: PPA (default :class:`PPAParams`) on the output; the share
   of sketch centre-line cells with an output feature of the same kind
@@ -84,7 +84,7 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
-from terrasynth_core.analysis import feature_tpi_score
+from terrasynth_core.measures import feature_tpi_score
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.examples import builtin_example
 from terrasynth_core.features import FeatureGraph, extract_features, read_sketch

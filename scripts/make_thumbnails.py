@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from PIL import Image
 
-from terrasynth_core.analysis import hillshade
+from terrasynth_core.measures import hillshade
 from terrasynth_core.examples import BUILTIN_EXAMPLES, resource_path
 
 SIZE = 160

@@ -32,7 +32,7 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 from scipy import ndimage
 
-from terrasynth_core.analysis import hillshade
+from terrasynth_core.measures import hillshade
 from terrasynth_core.examples import builtin_example
 from terrasynth_core.features import read_sketch
 from terrasynth_core.synthesis import Session, SynthesisParams

@@ -32,8 +32,8 @@ from PIL import Image, ImageDraw, ImageFont
 
 from make_middle_earth import STYLES, load_demo
 from render_gallery import MARGIN, MAX_WIDTH, compose, terrain_colours
-from terrasynth_core.analysis import hillshade
-from terrasynth_core.cli import parse_size
+from terrasynth_core.measures import hillshade
+from terrasynth_core.cli.main import parse_size
 from terrasynth_core.synthesis import Session, SynthesisParams
 
 REPO = Path(__file__).resolve().parents[1]

@@ -15,9 +15,9 @@ from .errors import ParamsError
 from .examples import resolve_dem, resource_path
 from .features import SketchMap, read_sketch
 from .features.labels import read_label_map, read_mask
-from .pins import Pin
-from .synthesis.controls import Controls, Stamp, Style
-from .water import Water
+from .controls.pins import Pin
+from .controls.options import Controls, Stamp, Style
+from .controls.water import Water
 
 #: Preset name -> JSON file in resources/sketches.
 PRESETS = {"middle-earth": "middle_earth.json"}

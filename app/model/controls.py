@@ -2,7 +2,7 @@
 reference, so a project names its DEMs instead of embedding them.
 
 :class:`StyleSpec` and :class:`StampSpec` become the core's ``Style`` and
-``Stamp`` (:mod:`terrasynth_core.synthesis.controls`) only when a run starts,
+``Stamp`` (:mod:`terrasynth_core.controls`) only when a run starts,
 on the worker thread, because that reads the DEMs.
 """
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from terrasynth_core.analysis import hillshade
+from terrasynth_core.measures import hillshade
 
 # Hypsometric tints from lowland green through tan and brown to snow, at
 # fractions of the height range.

@@ -5,7 +5,7 @@
   the same kind of graphs (:mod:`.sketch`);
 * both share the mask-to-graph pipeline of :mod:`.network`;
 * :mod:`.overlay` draws the graphs over a hillshade (import it directly:
-  it depends on :mod:`terrasynth_core.analysis`, which depends on this
+  it depends on :mod:`terrasynth_core.measures`, which depends on this
   package).
 """
 

@@ -16,7 +16,7 @@ import numpy as np
 from PIL import Image
 from skimage.draw import disk
 
-from ..analysis import hillshade
+from ..measures import hillshade
 from ..errors import ParamsError
 from .graph import FeatureGraph, FeatureMaps
 from .network import graph_mask

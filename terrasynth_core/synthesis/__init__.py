@@ -1,9 +1,9 @@
 """Feature-guided patch synthesis (Zhou et al. 2007): the session, its
 parameters, artist controls, events and result."""
 
-from ..pins import Pin, PinError
-from ..water import Water
-from .controls import Controls, Stamp, Style
+from ..controls.pins import Pin, PinError
+from ..controls.water import Water
+from ..controls.options import Controls, Stamp, Style
 from .events import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 from .params import SynthesisParams
 from .session import PatchRecord, Session, SynthesisResult

@@ -28,16 +28,16 @@ from ..errors import ParamsError, SynthesisCancelled
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
-from ..pins import PinError, apply_pins
-from ..water import apply_water, flooded_land
-from .canvas import Canvas, Cut
-from .controls import Controls
+from ..controls.pins import PinError, apply_pins
+from ..controls.water import apply_water, flooded_land
+from ..placing.canvas import Canvas, Cut
+from ..controls.options import Controls
 from .events import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
-from .fill import FillSearch
+from ..matching.fill_search import FillSearch
 from .params import SynthesisParams
-from .pool import FeaturePool
-from .samples import FeatureSample, sketch_samples
-from .styles import build_layout
+from ..matching.candidates import FeaturePool
+from ..features.samples import FeatureSample, sketch_samples
+from ..controls.layout import build_layout
 
 
 @dataclass(frozen=True)
@@ -539,7 +539,7 @@ class _Run:
         another thread.  Its random tie-breaks come from a generator seeded
         by (seed, sample index), independent of thread timing.
         """
-        from ..warping import ThinPlateSpline, warp_patch
+        from ..warping.thin_plate import ThinPlateSpline, warp_patch
 
         rng = np.random.default_rng([self.p.seed, 0, index])
         bbox = self._window(sample.center)

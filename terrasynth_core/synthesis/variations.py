@@ -17,7 +17,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Callable, Sequence
 
 from ..errors import ParamsError, SynthesisCancelled
-from .controls import Controls
+from ..controls.options import Controls
 from .params import SynthesisParams
 from .session import Session, SynthesisResult
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from terrasynth_core import HeightField, ParamsError
-from terrasynth_core.analysis import (
+from terrasynth_core.measures import (
     feature_tpi_score,
     hillshade,
     slope,

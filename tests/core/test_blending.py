@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from terrasynth_core.blending import remove_seam, seam_step
+from terrasynth_core.blending.poisson import remove_seam, seam_step
 from terrasynth_core.errors import ParamsError
 
 SHAPE = (40, 48)

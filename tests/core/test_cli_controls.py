@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from terrasynth_core.cli import EXIT_BAD_INPUT, EXIT_OK, main
-from terrasynth_core.cli_controls import parse_stamp, parse_style
+from terrasynth_core.cli.main import EXIT_BAD_INPUT, EXIT_OK, main
+from terrasynth_core.cli.controls import parse_stamp, parse_style
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.heightfield import HeightField
 from terrasynth_core.io import load_dem, save_dem

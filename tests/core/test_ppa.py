@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from terrasynth_core import HeightField, ParamsError
-from terrasynth_core.analysis import feature_tpi_score
+from terrasynth_core.measures import feature_tpi_score
 from terrasynth_core.features import FeatureGraph, PPAParams, extract_features, extract_ridges, extract_valleys
 from terrasynth_core.features.network import compress_chains, graph_mask, spanning_forest
 from terrasynth_core.features.overlay import RIDGE_COLOUR, VALLEY_COLOUR, render_overlay, save_overlay

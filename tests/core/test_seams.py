@@ -7,7 +7,7 @@ import pytest
 from scipy import ndimage
 
 from terrasynth_core.errors import ParamsError
-from terrasynth_core.seams import SeamResult, graph_cut_seam, seam_pixels
+from terrasynth_core.placing.graph_cut import SeamResult, graph_cut_seam, seam_pixels
 
 SHAPE = (40, 40)
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terrasynth_core.analysis import feature_tpi_score
+from terrasynth_core.measures import feature_tpi_score
 from terrasynth_core.errors import ParamsError, SynthesisCancelled
 from terrasynth_core.features.sketch import SketchMap, read_sketch, sketch_features
 from terrasynth_core.heightfield import HeightField
@@ -19,7 +19,7 @@ from terrasynth_core.synthesis import (
     SynthesisFinished,
     SynthesisParams,
 )
-from terrasynth_core.synthesis.fill import FillSearch
+from terrasynth_core.matching.fill_search import FillSearch
 
 SMALL = SynthesisParams(patch_size=32, k=3, seed=3)
 
@@ -195,7 +195,7 @@ def test_fft_search_ranks_by_normalised_ssd_like_brute_force(example):
 
 
 def test_analysis_disk_cache_round_trips_and_survives_damage(example, tmp_path, monkeypatch):
-    from terrasynth_core.synthesis import analysis as an
+    from terrasynth_core.exemplars import prepare as an
 
     monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
     an._CACHE.clear()

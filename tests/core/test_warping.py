@@ -8,7 +8,7 @@ import pytest
 from scipy import ndimage
 
 from terrasynth_core.errors import ParamsError
-from terrasynth_core.warping import ThinPlateSpline, warp_patch
+from terrasynth_core.warping.thin_plate import ThinPlateSpline, warp_patch
 
 SRC = np.array([[10.0, 12.0], [40.0, 8.0], [25.0, 40.0], [70.0, 65.0], [55.0, 20.0], [12.0, 70.0]])
 

@@ -12,8 +12,8 @@ import json
 import sys
 from pathlib import Path
 
-from .cli_controls import add_control_arguments
-from .errors import TerraSynthError
+from .controls import add_control_arguments
+from ..errors import TerraSynthError
 
 EXIT_OK = 0
 EXIT_BAD_INPUT = 2
@@ -54,7 +54,7 @@ class _Stages:
 
 # -- info ---------------------------------------------------------------------
 def cmd_info(args: argparse.Namespace) -> int:
-    from .examples import resolve_dem
+    from ..examples import resolve_dem
 
     field = resolve_dem(args.dem, size=args.size)
     info = {
@@ -83,8 +83,8 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 # -- convert ------------------------------------------------------------------
 def cmd_convert(args: argparse.Namespace) -> int:
-    from .examples import resolve_dem
-    from .io import MESH_EXTENSIONS, save_dem, save_mesh
+    from ..examples import resolve_dem
+    from ..io import MESH_EXTENSIONS, save_dem, save_mesh
 
     field = resolve_dem(args.input, size=args.size)
     out = Path(args.output)
@@ -100,8 +100,8 @@ def cmd_convert(args: argparse.Namespace) -> int:
 def cmd_features(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .features import FeatureMaps, extract_features, read_sketch, sketch_features
-    from .features.overlay import render_overlay, save_overlay
+    from ..features import FeatureMaps, extract_features, read_sketch, sketch_features
+    from ..features.overlay import render_overlay, save_overlay
 
     stages = _Stages(3, "features")
     try:
@@ -112,7 +112,7 @@ def cmd_features(args: argparse.Namespace) -> int:
             heights = np.where(sketch.ridge_mask, 1.0, np.where(sketch.valley_mask, -1.0, 0.0)).astype(np.float32)
             cell_size = None
         else:
-            from .examples import resolve_dem
+            from ..examples import resolve_dem
 
             field = resolve_dem(args.input, size=args.size)
             stages.step("read DEM")
@@ -142,11 +142,11 @@ def cmd_features(args: argparse.Namespace) -> int:
 
 # -- synth / demo -------------------------------------------------------------
 def cmd_synth(args: argparse.Namespace) -> int:
-    from .examples import resolve_dem
-    from .features import read_sketch
-    from .synthesis import SynthesisParams
+    from ..examples import resolve_dem
+    from ..features import read_sketch
+    from ..synthesis import SynthesisParams
 
-    from .cli_controls import controls_from_args
+    from .controls import controls_from_args
 
     if not args.example and not args.styles:
         raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY), or --styles with --style")
@@ -165,12 +165,12 @@ def cmd_synth(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from .examples import DEFAULT_EXAMPLE, DEFAULT_SKETCH, builtin_example, resource_path
-    from .features import read_sketch
-    from .synthesis import SynthesisParams
+    from ..examples import DEFAULT_EXAMPLE, DEFAULT_SKETCH, builtin_example, resource_path
+    from ..features import read_sketch
+    from ..synthesis import SynthesisParams
 
     if args.map != "default":
-        from .presets import load_preset
+        from ..presets import load_preset
 
         preset = load_preset(args.map)
         return _synthesize([], preset.sketch, preset.shape, SynthesisParams(seed=args.seed), args, preset.controls)
@@ -182,8 +182,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
 def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     from tqdm import tqdm
 
-    from .io import MESH_EXTENSIONS, WRITE_EXTENSIONS
-    from .synthesis import PatchPlaced, Session, StageStarted, SynthesisFinished
+    from ..io import MESH_EXTENSIONS, WRITE_EXTENSIONS
+    from ..synthesis import PatchPlaced, Session, StageStarted, SynthesisFinished
 
     out = Path(args.out)
     if out.suffix.lower() not in WRITE_EXTENSIONS + MESH_EXTENSIONS:
@@ -226,8 +226,8 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
 
 
 def _save_result(result, out: Path, cell) -> None:
-    from .heightfield import HeightField
-    from .io import MESH_EXTENSIONS, save_dem, save_mesh
+    from ..heightfield import HeightField
+    from ..io import MESH_EXTENSIONS, save_dem, save_mesh
 
     field = HeightField(result.heights, cell_size=cell, source=str(out), format=None)
     if out.suffix.lower() in MESH_EXTENSIONS:
@@ -252,7 +252,7 @@ def _summary(result, out: Path, said: list[str]) -> None:
 
 def _variations(examples, sketch, size, params, controls, args, cell) -> int:
     """``--variations N``: seeds SEED..SEED+N-1 in parallel, OUT_v1.. OUT_vN."""
-    from .synthesis import run_variations
+    from ..synthesis import run_variations
 
     out = Path(args.out)
     seeds = [params.seed + i for i in range(args.variations)]
@@ -276,8 +276,8 @@ def _write_debug(result, folder: Path) -> None:
     import numpy as np
     from PIL import Image
 
-    from .analysis import hillshade
-    from .features.overlay import render_overlay, save_overlay
+    from ..measures import hillshade
+    from ..features.overlay import render_overlay, save_overlay
 
     folder.mkdir(parents=True, exist_ok=True)
     np.save(folder / "patch_id.npy", result.patch_id)
@@ -299,7 +299,7 @@ def _write_debug(result, folder: Path) -> None:
 
 
 def _write_json_atomic(path: Path, data: dict) -> None:
-    from .io._common import atomic_outputs, open_new
+    from ..io._common import atomic_outputs, open_new
 
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
@@ -369,7 +369,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def cmd_examples(args: argparse.Namespace) -> int:
-    from .examples import BUILTIN_EXAMPLES, builtin_sketches
+    from ..examples import BUILTIN_EXAMPLES, builtin_sketches
 
     for ex in BUILTIN_EXAMPLES:
         print(f"builtin:{ex.key:<16} {ex.name}: {ex.style}")

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from .errors import ParamsError
+from ..errors import ParamsError
 
 
 @dataclass(frozen=True, eq=False)

@@ -3,7 +3,7 @@
 Extracting an example's ridges and valleys is the slowest part of starting a
 run, and the same examples are used run after run (the app re-synthesizes
 after every edit), so the analysis is memoised per (heights, patch size), in
-memory and on disk (:mod:`.analysis_cache`).
+memory and on disk (:mod:`.cache`).
 """
 
 from __future__ import annotations
@@ -16,12 +16,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from ..analysis import topographic_position_index
+from ..measures import topographic_position_index
 from ..errors import ParamsError
 from ..features import FeatureMaps, extract_features
 from ..heightfield import HeightField
-from . import analysis_cache
-from .samples import example_samples
+from . import cache
+from ..features.samples import example_samples
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,10 +82,10 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
     with _CACHE_LOCK:
         cached = _CACHE.get(key)
     if cached is None:
-        cached = analysis_cache.load(key)
+        cached = cache.load(key)
         if cached is None:
             cached = _analyse(heights, patch_size)
-            analysis_cache.save(key, *cached)
+            cache.save(key, *cached)
         with _CACHE_LOCK:
             _CACHE[key] = cached
             while len(_CACHE) > _CACHE_SIZE:

@@ -23,7 +23,7 @@ import math
 import numpy as np
 from scipy import ndimage
 
-from .errors import ParamsError
+from ..errors import ParamsError
 
 #: Relative size (to the point spread) below which two control points count
 #: as the same point.

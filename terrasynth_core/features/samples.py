@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..features.graph import FeatureGraph
+from .graph import FeatureGraph
 
 
 @dataclass(frozen=True, eq=False)

@@ -27,7 +27,7 @@ import numpy as np
 from scipy import ndimage, sparse
 from scipy.sparse.linalg import splu
 
-from .errors import ParamsError
+from ..errors import ParamsError
 
 BlendMode = Literal["poisson", "c1"]
 

@@ -14,7 +14,7 @@ DEM, places a localized feature (Mount St. Helens) and a water mask.  Here:
   synthesized around it, meeting it through the usual graph cut and seam
   solve;
 - water, pins and the height range act on the finished heights
-  (:mod:`terrasynth_core.water`, :mod:`terrasynth_core.pins`).
+  (:mod:`.water`, :mod:`.pins`).
 """
 
 from __future__ import annotations
@@ -27,8 +27,8 @@ from scipy import ndimage
 
 from ..errors import ParamsError
 from ..heightfield import HeightField
-from ..pins import check_pins
-from ..water import Water
+from .pins import check_pins
+from .water import Water
 
 
 @dataclass(frozen=True, eq=False)
@@ -261,7 +261,7 @@ def steer_level(level: np.ndarray, pins, patch_size: int) -> np.ndarray:
 
     Synthesis then builds the terrain around a pin at about the pinned
     height, with its own detail, and the exact correction after synthesis
-    (:func:`terrasynth_core.pins.apply_pins`) only has to absorb that detail
+    (:func:`.pins.apply_pins`) only has to absorb that detail
     instead of raising a smooth dome.  The level field is smooth, so the
     bend is solved on a grid coarser by a sixteenth of a patch and
     interpolated back.
@@ -277,7 +277,7 @@ def steer_level(level: np.ndarray, pins, patch_size: int) -> np.ndarray:
     -------
     ndarray of float32, shape (rows, cols)
     """
-    from ..pins import Pin, apply_pins
+    from .pins import Pin, apply_pins
 
     if not pins:
         return level

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..blending import remove_seam
-from ..seams import graph_cut_seam
-from .params import SynthesisParams
+from ..blending.poisson import remove_seam
+from .graph_cut import graph_cut_seam
+from ..synthesis.params import SynthesisParams
 
 
 @dataclass(frozen=True, eq=False)

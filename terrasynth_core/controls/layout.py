@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .analysis import ExampleAnalysis, prepare_example
-from .controls import Controls, RenderedStamp, level_field, render_stamp, steer_level
+from ..exemplars.prepare import ExampleAnalysis, prepare_example
+from .options import Controls, RenderedStamp, level_field, render_stamp, steer_level
 
 
 @dataclass(frozen=True, eq=False)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 import re
 
-from .errors import ParamsError
+from ..errors import ParamsError
 
 _WINDOW = re.compile(r"^(?P<dem>.+?)\[(?P<r0>\d+):(?P<r1>\d+),(?P<c0>\d+):(?P<c1>\d+)\]$")
 
@@ -54,7 +54,7 @@ def _numbers(text: str, what: str, count: tuple[int, ...]) -> list[float]:
 
 def parse_style(text: str) -> tuple[str, str, float, float | None]:
     """``"#RRGGBB=DEM[,relief=S][,base=M]"`` -> (colour, dem, relief, base)."""
-    from .features.labels import parse_colour
+    from ..features.labels import parse_colour
 
     colour, sep, rest = text.partition("=")
     if not sep or not rest:
@@ -95,7 +95,7 @@ def parse_stamp(text: str):
 
 def parse_pin(text: str):
     """``ROW,COL,HEIGHT`` -> Pin."""
-    from .pins import Pin
+    from ..controls.pins import Pin
 
     row, col, height = _numbers(text, "--pin", (3,))
     if row != int(row) or col != int(col):
@@ -111,9 +111,9 @@ def controls_from_args(args: argparse.Namespace, *, have_examples: bool):
     Controls or None
         None when no control option was given.
     """
-    from .examples import resolve_dem
-    from .features.labels import read_label_map, read_mask
-    from .synthesis import Controls, Stamp, Style, Water
+    from ..examples import resolve_dem
+    from ..features.labels import read_label_map, read_mask
+    from ..synthesis import Controls, Stamp, Style, Water
 
     if args.style and not args.styles:
         raise ParamsError("--style needs --styles REGIONS.png saying where each style goes")

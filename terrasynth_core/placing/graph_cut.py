@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import maxflow
 import numpy as np
 
-from .errors import ParamsError
+from ..errors import ParamsError
 
 #: Default edge-weight floor relative to the windows' height range: keeps a
 #: cut through perfectly matching (e.g. flat) terrain short and clean instead

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .samples import FeatureSample
+from ..features.samples import FeatureSample
 
 
 @dataclass(frozen=True, eq=False)

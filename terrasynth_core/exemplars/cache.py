@@ -19,7 +19,7 @@ import numpy as np
 from ..features import FeatureGraph, FeatureMaps
 from ..features.graph import FeatureNode, FeaturePath
 from ..io._common import atomic_outputs, open_new
-from .samples import FeatureSample
+from ..features.samples import FeatureSample
 
 #: Bump when the analysis changes, so old files are not reused.
 CACHE_VERSION = 1

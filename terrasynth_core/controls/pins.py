@@ -21,7 +21,7 @@ import numpy as np
 from scipy import ndimage, sparse
 from scipy.sparse.linalg import spsolve
 
-from .errors import ParamsError
+from ..errors import ParamsError
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,106 @@
+"""Digests of the engine's output on the README's cases, to show that a
+change which should not change behaviour gives the same bytes.
+
+Usage::
+
+    python scripts/digests.py                       # print the table
+    python scripts/digests.py --json after.json     # also keep it
+    python scripts/digests.py --compare before.json # exit 1 on any difference
+
+Each case hashes the heights, the patch-id map, the seam mask and the patch
+records (SHA-256, first 16 hex digits).  Run it on the commit before a
+refactor (a ``git worktree``) and after; the tables must match line for line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import hashlib
+import json
+import sys
+import time
+
+import numpy as np
+
+from terrasynth_core.examples import builtin_example, resource_path
+from terrasynth_core.features import read_sketch
+from terrasynth_core.presets import load_preset
+from terrasynth_core.synthesis import Session, SynthesisParams
+
+
+def _digest(result) -> str:
+    h = hashlib.sha256()
+    for array in (result.heights, result.patch_id, result.seam_mask):
+        h.update(np.ascontiguousarray(array).tobytes())
+    for p in result.patches:
+        h.update(repr((p.kind, p.feature, p.bbox, p.example, p.source, p.mirrored)).encode())
+    return h.hexdigest()[:16]
+
+
+def _sketch(name: str):
+    return read_sketch(resource_path("sketches") / name)
+
+
+def _single(sketch: str, example: str, shape=None, **params):
+    def run():
+        return Session([builtin_example(example).load()], _sketch(sketch), shape=shape,
+                       params=SynthesisParams(**params)).run()
+    return run
+
+
+def _middle_earth(resynthesis: bool):
+    def run():
+        preset = load_preset("middle-earth")
+        params = SynthesisParams(seed=0)
+        result = Session([], preset.sketch, shape=preset.shape, params=params, controls=preset.controls).run()
+        if not resynthesis:
+            return result
+        box = np.zeros(preset.shape, dtype=bool)
+        box[300:460, 200:400] = True
+        redo = dataclasses.replace(preset.controls, previous=result.heights, selection=box)
+        return Session([], preset.sketch, shape=preset.shape, params=SynthesisParams(seed=1), controls=redo).run()
+    return run
+
+
+CASES = {
+    "demo: y_junction / white-mountains": _single("y_junction_512.png", "white-mountains", seed=0),
+    "gallery: ring_cross / big-tujunga": _single("ring_cross_512.png", "big-tujunga", seed=0),
+    "gallery: s_valley / himalaya 600": _single("s_valley_1000.png", "himalaya", (600, 600), seed=0),
+    "seams: paste": _single("s_valley_1000.png", "white-mountains", (512, 512), seed=0, seam="paste", blend="none"),
+    "seams: cut": _single("s_valley_1000.png", "white-mountains", (512, 512), seed=0, seam="cut", blend="none"),
+    "seams: cut + poisson": _single("s_valley_1000.png", "white-mountains", (512, 512), seed=0, blend="poisson"),
+    "seams: cut + c1": _single("s_valley_1000.png", "white-mountains", (512, 512), seed=0, blend="c1"),
+    "raster order, no mirrors, seed 3": _single("y_junction_512.png", "st-helens", seed=3, order="raster",
+                                                mirror=False, patch_size=48),
+    "bench: s_valley / white-mountains 1000": _single("s_valley_1000.png", "white-mountains", seed=0),
+    "middle-earth": _middle_earth(False),
+    "middle-earth re-synthesis": _middle_earth(True),
+}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--json", metavar="OUT", help="also write the digests as JSON")
+    ap.add_argument("--compare", metavar="REF", help="compare with a JSON written before; exit 1 on a difference")
+    ap.add_argument("--only", metavar="TEXT", help="run only the cases whose name contains TEXT")
+    args = ap.parse_args(argv)
+    reference = json.loads(open(args.compare).read()) if args.compare else {}
+    digests, differ = {}, 0
+    print(f"{'case':42s} {'sha256[:16]':16s} {'seconds':>8s}  same")
+    for name, run in CASES.items():
+        if args.only and args.only not in name:
+            continue
+        t = time.perf_counter()
+        digests[name] = _digest(run())
+        same = "" if name not in reference else ("yes" if reference[name] == digests[name] else "NO")
+        differ += same == "NO"
+        print(f"{name:42s} {digests[name]:16s} {time.perf_counter() - t:8.1f}  {same}", flush=True)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(digests, f, indent=1)
+    return 1 if differ else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,5 @@
+"""``terrasynth-cli``: the command line over the core."""
+
+from .main import main
+
+__all__ = ["main"]
