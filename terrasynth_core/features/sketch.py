@@ -161,6 +161,29 @@ class SketchMap:
         return SketchMap((ridge > eps) & (ridge >= valley), (valley > eps) & (valley > ridge))
 
 
+def resize_nearest(layer: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """A grid resampled by nearest cell, so labels and masks stay labels and masks.
+
+    Parameters
+    ----------
+    layer : ndarray, shape (rows, cols, ...)
+        Any dtype; trailing axes (e.g. RGB) are carried along.
+    shape : (rows, cols)
+        The new size.
+
+    Returns
+    -------
+    ndarray, shape (shape[0], shape[1], ...)
+        Each cell takes the source cell under its centre; ``layer`` itself
+        when it already has ``shape``.
+    """
+    if layer.shape[:2] == tuple(shape):
+        return layer
+    rows = np.minimum(((np.arange(shape[0]) + 0.5) * layer.shape[0] / shape[0]).astype(int), layer.shape[0] - 1)
+    cols = np.minimum(((np.arange(shape[1]) + 0.5) * layer.shape[1] / shape[1]).astype(int), layer.shape[1] - 1)
+    return layer[np.ix_(rows, cols)]
+
+
 def read_sketch(path) -> SketchMap:
     """Read a sketch image file.
 

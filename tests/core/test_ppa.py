@@ -1,4 +1,4 @@
-"""PPA ridge/valley extraction, the shared graph pipeline and overlays."""
+"""PPA ridge/valley extraction and the shared graph pipeline."""
 
 import numpy as np
 import pytest
@@ -7,7 +7,6 @@ from terrasynth_core import HeightField, ParamsError
 from terrasynth_core.measures import feature_tpi_score
 from terrasynth_core.features import FeatureGraph, PPAParams, extract_features, extract_ridges, extract_valleys
 from terrasynth_core.features.network import compress_chains, graph_mask, spanning_forest
-from terrasynth_core.features.overlay import RIDGE_COLOUR, VALLEY_COLOUR, render_overlay, save_overlay
 from terrasynth_core.features.ppa import profile_targets
 from terrasynth_core.io import load_dem
 
@@ -263,24 +262,3 @@ def test_bad_arguments_raise_params_error(gaussian_ridge):
         extract_features(np.full((5, 5), np.inf))
     with pytest.raises(ParamsError, match="PPAParams"):
         extract_features(gaussian_ridge, params={"profile_length": 5})
-
-
-# -- overlay -----------------------------------------------------------------
-def test_render_overlay_draws_features(tmp_path):
-    cols = np.arange(COLS, dtype=np.float32)
-    z = np.repeat(100 * np.sin(cols / 4)[None, :], ROWS, axis=0)  # N-S ridges and valleys
-    z[:5, :5] = np.nan
-    maps = extract_features(z)
-    rgb = render_overlay(z, maps, cell_size=30.0, line_width=1, show_nodes=False)
-    assert rgb.shape == z.shape + (3,) and rgb.dtype == np.uint8
-    ridge_cells = graph_mask(maps.ridges)
-    assert (rgb[ridge_cells] == RIDGE_COLOUR).all(axis=1).mean() > 0.9
-    assert (rgb == VALLEY_COLOUR).all(axis=2).any()
-    with pytest.raises(ParamsError, match="shape"):
-        render_overlay(z[:50], maps)
-    path = save_overlay(np.repeat(rgb, 8, axis=1), tmp_path / "overlay.png", max_width=300)
-    from PIL import Image
-
-    with Image.open(path) as image:
-        assert image.size == (300, round(ROWS * 300 / (COLS * 8)))
-    assert [p.name for p in tmp_path.iterdir()] == ["overlay.png"]
