@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import io
-import os
-import secrets
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
 
 from ..errors import ParamsError
+from ..io._common import atomic_outputs, open_new
 
 
 def _quantized(image: Image.Image, colours: int) -> Image.Image:
@@ -74,12 +73,6 @@ def save_png(picture, path, *, max_width: int | None = None, colours: int | None
     if max_bytes is not None and len(data) > max_bytes:
         raise ParamsError(f"{path} would be {len(data)} bytes, above the {max_bytes}-byte budget")
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
-    try:
-        with open(tmp, "xb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
+        f.write(data)
     return path

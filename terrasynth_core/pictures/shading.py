@@ -15,10 +15,9 @@ def hillshade(heights, *, cell_size=None, azimuth: float = 315.0, altitude: floa
 
     Parameters
     ----------
-    heights : ndarray, shape (rows, cols), or HeightField
-        Heights in metres, NaN = nodata.
-    cell_size : float, (dy, dx) or None
-        Cell size in metres; None takes the HeightField's, else 1.
+    heights, cell_size
+        As in :func:`terrasynth_core.measures.surface_gradient`: metres,
+        NaN = nodata.
     azimuth : float, default 315
         Direction the light comes from, degrees clockwise from north (315 =
         north-west, the cartographic convention).
