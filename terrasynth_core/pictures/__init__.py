@@ -43,4 +43,5 @@ __all__ = [
     "surface_grid",
     "terrain_colours",
     "thumbnail",
+    "trim_background",
 ]

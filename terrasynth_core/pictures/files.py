@@ -47,7 +47,7 @@ def save_png(picture, path, *, max_width: int | None = None, colours: int | None
     Returns
     -------
     Path
-        The written file.
+        ``path``, once the PNG is in place.
 
     Raises
     ------

@@ -69,28 +69,17 @@ def _check_graph(graph: FeatureGraph) -> None:
 
 
 # -- synthetic terrain --------------------------------------------------------
-def test_gaussian_ridge_gives_one_path_on_its_crest(gaussian_ridge):
-    maps = extract_features(gaussian_ridge)
-    ridges = maps.ridges
-    _check_graph(ridges)
-    assert len(ridges.paths) == 1
-    assert ridges.count("end") == 2 and ridges.count("branch") == 0
-    points = ridges.paths[0].points
-    assert _offset_from_line(points).max() <= 2.0
-    crest_length = COLS * np.hypot(1, SLOPE)
-    assert ridges.paths[0].length >= 0.9 * crest_length
-    assert not maps.valleys.paths
-
-
-def test_v_valley_gives_one_path_on_its_floor(v_valley):
-    maps = extract_features(v_valley)
-    valleys = maps.valleys
-    _check_graph(valleys)
-    assert len(valleys.paths) == 1
-    assert valleys.count("end") == 2 and valleys.count("branch") == 0
-    assert _offset_from_line(valleys.paths[0].points).max() <= 2.0
-    assert valleys.paths[0].length >= 0.9 * COLS * np.hypot(1, SLOPE)
-    assert not maps.ridges.paths
+@pytest.mark.parametrize(("terrain", "kind", "other"),
+                         [("gaussian_ridge", "ridges", "valleys"), ("v_valley", "valleys", "ridges")])
+def test_straight_feature_gives_one_path_along_its_line(request, terrain, kind, other):
+    maps = extract_features(request.getfixturevalue(terrain))
+    graph = getattr(maps, kind)
+    _check_graph(graph)
+    assert len(graph.paths) == 1
+    assert graph.count("end") == 2 and graph.count("branch") == 0
+    assert _offset_from_line(graph.paths[0].points).max() <= 2.0
+    assert graph.paths[0].length >= 0.9 * COLS * np.hypot(1, SLOPE)
+    assert not getattr(maps, other).paths
 
 
 def test_kind_selects_one_graph(gaussian_ridge):
