@@ -272,9 +272,11 @@ class TerrainView3D(QWidget):
             # No smooth_shading: it would draw a copy with computed normals, and
             # in-place height updates would not show; _apply_heights sets the
             # normals itself.
-            ramp = pv.LookupTable(values=np.column_stack([TERRAIN_LUT, np.full(len(TERRAIN_LUT), 255, np.uint8)]))
-            self._actor = self.plotter.add_mesh(grid, scalars="elevation", cmap=ramp, clim=self._vrange,
-                                                show_scalar_bar=False, render=False)
+            # A lookup table brings its own range (add_mesh ignores clim then).
+            ramp = pv.LookupTable(values=np.column_stack([TERRAIN_LUT, np.full(len(TERRAIN_LUT), 255, np.uint8)]),
+                                  scalar_range=self._vrange)
+            self._actor = self.plotter.add_mesh(grid, scalars="elevation", cmap=ramp, show_scalar_bar=False,
+                                                render=False)
             self.plotter.view_isometric(render=False)
             self.plotter.reset_camera(render=False)
         else:
