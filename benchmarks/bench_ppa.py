@@ -31,7 +31,7 @@ from pathlib import Path
 
 from terrasynth_core.measures import feature_tpi_score
 from terrasynth_core.features import extract_features
-from terrasynth_core.features.overlay import render_overlay, save_overlay
+from terrasynth_core.pictures import render_overlay, save_png
 from terrasynth_core.io import load_dem
 
 DEMS_DIR = Path(__file__).resolve().parents[1] / "resources" / "dems"
@@ -80,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.overlays is not None and name in OVERLAY_DEMS:
             args.overlays.mkdir(parents=True, exist_ok=True)
             rgb = render_overlay(field, maps, line_width=2 if max(field.shape) > 800 else 1)
-            save_overlay(rgb, args.overlays / f"features_{name}.png", max_width=800)
+            save_png(rgb, args.overlays / f"features_{name}.png", max_width=800, colours=256)
     return 0
 
 

@@ -85,7 +85,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 from scipy import ndimage
 
-from terrasynth_core.features import SketchMap
+from terrasynth_core.features import SketchMap, resize_nearest
 from terrasynth_core.presets import load_preset
 from terrasynth_core.synthesis import Controls
 
@@ -298,13 +298,6 @@ def write_maps(out: Path, maps: dict) -> list[Path]:
 
 
 # -- reading the demo ----------------------------------------------------------------
-def _nearest(arr: np.ndarray, shape) -> np.ndarray:
-    """``arr`` resized to ``shape`` by nearest neighbour (cell centres)."""
-    rr = np.minimum(((np.arange(shape[0]) + 0.5) * arr.shape[0] / shape[0]).astype(int), arr.shape[0] - 1)
-    cc = np.minimum(((np.arange(shape[1]) + 0.5) * arr.shape[1] / shape[1]).astype(int), arr.shape[1] - 1)
-    return arr[np.ix_(rr, cc)]
-
-
 def load_demo(*, shape=None) -> tuple[SketchMap, Controls, float]:
     """The demo as the core's ``middle-earth`` preset reads it, optionally
     scaled to another size.
@@ -335,8 +328,8 @@ def load_demo(*, shape=None) -> tuple[SketchMap, Controls, float]:
     stamps = tuple(replace(st, center=(st.center[0] * f, st.center[1] * f), scale=st.scale * f) for st in c.stamps)
     pins = tuple(replace(p, row=min(round(p.row * f), shape[0] - 1), col=min(round(p.col * f), shape[1] - 1))
                  for p in c.pins)
-    water = replace(c.water, mask=_nearest(c.water.mask, shape))
-    controls = replace(c, style_map=_nearest(c.style_map, shape), water=water, stamps=stamps, pins=pins)
+    water = replace(c.water, mask=resize_nearest(c.water.mask, shape))
+    controls = replace(c, style_map=resize_nearest(c.style_map, shape), water=water, stamps=stamps, pins=pins)
     return preset.sketch.resized(shape), controls, f
 
 

@@ -16,14 +16,14 @@ Writes, under ``--out``:
   Poisson, graph cut + C1) on the same sketch, example and seed, as a 2x2
   grid.
 
-Nothing here belongs to the core: pyvista renders without a display
-(``pv.OFF_SCREEN``), and the colours are plain numpy (no matplotlib).
+The colours, hillshade and PNG files come from
+:mod:`terrasynth_core.pictures`, the off-screen pyvista view from
+``terrasynth_app.views.render_3d``.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
@@ -32,9 +32,10 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 from scipy import ndimage
 
-from terrasynth_core.measures import hillshade
+from terrasynth_app.views.render_3d import render_terrain
 from terrasynth_core.examples import builtin_example
 from terrasynth_core.features import read_sketch
+from terrasynth_core.pictures import grey_hillshade, save_png, shaded_relief, terrain_colours
 from terrasynth_core.synthesis import Session, SynthesisParams
 
 REPO = Path(__file__).resolve().parents[1]
@@ -67,85 +68,6 @@ EXAGGERATION = 2.0
 #: above the horizon.
 VIEW_AZIMUTH = -30.0
 VIEW_ELEVATION = 35.0
-
-#: Height fraction -> colour, lowland green through rock brown to snow.
-TERRAIN_STOPS = np.array([0.0, 0.2, 0.45, 0.7, 0.88, 1.0])
-TERRAIN_RGB = np.array([
-    (46, 104, 58),
-    (112, 156, 84),
-    (196, 188, 124),
-    (150, 112, 74),
-    (170, 160, 152),
-    (250, 250, 250),
-], dtype=np.float64)
-
-
-# -- colours ------------------------------------------------------------------
-def terrain_colours(heights: np.ndarray) -> np.ndarray:
-    """Hypsometric colours, shape (rows, cols, 3) float in [0, 255].
-
-    The 0.5th to 99.5th height percentiles span the palette, so a few
-    extreme cells do not wash out the rest.
-    """
-    lo, hi = np.nanpercentile(heights, [0.5, 99.5])
-    t = np.clip((heights - lo) / max(hi - lo, 1e-6), 0.0, 1.0)
-    return np.stack([np.interp(t, TERRAIN_STOPS, TERRAIN_RGB[:, i]) for i in range(3)], axis=-1)
-
-
-def shaded_relief(heights: np.ndarray, cell_size) -> np.ndarray:
-    """Terrain colours darkened by a north-west hillshade, uint8 (rows, cols, 3)."""
-    shade = np.nan_to_num(hillshade(heights, cell_size=cell_size), nan=1.0)
-    # Flat ground under a 45-degree light has shade sin(45) ~ 0.71: scale so
-    # it keeps its colour, lit slopes brighten a little, shadows darken.
-    light = np.clip(0.15 + 1.2 * shade, 0.0, 1.25)[..., None]
-    return np.clip(terrain_colours(heights) * light, 0, 255).astype(np.uint8)
-
-
-def grey_hillshade(heights: np.ndarray, cell_size) -> np.ndarray:
-    """Hillshade as uint8 grey levels, shape (rows, cols)."""
-    shade = np.nan_to_num(hillshade(heights, cell_size=cell_size), nan=1.0)
-    return (shade * 255).astype(np.uint8)
-
-
-# -- 3D -----------------------------------------------------------------------
-def render_3d(heights: np.ndarray, cell_size, size: tuple[int, int]) -> np.ndarray:
-    """An off-screen 3D view of the terrain from the south-west, uint8 (h, w, 3).
-
-    Parameters
-    ----------
-    heights : ndarray, shape (rows, cols)
-        Metres; row 0 is the northern edge.
-    cell_size : (dy, dx) metres
-    size : (width, height) of the image in pixels
-    """
-    import pyvista as pv
-
-    pv.OFF_SCREEN = True
-    dy, dx = cell_size
-    rows, cols = heights.shape
-    # Rows run south, y runs north: flip so the map is not mirrored in 3D.
-    z = np.ascontiguousarray(heights[::-1], dtype=np.float64)
-    grid = pv.ImageData(dimensions=(cols, rows, 1), spacing=(dx, dy, 1.0))
-    grid.point_data["z"] = (z - z.min()).ravel()
-    grid.point_data["colour"] = terrain_colours(z).reshape(-1, 3).astype(np.uint8)
-    surface = grid.warp_by_scalar("z", factor=EXAGGERATION)
-    # Render at twice the size and shrink: cheap anti-aliasing.
-    plotter = pv.Plotter(off_screen=True, window_size=(2 * size[0], 2 * size[1]))
-    plotter.set_background("white")
-    plotter.add_mesh(surface, scalars="colour", rgb=True, smooth_shading=True, show_scalar_bar=False)
-    # Orbit about the centre with z kept up: from VIEW_AZIMUTH west of south,
-    # VIEW_ELEVATION degrees above the horizon; then fit and zoom in a little.
-    centre = np.array(surface.center)
-    x0, x1, y0, y1, _, _ = surface.bounds
-    az, el = math.radians(VIEW_AZIMUTH), math.radians(VIEW_ELEVATION)
-    direction = np.array([math.sin(az) * math.cos(el), -math.cos(az) * math.cos(el), math.sin(el)])
-    eye = centre + 2.0 * max(x1 - x0, y1 - y0) * direction
-    plotter.camera_position = [tuple(eye), tuple(centre), (0.0, 0.0, 1.0)]
-    plotter.reset_camera()
-    plotter.camera.zoom(1.3)
-    shot = plotter.screenshot(None, return_img=True)
-    plotter.close()
-    return np.asarray(Image.fromarray(shot[:, :, :3]).resize(size, Image.LANCZOS))
 
 
 # -- composing ----------------------------------------------------------------
@@ -181,18 +103,6 @@ def compose(panels: list[Image.Image], labels: list[str], title: str, *, columns
     return canvas
 
 
-def save_png(img: Image.Image, path: Path) -> int:
-    """Save, falling back to a 256-colour palette when the file would be too big."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    img.save(path, optimize=True)
-    if path.stat().st_size >= MAX_BYTES:
-        img.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path, optimize=True)
-    size = path.stat().st_size
-    if size >= MAX_BYTES:
-        raise RuntimeError(f"{path} is {size} bytes, above the {MAX_BYTES}-byte budget")
-    return size
-
-
 # -- products -----------------------------------------------------------------
 def render_gallery(out: Path, *, seed: int) -> None:
     """Synthesize each ``GALLERY`` pair and save its three-panel PNG in ``out``."""
@@ -206,8 +116,10 @@ def render_gallery(out: Path, *, seed: int) -> None:
         cell = example.cell_size or (1.0, 1.0)
         panels = [
             _fit(shown_sketch.to_rgb(), PANEL),
-            _fit(shaded_relief(result.heights, cell), PANEL),
-            Image.fromarray(render_3d(result.heights, cell, (PANEL, PANEL))),
+            _fit(shaded_relief(result.heights, cell_size=cell)[..., :3], PANEL),
+            Image.fromarray(render_terrain(result.heights, terrain_colours(result.heights), cell_size=cell,
+                                           size=(PANEL, PANEL), exaggeration=EXAGGERATION,
+                                           azimuth=VIEW_AZIMUTH, elevation=VIEW_ELEVATION)),
         ]
         rows, cols = result.heights.shape
         relief = float(result.heights.max() - result.heights.min())
@@ -219,7 +131,7 @@ def render_gallery(out: Path, *, seed: int) -> None:
         title = (f"{Path(sketch_file).stem} on {key}: {rows}x{cols} cells, "
                  f"relief {relief:.0f} m, {seconds:.1f} s")
         path = out / f"gallery_{Path(sketch_file).stem}_{key}.png"
-        size = save_png(compose(panels, labels, title, columns=3), path)
+        size = save_png(compose(panels, labels, title, columns=3), path, max_bytes=MAX_BYTES).stat().st_size
         print(f"wrote {path} ({size // 1000} KB): {title}", flush=True)
 
 
@@ -250,13 +162,13 @@ def render_seams(out: Path, *, seed: int) -> None:
     r0, c0 = _seam_window(results[0])
     panels = []
     for result in results:
-        shade = grey_hillshade(result.heights, cell)[r0:r0 + CROP, c0:c0 + CROP]
+        shade = grey_hillshade(result.heights, cell_size=cell)[r0:r0 + CROP, c0:c0 + CROP]
         panels.append(Image.fromarray(shade).resize((CROP * ZOOM, CROP * ZOOM), Image.NEAREST).convert("RGB"))
     labels = [name for name, _ in SEAM_SETTINGS]
     title = (f"Seams: {Path(SEAM_SKETCH).stem} at {SEAM_SHAPE[0]}x{SEAM_SHAPE[1]} on {SEAM_EXAMPLE}, seed {seed}; "
              f"cells {r0}-{r0 + CROP} x {c0}-{c0 + CROP}, hillshade, {ZOOM}x")
     path = out / "seams_closeup.png"
-    size = save_png(compose(panels, labels, title, columns=2), path)
+    size = save_png(compose(panels, labels, title, columns=2), path, max_bytes=MAX_BYTES).stat().st_size
     print(f"wrote {path} ({size // 1000} KB): {title}", flush=True)
 
 
@@ -266,6 +178,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", choices=["gallery", "seams"], default=None, help="render only one product")
     parser.add_argument("--seed", type=int, default=0, help="synthesis seed (default 0)")
     args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
     if args.only in (None, "gallery"):
         render_gallery(args.out, seed=args.seed)
     if args.only in (None, "seams"):

@@ -22,7 +22,6 @@ the pictures use 90 m, that of most of the SRTM examples.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
@@ -31,9 +30,10 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from make_middle_earth import STYLES, load_demo
-from render_gallery import MARGIN, MAX_WIDTH, compose, terrain_colours
-from terrasynth_core.measures import hillshade
+from render_gallery import MARGIN, MAX_WIDTH, compose
+from terrasynth_app.views.render_3d import render_terrain
 from terrasynth_core.cli.main import parse_size
+from terrasynth_core.pictures import hillshade, lit, save_png, terrain_colours
 from terrasynth_core.synthesis import Session, SynthesisParams
 
 REPO = Path(__file__).resolve().parents[1]
@@ -56,7 +56,7 @@ def map_colours(heights: np.ndarray, water: np.ndarray, level: float) -> np.ndar
     """Elevation colours on land (spanning the land's heights), blues by
     depth in water; float (rows, cols, 3) in [0, 255]."""
     land = np.where(water, np.nan, heights.astype(np.float64))
-    rgb = np.nan_to_num(terrain_colours(land))
+    rgb = terrain_colours(land).astype(np.float64)
     if water.any():
         depth = np.clip(level - heights[water], 0.0, None)
         t = (depth / max(float(np.percentile(depth, 95)), 1e-6)).clip(0.0, 1.0)[:, None]
@@ -68,10 +68,7 @@ def shaded_map(heights: np.ndarray, water: np.ndarray, level: float) -> np.ndarr
     """Map colours darkened by a north-west hillshade of the terrain with
     the water surface flat, uint8 (rows, cols, 3)."""
     surface = np.where(water, np.float32(level), heights)
-    shade = np.nan_to_num(hillshade(surface, cell_size=CELL), nan=1.0)
-    # As render_gallery.shaded_relief: flat ground keeps its colour.
-    light = np.clip(0.15 + 1.2 * shade, 0.0, 1.25)[..., None]
-    return np.clip(map_colours(heights, water, level) * light, 0, 255).astype(np.uint8)
+    return lit(map_colours(heights, water, level), hillshade(surface, cell_size=CELL))
 
 
 def input_map(controls, sketch, colours: list[str], stamp_bbox) -> Image.Image:
@@ -96,59 +93,6 @@ def _rgb(hex_colour: str) -> tuple[int, int, int]:
     return tuple(int(hex_colour[i:i + 2], 16) for i in (1, 3, 5))
 
 
-# -- 3D ---------------------------------------------------------------------------
-def render_3d(heights: np.ndarray, colours: np.ndarray, size: tuple[int, int]) -> np.ndarray:
-    """Off-screen pyvista view of ``heights`` painted with ``colours``.
-
-    Camera as in ``render_gallery.render_3d`` but from ``VIEW_AZIMUTH``;
-    the white margin is trimmed, so the image fits in ``size`` (width,
-    height) with the terrain's own aspect: uint8 (h, w, 3).
-    """
-    import pyvista as pv
-
-    pv.OFF_SCREEN = True
-    rows, cols = heights.shape
-    # Rows run south, y runs north: flip so the map is not mirrored.
-    z = np.ascontiguousarray(heights[::-1], dtype=np.float64)
-    grid = pv.ImageData(dimensions=(cols, rows, 1), spacing=(CELL[1], CELL[0], 1.0))
-    grid.point_data["z"] = (z - z.min()).ravel()
-    grid.point_data["colour"] = np.ascontiguousarray(colours[::-1]).reshape(-1, 3).astype(np.uint8)
-    surface = grid.warp_by_scalar("z", factor=EXAGGERATION)
-    plotter = pv.Plotter(off_screen=True, window_size=(2 * size[0], 2 * size[1]))
-    plotter.set_background("white")
-    plotter.add_mesh(surface, scalars="colour", rgb=True, smooth_shading=True, show_scalar_bar=False)
-    centre = np.array(surface.center)
-    x0, x1, y0, y1, _, _ = surface.bounds
-    az, el = math.radians(VIEW_AZIMUTH), math.radians(VIEW_ELEVATION)
-    direction = np.array([math.sin(az) * math.cos(el), -math.cos(az) * math.cos(el), math.sin(el)])
-    eye = centre + 2.0 * max(x1 - x0, y1 - y0) * direction
-    plotter.camera_position = [tuple(eye), tuple(centre), (0.0, 0.0, 1.0)]
-    plotter.reset_camera()
-    plotter.camera.zoom(1.45)
-    shot = plotter.screenshot(None, return_img=True)[:, :, :3]
-    plotter.close()
-    # Trim the white around the terrain, then shrink (cheap anti-aliasing).
-    rows, cols = np.nonzero((shot < 250).any(axis=2))
-    pad = 8
-    shot = shot[max(rows.min() - pad, 0):rows.max() + pad, max(cols.min() - pad, 0):cols.max() + pad]
-    f = min(size[0] / shot.shape[1], size[1] / shot.shape[0])
-    return np.asarray(Image.fromarray(shot).resize((round(shot.shape[1] * f), round(shot.shape[0] * f)),
-                                                   Image.LANCZOS))
-
-
-# -- saving -----------------------------------------------------------------------
-def save_small(img: Image.Image, path: Path) -> int:
-    """Save as PNG under ``MAX_BYTES``, quantizing to 256 colours if needed."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    img.save(path, optimize=True)
-    if path.stat().st_size >= MAX_BYTES:
-        img.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path, optimize=True)
-    size = path.stat().st_size
-    if size >= MAX_BYTES:
-        raise RuntimeError(f"{path} is {size} bytes, above the {MAX_BYTES}-byte budget")
-    return size
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=REPO / "docs" / "images", help="output folder")
@@ -156,6 +100,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--size", type=parse_size, default=None, metavar="ROWSxCOLS",
                         help="output size (default the map's 768x1024)")
     args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
 
     sketch, controls, scale = load_demo(shape=args.size)
     params = SynthesisParams(seed=args.seed, patch_size=max(32, round(SynthesisParams().patch_size * scale)))
@@ -187,16 +132,18 @@ def main(argv: list[str] | None = None) -> int:
     both.paste(picture, (0, 0))
     both.paste(footer, (0, picture.size[1]))
     path = args.out / "middle_earth_map.png"
-    print(f"wrote {path} ({save_small(both, path) // 1000} KB)")
+    print(f"wrote {path} ({save_png(both, path, max_bytes=MAX_BYTES).stat().st_size // 1000} KB)")
 
     colours = map_colours(heights, water, level)
     # The 3D view shows the water surface, not its bed.
-    view = render_3d(np.where(water, np.float32(level), heights), colours, (MAX_WIDTH - 2 * MARGIN, 720))
+    view = render_terrain(np.where(water, np.float32(level), heights), colours, cell_size=CELL,
+                          size=(MAX_WIDTH - 2 * MARGIN, 720), exaggeration=EXAGGERATION, azimuth=VIEW_AZIMUTH,
+                          elevation=VIEW_ELEVATION, zoom=1.45, trim=True)
     picture = compose([Image.fromarray(view)], [f"3D from the south-east, vertical exaggeration {EXAGGERATION:g}x, "
                                                 f"{CELL[0]:g} m cells"],
                       f"Middle-earth demo in 3D: {summary}", columns=1)
     path = args.out / "middle_earth_3d.png"
-    print(f"wrote {path} ({save_small(picture, path) // 1000} KB)")
+    print(f"wrote {path} ({save_png(picture, path, max_bytes=MAX_BYTES).stat().st_size // 1000} KB)")
     return 0
 
 

@@ -31,6 +31,8 @@ from PIL import Image
 from PySide6.QtCore import QBuffer, QSettings, Qt, QTimer
 from PySide6.QtWidgets import QApplication
 
+from terrasynth_core.pictures import save_png
+
 REPO = Path(__file__).resolve().parent.parent
 MAX_BYTES = 400_000
 #: Pictures to make: name -> what it shows.
@@ -74,12 +76,7 @@ def save_small(pixmap, path: Path) -> None:
         raise OSError(f"cannot encode the screenshot for {path}")
     image = Image.open(io.BytesIO(bytes(buffer.data()))).convert("RGB")
     path.parent.mkdir(parents=True, exist_ok=True)
-    image.save(path, optimize=True)
-    if path.stat().st_size >= MAX_BYTES:
-        image.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path, optimize=True)
-    size = path.stat().st_size
-    if size >= MAX_BYTES:
-        raise RuntimeError(f"{path} is {size} bytes, above the {MAX_BYTES}-byte budget")
+    size = save_png(image, path, max_bytes=MAX_BYTES).stat().st_size
     print(f"wrote {path} ({size // 1000} KB, {pixmap.width()}x{pixmap.height()})", flush=True)
 
 

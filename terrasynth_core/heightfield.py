@@ -26,7 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy import ndimage
 
-from .errors import DEMFormatError
+from .errors import DEMFormatError, ParamsError
 
 #: Mean Earth radius in metres (IUGG), used to turn arc-seconds into metres.
 EARTH_RADIUS_M = 6_371_008.8
@@ -230,3 +230,33 @@ def largest_valid_rectangle(valid: np.ndarray) -> tuple[int, int, int, int]:
     if best[0] == 0:
         raise DEMFormatError("grid has no valid cell")
     return best[1:]
+
+
+def height_grid(heights, *, min_side: int = 2) -> np.ndarray:
+    """The float32 height grid of an array or a :class:`HeightField`, checked.
+
+    Parameters
+    ----------
+    heights : ndarray, shape (rows, cols), or HeightField
+        Heights in metres, NaN = nodata; any integer or float dtype.
+    min_side : int, default 2
+        Fewest rows and columns the caller's neighbourhood operations need.
+
+    Returns
+    -------
+    ndarray of float32, shape (rows, cols)
+        ``heights`` itself when it already is float32, else a converted copy.
+
+    Raises
+    ------
+    ParamsError
+        When the grid is not 2-D, has a side below ``min_side`` or is not numeric.
+    """
+    h = np.asarray(heights.heights if isinstance(heights, HeightField) else heights)
+    if h.ndim != 2 or min(h.shape) < min_side:
+        raise ParamsError(
+            f"heights must be a 2-D grid of at least {min_side}x{min_side} cells, got shape {h.shape}"
+        )
+    if not (np.issubdtype(h.dtype, np.floating) or np.issubdtype(h.dtype, np.integer)):
+        raise ParamsError(f"heights must be numeric, got dtype {h.dtype}")
+    return h.astype(np.float32, copy=False)

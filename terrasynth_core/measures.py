@@ -1,8 +1,9 @@
-"""Terrain analysis helpers: hillshade, slope, topographic position.
+"""Terrain measures: surface gradient, slope, topographic position.
 
-Used to draw DEMs (hillshade under feature overlays) and to check that
-extracted features sit where they should: ridges above their surroundings
-(positive topographic position index), valleys below (negative).
+Used to check that extracted features sit where they should (ridges above
+their surroundings, a positive topographic position index; valleys below, a
+negative one) and, through :func:`surface_gradient`, by the hillshade of
+:mod:`terrasynth_core.pictures`.
 
 All functions accept a 2-D height array in metres (NaN = nodata) or a
 :class:`~terrasynth_core.heightfield.HeightField`, never modify it, treat
@@ -20,7 +21,7 @@ from scipy import ndimage, signal
 from .errors import ParamsError
 from .features.graph import FeatureGraph
 from .features.network import graph_mask
-from .heightfield import HeightField
+from .heightfield import HeightField, height_grid
 
 
 def _heights_and_cell_size(heights, cell_size) -> tuple[np.ndarray, tuple[float, float]]:
@@ -29,16 +30,9 @@ def _heights_and_cell_size(heights, cell_size) -> tuple[np.ndarray, tuple[float,
     ``cell_size`` wins over the HeightField's own; without either, cells are
     1 height unit wide.
     """
-    if isinstance(heights, HeightField):
-        if cell_size is None:
-            cell_size = heights.cell_size
-        heights = heights.heights
-    h = np.asarray(heights)
-    if h.ndim != 2 or min(h.shape) < 2:
-        raise ParamsError(f"heights must be a 2-D grid of at least 2x2 cells, got shape {h.shape}")
-    if not (np.issubdtype(h.dtype, np.floating) or np.issubdtype(h.dtype, np.integer)):
-        raise ParamsError(f"heights must be numeric, got dtype {h.dtype}")
-    h = h.astype(np.float32, copy=False)
+    if cell_size is None and isinstance(heights, HeightField):
+        cell_size = heights.cell_size
+    h = height_grid(heights)
     if cell_size is None:
         cell = (1.0, 1.0)
     elif np.isscalar(cell_size):
@@ -62,8 +56,25 @@ def _fill_nodata(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return h[tuple(index)], nodata
 
 
-def _gradient(h: np.ndarray, cell: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(dz/drow, dz/dcol)`` in metres per metre and the nodata mask."""
+def surface_gradient(heights, *, cell_size=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Height change per metre along rows and columns.
+
+    Parameters
+    ----------
+    heights : ndarray, shape (rows, cols), or HeightField
+        Heights in metres, NaN = nodata.
+    cell_size : float, (dy, dx) or None
+        Cell size in metres; None takes the HeightField's, else 1.
+
+    Returns
+    -------
+    dz_drow, dz_dcol : ndarray of float32, shape (rows, cols)
+        Metres per metre; rows run south, so ``-dz_drow`` is the northward
+        slope.  Nodata cells take their nearest valid height first, so their
+        neighbours' gradients stay finite.
+    nodata : ndarray of bool, shape (rows, cols)
+    """
+    h, cell = _heights_and_cell_size(heights, cell_size)
     filled, nodata = _fill_nodata(h)
     dz_drow, dz_dcol = np.gradient(filled.astype(np.float32), cell[0], cell[1])
     return dz_drow, dz_dcol, nodata
@@ -74,79 +85,16 @@ def slope(heights, *, cell_size=None) -> np.ndarray:
 
     Parameters
     ----------
-    heights : ndarray, shape (rows, cols), or HeightField
-        Heights in metres, NaN = nodata.
-    cell_size : float, (dy, dx) or None
-        Cell size in metres; None takes the HeightField's, else 1.
+    heights, cell_size
+        As in :func:`surface_gradient`.
 
     Returns
     -------
     ndarray of float32, shape (rows, cols)
         Degrees from 0 (flat) to 90; NaN at nodata cells.
     """
-    h, cell = _heights_and_cell_size(heights, cell_size)
-    dz_drow, dz_dcol, nodata = _gradient(h, cell)
+    dz_drow, dz_dcol, nodata = surface_gradient(heights, cell_size=cell_size)
     out = np.degrees(np.arctan(np.hypot(dz_drow, dz_dcol))).astype(np.float32)
-    out[nodata] = np.nan
-    return out
-
-
-def slope_statistics(heights, *, cell_size=None) -> dict[str, float]:
-    """Summary of the slope distribution over the valid cells.
-
-    Parameters
-    ----------
-    heights : ndarray, shape (rows, cols), or HeightField
-    cell_size : float, (dy, dx) or None
-        As in :func:`slope`.
-
-    Returns
-    -------
-    dict
-        ``mean``, ``std``, ``median`` and ``p90`` of the slope in degrees.
-    """
-    s = slope(heights, cell_size=cell_size)
-    valid = s[~np.isnan(s)].astype(np.float64)
-    return {
-        "mean": float(valid.mean()),
-        "std": float(valid.std()),
-        "median": float(np.median(valid)),
-        "p90": float(np.percentile(valid, 90)),
-    }
-
-
-def hillshade(heights, *, cell_size=None, azimuth: float = 315.0, altitude: float = 45.0) -> np.ndarray:
-    """Lambertian shading of the terrain under a distant light.
-
-    Parameters
-    ----------
-    heights : ndarray, shape (rows, cols), or HeightField
-        Heights in metres, NaN = nodata.
-    cell_size : float, (dy, dx) or None
-        Cell size in metres; None takes the HeightField's, else 1.
-    azimuth : float, default 315
-        Direction the light comes from, degrees clockwise from north (315 =
-        north-west, the cartographic convention).
-    altitude : float, default 45
-        Light elevation above the horizon in degrees, 0 to 90.
-
-    Returns
-    -------
-    ndarray of float32, shape (rows, cols)
-        Brightness in [0, 1] at valid cells, NaN at nodata cells.
-    """
-    if not 0.0 <= altitude <= 90.0:
-        raise ParamsError(f"altitude must be from 0 to 90 degrees, got {altitude}")
-    h, cell = _heights_and_cell_size(heights, cell_size)
-    dz_drow, dz_dcol, nodata = _gradient(h, cell)
-    az, alt = math.radians(azimuth), math.radians(altitude)
-    # Unit light vector in (east, north, up); rows run south, so north = -row.
-    light = (math.sin(az) * math.cos(alt), math.cos(az) * math.cos(alt), math.sin(alt))
-    dz_deast, dz_dnorth = dz_dcol, -dz_drow
-    shade = (-dz_deast * light[0] - dz_dnorth * light[1] + light[2]) / np.sqrt(
-        1.0 + dz_deast**2 + dz_dnorth**2
-    )
-    out = np.clip(shade, 0.0, 1.0).astype(np.float32)
     out[nodata] = np.nan
     return out
 

@@ -17,11 +17,11 @@ from PySide6.QtWidgets import (QFileDialog, QHBoxLayout, QListWidget, QListWidge
 
 from terrasynth_core.examples import builtin_example
 from terrasynth_core.io import READ_EXTENSIONS
+from terrasynth_core.pictures import thumbnail
 
 from ..model.document import Document
 from ..model.examples import ExampleRef, builtin_refs
 from ..workers import run_in_background
-from .terrain_colors import thumbnail
 
 THUMB_SIDE = 96
 _REF_ROLE = Qt.UserRole + 1

@@ -14,11 +14,11 @@ from PySide6.QtGui import QColor, QPen
 from PySide6.QtWidgets import QCheckBox, QGraphicsRectItem, QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
 from terrasynth_core.features import extract_features
+from terrasynth_core.pictures import height_range, patch_colours, shaded_relief, shaded_window
 
 from ..model.result import TerrainResult
 from ..workers import run_in_background
 from .feature_overlay import FeatureGraphOverlay, legend_text
-from .terrain_colors import height_range, shaded_terrain, shaded_window
 
 #: Screen refresh period during a run, in ms.
 REFRESH_MS = 40
@@ -127,7 +127,7 @@ class HeightmapView(QWidget):
             vrange = self._vrange
         else:
             self.heights = np.array(base, dtype=np.float32)
-            self._rgba = shaded_terrain(self.heights, cell_size=cell_size, vrange=vrange)
+            self._rgba = shaded_relief(self.heights, cell_size=cell_size, vrange=vrange)
         self._rgba_result = None
         self._cell_size = cell_size
         self._vrange = vrange
@@ -264,18 +264,8 @@ class HeightmapView(QWidget):
 
 def result_images(result: TerrainResult, vrange: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Shaded terrain, patch-id colours and seam marks of a result, RGBA uint8 each."""
-    rgba = shaded_terrain(result.heights, cell_size=result.cell_size, vrange=vrange)
+    rgba = shaded_relief(result.heights, cell_size=result.cell_size, vrange=vrange)
     seams = np.zeros(result.shape + (4,), np.uint8)
     seams[result.seam_mask] = (255, 40, 40, 230)
-    return rgba, _patch_colors(result.patch_id), seams
-
-
-def _patch_colors(patch_id: np.ndarray) -> np.ndarray:
-    """RGBA image with a distinct, stable colour per patch id (-1 transparent)."""
-    rng = np.random.default_rng(12345)
-    palette = np.concatenate([rng.integers(40, 256, size=(256, 3)), np.full((256, 1), 255)], axis=1).astype(np.uint8)
-    rgba = palette[np.mod(patch_id, 256)]
-    rgba[patch_id < 0] = 0
-    return rgba
-
+    return rgba, patch_colours(result.patch_id), seams
 

@@ -27,6 +27,7 @@ from PySide6.QtWidgets import (QDockWidget, QFileDialog, QFrame, QInputDialog, Q
 from terrasynth_core.errors import TerraSynthError
 from terrasynth_core.features import read_sketch, save_sketch
 from terrasynth_core.io import READ_EXTENSIONS, load_dem
+from terrasynth_core.pictures import height_range
 
 from ..model.controls import StampSpec, fitting_scale
 from ..model.dem_features import dem_feature_layers
@@ -46,7 +47,6 @@ from .params_panel import MAX_SEED, ParamsPanel
 from .pin_stamp_panel import PinStampPanel
 from .sketch_canvas import SketchCanvas
 from .style_panel import HEIGHT_LIMITS, StylePanel
-from .terrain_colors import height_range
 from .terrain_view_3d import TerrainView3D
 from .variations_dialog import VariationsDialog
 

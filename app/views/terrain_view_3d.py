@@ -18,8 +18,9 @@ from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtGui import QGuiApplication
 from PySide6.QtWidgets import QDoubleSpinBox, QHBoxLayout, QLabel, QStackedLayout, QVBoxLayout, QWidget
 
+from terrasynth_core.pictures import TERRAIN_LUT, height_range
+
 from ..model.result import TerrainResult
-from .terrain_colors import height_range
 
 log = logging.getLogger(__name__)
 
@@ -271,8 +272,11 @@ class TerrainView3D(QWidget):
             # No smooth_shading: it would draw a copy with computed normals, and
             # in-place height updates would not show; _apply_heights sets the
             # normals itself.
-            self._actor = self.plotter.add_mesh(grid, scalars="elevation", cmap="gist_earth", clim=self._vrange,
-                                                show_scalar_bar=False, render=False)
+            # A lookup table brings its own range (add_mesh ignores clim then).
+            ramp = pv.LookupTable(values=np.column_stack([TERRAIN_LUT, np.full(len(TERRAIN_LUT), 255, np.uint8)]),
+                                  scalar_range=self._vrange)
+            self._actor = self.plotter.add_mesh(grid, scalars="elevation", cmap=ramp, show_scalar_bar=False,
+                                                render=False)
             self.plotter.view_isometric(render=False)
             self.plotter.reset_camera(render=False)
         else:

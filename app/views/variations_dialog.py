@@ -6,9 +6,10 @@ from __future__ import annotations
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QDialog, QDialogButtonBox, QGridLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
+from terrasynth_core.pictures import thumbnail
+
 from ..model.result import TerrainResult
 from .example_panel import rgba_pixmap
-from .terrain_colors import thumbnail
 
 #: Thumbnail side, pixels.
 THUMB_SIDE = 200

@@ -101,7 +101,7 @@ def cmd_features(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..features import FeatureMaps, extract_features, read_sketch, sketch_features
-    from ..features.overlay import render_overlay, save_overlay
+    from ..pictures import render_overlay, save_png
 
     stages = _Stages(3, "features")
     try:
@@ -126,7 +126,7 @@ def cmd_features(args: argparse.Namespace) -> int:
         if args.json:
             _write_json_atomic(Path(args.json), maps.to_dict())
         if args.overlay:
-            save_overlay(render_overlay(heights, maps, cell_size=cell_size), args.overlay)
+            save_png(render_overlay(heights, maps, cell_size=cell_size), args.overlay, colours=256)
         stages.step("written")
     finally:
         stages.close()
@@ -274,23 +274,17 @@ def _variations(examples, sketch, size, params, controls, args, cell) -> int:
 def _write_debug(result, folder: Path) -> None:
     """Patch ids, seams and the sketch's features as pictures and arrays."""
     import numpy as np
-    from PIL import Image
 
-    from ..measures import hillshade
-    from ..features.overlay import render_overlay, save_overlay
+    from ..pictures import grey_hillshade, patch_colours, render_overlay, save_png
 
     folder.mkdir(parents=True, exist_ok=True)
     np.save(folder / "patch_id.npy", result.patch_id)
     np.save(folder / "seam_mask.npy", result.seam_mask)
-    rng = np.random.default_rng(0)
-    colours = rng.integers(40, 256, size=(max(len(result.patches), 1) + 1, 3), dtype=np.uint8)
-    ids = np.where(result.patch_id >= 0, result.patch_id, len(result.patches))
-    Image.fromarray(colours[ids]).save(folder / "patch_id.png")
-    shade = (hillshade(result.heights) * 255).astype(np.uint8)
-    rgb = np.repeat(shade[..., None], 3, axis=2)
+    save_png(patch_colours(result.patch_id), folder / "patch_id.png")
+    rgb = np.repeat(grey_hillshade(result.heights)[..., None], 3, axis=2)
     rgb[result.seam_mask] = (255, 200, 0)
-    Image.fromarray(rgb).save(folder / "seams.png")
-    save_overlay(render_overlay(result.heights, result.sketch_features), folder / "sketch_features.png")
+    save_png(rgb, folder / "seams.png")
+    save_png(render_overlay(result.heights, result.sketch_features), folder / "sketch_features.png", colours=256)
     _write_json_atomic(folder / "patches.json", {"patches": [
         {"kind": p.kind, "feature": p.feature, "bbox": list(p.bbox), "example": p.example,
          "source": list(p.source), "mirrored": p.mirrored, "deformation": p.deformation,

@@ -3,15 +3,15 @@
 * :func:`extract_features` runs PPA on a DEM (:mod:`.ppa`);
 * :func:`read_sketch` / :func:`sketch_features` turn a red/blue sketch into
   the same kind of graphs (:mod:`.sketch`);
-* both share the mask-to-graph pipeline of :mod:`.network`;
-* :mod:`.overlay` draws the graphs over a hillshade (import it directly:
-  it depends on :mod:`terrasynth_core.measures`, which depends on this
-  package).
+* both share the mask-to-graph pipeline of :mod:`.network`.
+
+:func:`terrasynth_core.pictures.render_overlay` draws the graphs over a
+hillshade.
 """
 
 from .graph import FeatureGraph, FeatureMaps, FeatureNode, FeaturePath
 from .ppa import PPAParams, extract_features, extract_ridges, extract_valleys
-from .sketch import SketchMap, SketchParams, read_sketch, save_sketch, sketch_features
+from .sketch import SketchMap, SketchParams, read_sketch, resize_nearest, save_sketch, sketch_features
 
 __all__ = [
     "FeatureGraph",
@@ -25,6 +25,7 @@ __all__ = [
     "extract_ridges",
     "extract_valleys",
     "read_sketch",
+    "resize_nearest",
     "save_sketch",
     "sketch_features",
 ]

@@ -35,7 +35,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..errors import ParamsError
-from ..heightfield import HeightField
+from ..heightfield import height_grid
 from .graph import FeatureGraph, FeatureKind, FeatureMaps
 from .network import feature_graph_from_mask
 
@@ -127,14 +127,8 @@ def validate_number(params, name: str, low: float, high: float) -> None:
 
 
 def _as_heights(heights) -> np.ndarray:
-    """The float32 height grid of an array or a :class:`HeightField`."""
-    h = heights.heights if isinstance(heights, HeightField) else heights
-    h = np.asarray(h)
-    if h.ndim != 2 or min(h.shape) < 3:
-        raise ParamsError(f"heights must be a 2-D grid of at least 3x3 cells, got shape {h.shape}")
-    if not (np.issubdtype(h.dtype, np.floating) or np.issubdtype(h.dtype, np.integer)):
-        raise ParamsError(f"heights must be numeric, got dtype {h.dtype}")
-    h = h.astype(np.float32, copy=False)
+    """The float32 height grid of an array or a :class:`HeightField`, finite or NaN."""
+    h = height_grid(heights, min_side=3)
     if np.isinf(h).any():
         raise ParamsError("heights hold infinite values; use NaN for nodata")
     return h

@@ -16,8 +16,6 @@ polygons at their lowest segment.
 from __future__ import annotations
 
 import math
-import os
-import secrets
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +25,7 @@ from scipy import ndimage
 from skimage.morphology import disk, skeletonize
 
 from ..errors import ParamsError, SketchError
+from ..io._common import atomic_outputs, open_new
 from .graph import FeatureGraph, FeatureKind, FeatureMaps
 from .network import feature_graph_from_mask
 from .ppa import validate_int, validate_number
@@ -161,6 +160,29 @@ class SketchMap:
         return SketchMap((ridge > eps) & (ridge >= valley), (valley > eps) & (valley > ridge))
 
 
+def resize_nearest(layer: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """A grid resampled by nearest cell, so labels and masks stay labels and masks.
+
+    Parameters
+    ----------
+    layer : ndarray, shape (rows, cols, ...)
+        Any dtype; trailing axes (e.g. RGB) are carried along.
+    shape : (rows, cols)
+        The new size.
+
+    Returns
+    -------
+    ndarray, shape (shape[0], shape[1], ...)
+        Each cell takes the source cell under its centre; ``layer`` itself
+        when it already has ``shape``.
+    """
+    if layer.shape[:2] == tuple(shape):
+        return layer
+    rows = np.minimum(((np.arange(shape[0]) + 0.5) * layer.shape[0] / shape[0]).astype(int), layer.shape[0] - 1)
+    cols = np.minimum(((np.arange(shape[1]) + 0.5) * layer.shape[1] / shape[1]).astype(int), layer.shape[1] - 1)
+    return layer[np.ix_(rows, cols)]
+
+
 def read_sketch(path) -> SketchMap:
     """Read a sketch image file.
 
@@ -246,16 +268,11 @@ def save_sketch(sketch: SketchMap, path) -> Path:
     """
     path = Path(path)
     image = Image.fromarray(sketch.to_rgb())
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
     try:
-        with open(tmp, "xb") as f:
+        with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
             image.save(f, format="PNG")
-        os.replace(tmp, path)
-    except BaseException as exc:
-        tmp.unlink(missing_ok=True)
-        if isinstance(exc, OSError):
-            raise SketchError(f"cannot write sketch {path}: {exc.strerror or exc}") from None
-        raise
+    except OSError as exc:
+        raise SketchError(f"cannot write sketch {path}: {exc.strerror or exc}") from None
     return path
 
 

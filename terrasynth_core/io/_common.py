@@ -106,6 +106,27 @@ def open_new(path: Path):
     return open(path, "xb")
 
 
+def read_field(path: Path, fmt: str, heights: np.ndarray, *, cell_size=None, georef=None,
+               metadata: dict | None = None) -> HeightField:
+    """The :class:`HeightField` a reader returns.
+
+    Parameters
+    ----------
+    path : Path
+        The file read, kept as the field's ``source``.
+    fmt : str
+        Format name, e.g. ``"geotiff"``.
+    heights : ndarray, shape (rows, cols)
+        North-up heights in metres, NaN = nodata.
+    cell_size : (dy, dx) metres or None
+    georef : GeoReference or None
+    metadata : dict or None
+        What the format tells beyond heights and placement.
+    """
+    return HeightField(heights, cell_size=cell_size, georef=georef, source=str(path), format=fmt,
+                       metadata=metadata or {})
+
+
 # -- sidecar -------------------------------------------------------------
 
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import DEMFormatError
 from ..heightfield import GeoReference, HeightField
-from ._common import geographic_cell
+from ._common import geographic_cell, read_field
 
 #: ENVI ``data type`` codes of real-valued samples.
 DATA_TYPES = {
@@ -142,14 +142,7 @@ def read_envi(path: Path) -> HeightField:
         metadata["nodata_value"] = ignore
 
     georef, cell_size = _map_info(entries.get("map info"), hdr, (rows, cols))
-    return HeightField(
-        heights,
-        cell_size=cell_size,
-        georef=georef,
-        source=str(path),
-        format="envi",
-        metadata=metadata,
-    )
+    return read_field(path, "envi", heights, cell_size=cell_size, georef=georef, metadata=metadata)
 
 
 def _datum_name(datum: str) -> str:

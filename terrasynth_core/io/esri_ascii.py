@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import DEMFormatError
 from ..heightfield import GeoReference, HeightField
-from ._common import geographic_cell, looks_geographic
+from ._common import geographic_cell, looks_geographic, read_field
 
 HEADER_KEYS = (
     "ncols",
@@ -56,6 +56,16 @@ def _split_header(text: str, path: Path) -> tuple[dict[str, float], str]:
     return header, text[pos:]
 
 
+def _lower_left(header: dict, axis: str, step: float, path: Path) -> float:
+    """The lower-left corner's ``axis`` ("x" or "y") coordinate, from
+    ``<axis>llcorner`` or half a cell before ``<axis>llcenter``."""
+    if f"{axis}llcorner" in header:
+        return header[f"{axis}llcorner"]
+    if f"{axis}llcenter" in header:
+        return header[f"{axis}llcenter"] - step / 2
+    raise DEMFormatError(f"{path}: header has no {axis}llcorner or {axis}llcenter")
+
+
 def read_esri_ascii(path: Path) -> HeightField:
     """Read an ESRI ASCII grid.
 
@@ -92,18 +102,8 @@ def read_esri_ascii(path: Path) -> HeightField:
         raise DEMFormatError(f"{path}: header has no cellsize (or dx and dy)")
     if not (x_step > 0 and y_step > 0):
         raise DEMFormatError(f"{path}: cell size ({x_step}, {y_step}); expected positive values")
-    if "xllcorner" in header:
-        x_origin = header["xllcorner"]
-    elif "xllcenter" in header:
-        x_origin = header["xllcenter"] - x_step / 2
-    else:
-        raise DEMFormatError(f"{path}: header has no xllcorner or xllcenter")
-    if "yllcorner" in header:
-        y_bottom = header["yllcorner"]
-    elif "yllcenter" in header:
-        y_bottom = header["yllcenter"] - y_step / 2
-    else:
-        raise DEMFormatError(f"{path}: header has no yllcorner or yllcenter")
+    x_origin = _lower_left(header, "x", x_step, path)
+    y_bottom = _lower_left(header, "y", y_step, path)
 
     try:
         values = np.array(body.split(), dtype=np.float64)
@@ -125,14 +125,8 @@ def read_esri_ascii(path: Path) -> HeightField:
         cell_size = geographic_cell(y_origin - rows * y_step / 2, y_step, x_step)
     else:
         cell_size = (y_step, x_step)
-    return HeightField(
-        values.astype(np.float32),
-        cell_size=cell_size,
-        georef=georef,
-        source=str(path),
-        format="esri-ascii",
-        metadata=metadata,
-    )
+    return read_field(path, "esri-ascii", values.astype(np.float32), cell_size=cell_size, georef=georef,
+                      metadata=metadata)
 
 
 def write_esri_ascii(field: HeightField, fh: BinaryIO) -> None:

@@ -21,7 +21,7 @@ import tifffile
 
 from ..errors import DEMFormatError
 from ..heightfield import GeoReference, HeightField
-from ._common import geographic_cell, is_geographic_epsg, looks_geographic
+from ._common import geographic_cell, is_geographic_epsg, looks_geographic, read_field
 
 # TIFF tags
 MODEL_PIXEL_SCALE = 33550
@@ -140,14 +140,7 @@ def read_geotiff(path: Path) -> HeightField:
     metadata = {"dtype": str(data.dtype)}
     if nodata_value is not None:
         metadata["nodata_value"] = nodata_value
-    return HeightField(
-        heights,
-        cell_size=cell_size,
-        georef=georef,
-        source=str(path),
-        format="geotiff",
-        metadata=metadata,
-    )
+    return read_field(path, "geotiff", heights, cell_size=cell_size, georef=georef, metadata=metadata)
 
 
 def _parse_nodata(tag_value) -> float | None:

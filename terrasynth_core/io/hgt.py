@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import DEMFormatError
 from ..heightfield import GeoReference, HeightField, geographic_cell_size
+from ._common import read_field
 
 #: Samples per side by file size in bytes: 3 arc-second and 1 arc-second tiles.
 TILE_SIDES = {1201 * 1201 * 2: 1201, 3601 * 3601 * 2: 3601}
@@ -95,11 +96,5 @@ def read_hgt(path: Path) -> HeightField:
             epsg=4326,
         )
         cell_size = geographic_cell_size(lat + 0.5, step)
-    return HeightField(
-        heights,
-        cell_size=cell_size,
-        georef=georef,
-        source=str(path),
-        format="hgt",
-        metadata={"arc_seconds": 3 if side == 1201 else 1},
-    )
+    return read_field(path, "hgt", heights, cell_size=cell_size, georef=georef,
+                      metadata={"arc_seconds": 3 if side == 1201 else 1})

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import DEMFormatError
 from ..heightfield import HeightField
-from ._common import apply_sidecar_nodata, make_sidecar, read_sidecar, sidecar_placement
+from ._common import apply_sidecar_nodata, make_sidecar, read_field, read_sidecar, sidecar_placement
 
 
 def read_npy(path: Path) -> HeightField:
@@ -40,13 +40,8 @@ def read_npy(path: Path) -> HeightField:
     if array.dtype.kind not in "iuf":
         raise DEMFormatError(f"{path}: array of type {array.dtype}; expected real integer or float heights")
     sidecar = read_sidecar(path)
-    return HeightField(
-        apply_sidecar_nodata(array, sidecar),
-        **sidecar_placement(sidecar),
-        source=str(path),
-        format="npy",
-        metadata={"dtype": str(array.dtype), "sidecar": sidecar is not None},
-    )
+    return read_field(path, "npy", apply_sidecar_nodata(array, sidecar), **sidecar_placement(sidecar),
+                      metadata={"dtype": str(array.dtype), "sidecar": sidecar is not None})
 
 
 def write_npy(field: HeightField, fh: BinaryIO) -> dict:

@@ -17,7 +17,7 @@ from PIL import Image
 
 from ..errors import DEMFormatError
 from ..heightfield import HeightField
-from ._common import decode_levels, encode_levels, read_sidecar, sidecar_placement
+from ._common import decode_levels, encode_levels, read_field, read_sidecar, sidecar_placement
 
 #: Pillow modes whose pixels are gray levels already.
 _GRAY_MODES = {"L": 255, "I;16": 65535, "I;16B": 65535, "I;16L": 65535, "I": 65535, "LA": 255}
@@ -73,13 +73,8 @@ def read_png(path: Path) -> HeightField:
         image.load()
         levels, top = _gray_levels(image, path)
     sidecar = read_sidecar(path)
-    return HeightField(
-        decode_levels(levels, top, sidecar),
-        **sidecar_placement(sidecar),
-        source=str(path),
-        format="png",
-        metadata={"bit_depth": 8 if top == 255 else 16, "sidecar": sidecar is not None},
-    )
+    return read_field(path, "png", decode_levels(levels, top, sidecar), **sidecar_placement(sidecar),
+                      metadata={"bit_depth": 8 if top == 255 else 16, "sidecar": sidecar is not None})
 
 
 def write_png(field: HeightField, fh: BinaryIO) -> dict:

@@ -22,6 +22,7 @@ from ._common import (
     decode_levels,
     encode_levels,
     make_sidecar,
+    read_field,
     read_sidecar,
     sidecar_placement,
 )
@@ -50,14 +51,17 @@ def _grid_shape(path: Path, count: int, size, sidecar: dict | None) -> tuple[int
     return rows, cols
 
 
-def _read_raw(path: Path, dtype: str, size) -> tuple[np.ndarray, dict | None]:
-    itemsize = np.dtype(dtype).itemsize
+def _read_raw(path: Path, fmt: str, size) -> HeightField:
+    """Read an ``r16`` or ``r32`` file (``fmt``) of shape ``size``, else the sidecar's, else square."""
+    dtype = np.dtype("<u2" if fmt == "r16" else "<f4")
     nbytes = path.stat().st_size
-    if nbytes % itemsize:
-        raise DEMFormatError(f"{path}: {nbytes} bytes is not a whole number of {itemsize}-byte values")
+    if nbytes % dtype.itemsize:
+        raise DEMFormatError(f"{path}: {nbytes} bytes is not a whole number of {dtype.itemsize}-byte values")
     sidecar = read_sidecar(path)
-    rows, cols = _grid_shape(path, nbytes // itemsize, size, sidecar)
-    return np.fromfile(path, dtype=dtype).reshape(rows, cols), sidecar
+    rows, cols = _grid_shape(path, nbytes // dtype.itemsize, size, sidecar)
+    values = np.fromfile(path, dtype=dtype).reshape(rows, cols)
+    heights = decode_levels(values, 65535, sidecar) if fmt == "r16" else apply_sidecar_nodata(values, sidecar)
+    return read_field(path, fmt, heights, **sidecar_placement(sidecar), metadata={"sidecar": sidecar is not None})
 
 
 def read_r16(path: Path, *, size: tuple[int, int] | None = None) -> HeightField:
@@ -76,24 +80,11 @@ def read_r16(path: Path, *, size: tuple[int, int] | None = None) -> HeightField:
         says so), else the raw levels; cell size and georeference from the
         sidecar.
     """
-    levels, sidecar = _read_raw(path, "<u2", size)
-    return HeightField(
-        decode_levels(levels, 65535, sidecar),
-        **sidecar_placement(sidecar),
-        source=str(path),
-        format="r16",
-        metadata={"sidecar": sidecar is not None},
-    )
+    return _read_raw(path, "r16", size)
 
 
 def read_r32(path: Path, *, size: tuple[int, int] | None = None) -> HeightField:
-    """Read a little-endian float32 raw heightmap in metres.
-
-    Parameters
-    ----------
-    path : Path
-    size : (rows, cols), optional
-        Grid shape; by default the sidecar's, else square.
+    """Read a little-endian float32 raw heightmap in metres; ``size`` as in :func:`read_r16`.
 
     Returns
     -------
@@ -101,14 +92,7 @@ def read_r32(path: Path, *, size: tuple[int, int] | None = None) -> HeightField:
         NaN (and the sidecar's ``nodata_value``, if any) as nodata; cell
         size and georeference from the sidecar.
     """
-    values, sidecar = _read_raw(path, "<f4", size)
-    return HeightField(
-        apply_sidecar_nodata(values, sidecar),
-        **sidecar_placement(sidecar),
-        source=str(path),
-        format="r32",
-        metadata={"sidecar": sidecar is not None},
-    )
+    return _read_raw(path, "r32", size)
 
 
 def write_r16(field: HeightField, fh: BinaryIO) -> dict:

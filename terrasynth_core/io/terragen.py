@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import DEMFormatError
 from ..heightfield import HeightField
+from ._common import read_field
 
 MAGIC = b"TERRAGENTERRAIN "
 
@@ -34,11 +35,7 @@ INT16_MAX = 32767
 
 
 def read_terragen(path: Path) -> HeightField:
-    """Read a Terragen ``.ter`` terrain.
-
-    Parameters
-    ----------
-    path : Path
+    """Read the Terragen ``.ter`` terrain at ``path``.
 
     Returns
     -------
@@ -96,13 +93,8 @@ def read_terragen(path: Path) -> HeightField:
     elevations = np.frombuffer(content, dtype="<i2", count=count, offset=pos).reshape(rows, cols)
     units = base_height + elevations * (height_scale / 65536.0)
     heights = (units * scale[2])[::-1].astype(np.float32)
-    return HeightField(
-        heights,
-        cell_size=(scale[1], scale[0]),
-        source=str(path),
-        format="terragen",
-        metadata={"height_scale": height_scale, "base_height": base_height, "scale": tuple(scale)},
-    )
+    return read_field(path, "terragen", heights, cell_size=(scale[1], scale[0]),
+                      metadata={"height_scale": height_scale, "base_height": base_height, "scale": tuple(scale)})
 
 
 def write_terragen(field: HeightField, fh: BinaryIO) -> None:

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import DEMFormatError
 from ..heightfield import GeoReference, HeightField
-from ._common import geographic_cell
+from ._common import geographic_cell, read_field
 
 A_RECORD_BYTES = 1024
 
@@ -148,15 +148,9 @@ def read_usgs_dem(path: Path) -> HeightField:
         metres = FEET if ground_units == 1 else 1.0
         georef = GeoReference(x_origin, y_origin, x_res, y_res, epsg)
         cell_size = (y_res * metres, x_res * metres)
-    return HeightField(
-        heights,
-        cell_size=cell_size,
-        georef=georef,
-        source=str(path),
-        format="usgs-dem",
-        metadata={
-            "title": a_record[:40].decode("latin-1").strip(),
-            "utm_zone": zone if system == 1 else None,
-            "horizontal_datum_code": datum or None,
-        },
-    )
+    metadata = {
+        "title": a_record[:40].decode("latin-1").strip(),
+        "utm_zone": zone if system == 1 else None,
+        "horizontal_datum_code": datum or None,
+    }
+    return read_field(path, "usgs-dem", heights, cell_size=cell_size, georef=georef, metadata=metadata)

@@ -57,6 +57,16 @@ class PatchPlaced:
 
 @dataclass(frozen=True)
 class StageFinished:
+    """A stage ends.
+
+    Parameters
+    ----------
+    stage : str
+        One of :data:`STAGES`.
+    seconds : float
+        Wall time the stage took.
+    """
+
     stage: str
     seconds: float
 

@@ -16,7 +16,7 @@ import pytest
 from PIL import Image
 
 from terrasynth_core.cli.main import EXIT_BAD_INPUT, EXIT_OK, main
-from terrasynth_core.features.overlay import RIDGE_COLOUR, VALLEY_COLOUR
+from terrasynth_core.pictures import RIDGE_COLOUR, VALLEY_COLOUR
 from terrasynth_core.heightfield import HeightField
 from terrasynth_core.io import load_dem, save_dem
 

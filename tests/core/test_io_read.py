@@ -6,7 +6,6 @@ import json
 import logging
 import shutil
 import struct
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -190,31 +189,29 @@ def test_geotiff_projected_feet(tmp_path):
     assert dem.cell_size == pytest.approx((20 * 0.3048, 10 * 0.3048))
 
 
-def _envi_header(**entries):
-    lines = ["ENVI", "description = {", "  synthetic test grid}"]
+#: ENVI ``data type`` codes of the sample types used here.
+_ENVI_TYPES = {"int16": 2, "uint16": 12}
+
+
+def _write_envi(path, raw, header_name, *, offset=0, **entries):
+    """Write ``raw`` (rows, cols) after ``offset`` zero bytes and its header,
+    named ``header_name``, beside it; the header's size, offset, type and
+    byte order come from ``raw``, other ``entries`` are written as given."""
+    path.write_bytes(b"\x00" * offset + raw.tobytes())
+    lines = ["ENVI", "description = {", "  synthetic test grid}", f"samples = {raw.shape[1]}",
+             f"lines = {raw.shape[0]}", f"header offset = {offset}", f"data type = {_ENVI_TYPES[raw.dtype.name]}",
+             f"byte order = {int(raw.dtype.byteorder == '>')}"]
     lines += [f"{key.replace('_', ' ')} = {value}" for key, value in entries.items()]
-    return "\n".join(lines) + "\n"
+    (path.parent / header_name).write_text("\n".join(lines) + "\n")
 
 
 def test_envi_big_endian_geographic_with_bil_hdr_name(tmp_path):
     raw = (np.arange(12).reshape(3, 4) * 10).astype(">i2")
     raw[1, 2] = -32768
     path = tmp_path / "grid.bsq"
-    raw.tofile(path)
     # map info reference pixel (1.5, 1.5) is the centre of the first cell.
-    (tmp_path / "grid.bsq.hdr").write_text(
-        _envi_header(
-            samples=4,
-            lines=3,
-            bands=1,
-            header_offset=0,
-            data_type=2,
-            interleave="bsq",
-            byte_order=1,
-            data_ignore_value=-32768,
-            map_info="{Geographic Lat/Lon, 1.5, 1.5, 10.0, 45.0, 0.001, 0.001, WGS-84, units=Degrees}",
-        )
-    )
+    _write_envi(path, raw, "grid.bsq.hdr", bands=1, interleave="bsq", data_ignore_value=-32768,
+                map_info="{Geographic Lat/Lon, 1.5, 1.5, 10.0, 45.0, 0.001, 0.001, WGS-84, units=Degrees}")
     dem = load_dem(path)
     assert dem.format == "envi"
     assert dem.heights[2, 3] == 110 and dem.nodata_count == 1 and dem.nodata[1, 2]
@@ -225,16 +222,8 @@ def test_envi_big_endian_geographic_with_bil_hdr_name(tmp_path):
 def test_envi_utm_south_uint16_with_offset(tmp_path):
     raw = np.arange(6, dtype="<u2").reshape(2, 3)
     path = tmp_path / "south.bil"
-    path.write_bytes(b"\x00" * 16 + raw.tobytes())
-    (tmp_path / "south.hdr").write_text(
-        _envi_header(
-            samples=3,
-            lines=2,
-            header_offset=16,
-            data_type=12,
-            map_info="{UTM, 1, 1, 300000, 7000000, 25, 25, 33, South, WGS-84, units=Meters}",
-        )
-    )
+    _write_envi(path, raw, "south.hdr", offset=16,
+                map_info="{UTM, 1, 1, 300000, 7000000, 25, 25, 33, South, WGS-84, units=Meters}")
     dem = load_dem(path)
     np.testing.assert_array_equal(dem.heights, raw.astype(np.float32))
     assert dem.georef == GeoReference(300000.0, 7000000.0, 25.0, 25.0, 32733)

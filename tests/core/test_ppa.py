@@ -1,4 +1,4 @@
-"""PPA ridge/valley extraction, the shared graph pipeline and overlays."""
+"""PPA ridge/valley extraction and the shared graph pipeline."""
 
 import numpy as np
 import pytest
@@ -7,7 +7,6 @@ from terrasynth_core import HeightField, ParamsError
 from terrasynth_core.measures import feature_tpi_score
 from terrasynth_core.features import FeatureGraph, PPAParams, extract_features, extract_ridges, extract_valleys
 from terrasynth_core.features.network import compress_chains, graph_mask, spanning_forest
-from terrasynth_core.features.overlay import RIDGE_COLOUR, VALLEY_COLOUR, render_overlay, save_overlay
 from terrasynth_core.features.ppa import profile_targets
 from terrasynth_core.io import load_dem
 
@@ -70,28 +69,17 @@ def _check_graph(graph: FeatureGraph) -> None:
 
 
 # -- synthetic terrain --------------------------------------------------------
-def test_gaussian_ridge_gives_one_path_on_its_crest(gaussian_ridge):
-    maps = extract_features(gaussian_ridge)
-    ridges = maps.ridges
-    _check_graph(ridges)
-    assert len(ridges.paths) == 1
-    assert ridges.count("end") == 2 and ridges.count("branch") == 0
-    points = ridges.paths[0].points
-    assert _offset_from_line(points).max() <= 2.0
-    crest_length = COLS * np.hypot(1, SLOPE)
-    assert ridges.paths[0].length >= 0.9 * crest_length
-    assert not maps.valleys.paths
-
-
-def test_v_valley_gives_one_path_on_its_floor(v_valley):
-    maps = extract_features(v_valley)
-    valleys = maps.valleys
-    _check_graph(valleys)
-    assert len(valleys.paths) == 1
-    assert valleys.count("end") == 2 and valleys.count("branch") == 0
-    assert _offset_from_line(valleys.paths[0].points).max() <= 2.0
-    assert valleys.paths[0].length >= 0.9 * COLS * np.hypot(1, SLOPE)
-    assert not maps.ridges.paths
+@pytest.mark.parametrize(("terrain", "kind", "other"),
+                         [("gaussian_ridge", "ridges", "valleys"), ("v_valley", "valleys", "ridges")])
+def test_straight_feature_gives_one_path_along_its_line(request, terrain, kind, other):
+    maps = extract_features(request.getfixturevalue(terrain))
+    graph = getattr(maps, kind)
+    _check_graph(graph)
+    assert len(graph.paths) == 1
+    assert graph.count("end") == 2 and graph.count("branch") == 0
+    assert _offset_from_line(graph.paths[0].points).max() <= 2.0
+    assert graph.paths[0].length >= 0.9 * COLS * np.hypot(1, SLOPE)
+    assert not getattr(maps, other).paths
 
 
 def test_kind_selects_one_graph(gaussian_ridge):
@@ -263,24 +251,3 @@ def test_bad_arguments_raise_params_error(gaussian_ridge):
         extract_features(np.full((5, 5), np.inf))
     with pytest.raises(ParamsError, match="PPAParams"):
         extract_features(gaussian_ridge, params={"profile_length": 5})
-
-
-# -- overlay -----------------------------------------------------------------
-def test_render_overlay_draws_features(tmp_path):
-    cols = np.arange(COLS, dtype=np.float32)
-    z = np.repeat(100 * np.sin(cols / 4)[None, :], ROWS, axis=0)  # N-S ridges and valleys
-    z[:5, :5] = np.nan
-    maps = extract_features(z)
-    rgb = render_overlay(z, maps, cell_size=30.0, line_width=1, show_nodes=False)
-    assert rgb.shape == z.shape + (3,) and rgb.dtype == np.uint8
-    ridge_cells = graph_mask(maps.ridges)
-    assert (rgb[ridge_cells] == RIDGE_COLOUR).all(axis=1).mean() > 0.9
-    assert (rgb == VALLEY_COLOUR).all(axis=2).any()
-    with pytest.raises(ParamsError, match="shape"):
-        render_overlay(z[:50], maps)
-    path = save_overlay(np.repeat(rgb, 8, axis=1), tmp_path / "overlay.png", max_width=300)
-    from PIL import Image
-
-    with Image.open(path) as image:
-        assert image.size == (300, round(ROWS * 300 / (COLS * 8)))
-    assert [p.name for p in tmp_path.iterdir()] == ["overlay.png"]

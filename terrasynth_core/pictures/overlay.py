@@ -1,25 +1,14 @@
-"""Pictures of extracted features: ridges and valleys over a hillshade.
-
-:func:`render_overlay` draws a :class:`FeatureMaps` on the grey hillshade of
-its DEM (ridges red, valleys blue, branch points yellow, endpoints white) as
-an RGB array that a GUI can show directly; :func:`save_overlay` writes
-such an array as a PNG.
-"""
+"""Ridges and valleys drawn over the grey hillshade of their DEM."""
 
 from __future__ import annotations
 
-import os
-import secrets
-from pathlib import Path
-
 import numpy as np
-from PIL import Image
 from skimage.draw import disk
 
-from ..measures import hillshade
 from ..errors import ParamsError
-from .graph import FeatureGraph, FeatureMaps
-from .network import graph_mask
+from ..features.graph import FeatureGraph, FeatureMaps
+from ..features.network import graph_mask
+from .shading import hillshade
 
 #: Colours, RGB uint8.
 RIDGE_COLOUR = (230, 30, 30)
@@ -78,6 +67,7 @@ def render_overlay(
         line_width = max(1, round(max(shade.shape) / 600))
     if not (isinstance(line_width, (int, np.integer)) and 1 <= line_width <= 50):
         raise ParamsError(f"line_width must be an integer from 1 to 50 cells, got {line_width!r}")
+    # A narrower grey range than the hillshade's own keeps the lines readable.
     grey = np.rint(40 + 200 * np.nan_to_num(shade, nan=0.0)).astype(np.uint8)
     rgb = np.repeat(grey[:, :, None], 3, axis=2)
     rgb[np.isnan(shade)] = NODATA_COLOUR
@@ -89,49 +79,3 @@ def render_overlay(
         for graph in (maps.valleys, maps.ridges):
             _draw_nodes(rgb, graph, radius)
     return rgb
-
-
-def save_overlay(rgb: np.ndarray, path, *, max_width: int | None = None, colours: int | None = 256) -> Path:
-    """Write an RGB image as PNG, optionally scaled down.
-
-    Parameters
-    ----------
-    rgb : ndarray of uint8, shape (rows, cols, 3)
-        E.g. from :func:`render_overlay`.
-    path : str or Path
-        Destination; written to a temporary file beside it and renamed, so
-        a failed write never leaves a truncated PNG.
-    max_width : int or None
-        When the image is wider, it is resized (Lanczos) to this width,
-        keeping its aspect ratio.
-    colours : int or None, default 256
-        Quantize to a palette of this many colours (2 to 256): a grey
-        hillshade with a few line colours loses nothing visible and the file
-        shrinks several times.  None keeps full RGB.
-
-    Returns
-    -------
-    Path
-        The written file.
-    """
-    rgb = np.asarray(rgb)
-    if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
-        raise ParamsError(f"rgb must be a uint8 array of shape (rows, cols, 3), got {rgb.dtype} {rgb.shape}")
-    if colours is not None and not (isinstance(colours, (int, np.integer)) and 2 <= colours <= 256):
-        raise ParamsError(f"colours must be an integer from 2 to 256 or None, got {colours!r}")
-    image = Image.fromarray(rgb)
-    if max_width is not None and image.width > max_width:
-        height = max(1, round(image.height * max_width / image.width))
-        image = image.resize((max_width, height), Image.Resampling.LANCZOS)
-    if colours is not None:
-        image = image.quantize(colors=int(colours), method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
-    try:
-        with open(tmp, "xb") as f:
-            image.save(f, format="PNG", optimize=True)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path

@@ -1,0 +1,177 @@
+"""Pictures: hillshade, the height ramp, shaded relief, patch colours,
+feature overlays, PNG files and the 3D arrays."""
+
+import math
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from terrasynth_core import HeightField, ParamsError
+from terrasynth_core.features import extract_features
+from terrasynth_core.features.network import graph_mask
+from terrasynth_core.pictures import (
+    RIDGE_COLOUR,
+    TERRAIN_LUT,
+    VALLEY_COLOUR,
+    camera_direction,
+    grey_hillshade,
+    height_range,
+    hillshade,
+    patch_colours,
+    render_overlay,
+    save_png,
+    shaded_relief,
+    shaded_window,
+    surface_grid,
+    terrain_colours,
+    thumbnail,
+    trim_background,
+)
+from terrasynth_core.pictures.colours import RAMP_RGB
+
+
+def _plane(d_drow: float, d_dcol: float, shape=(40, 50)) -> np.ndarray:
+    rr, cc = np.mgrid[0 : shape[0], 0 : shape[1]].astype(np.float32)
+    return (d_drow * rr + d_dcol * cc).astype(np.float32)
+
+
+# -- hillshade ---------------------------------------------------------------
+def test_flat_terrain_shade_is_sine_of_altitude():
+    shade = hillshade(np.zeros((10, 10), np.float32), altitude=30)
+    assert shade.dtype == np.float32
+    np.testing.assert_allclose(shade, math.sin(math.radians(30)), atol=1e-6)
+
+
+def test_slopes_facing_the_light_are_bright():
+    west_facing = _plane(0, 1)  # rises to the east, faces west
+    assert hillshade(west_facing, azimuth=270).mean() > 0.9
+    assert hillshade(west_facing, azimuth=90).mean() < 0.2
+    north_facing = _plane(1, 0)  # rises to the south (rows run south), faces north
+    assert hillshade(north_facing, azimuth=0).mean() > hillshade(north_facing, azimuth=180).mean() + 0.5
+
+
+def test_cell_size_flattens_the_shading():
+    z = _plane(0, 10)
+    steep = hillshade(z, azimuth=90)
+    gentle = hillshade(z, cell_size=100.0, azimuth=90)
+    assert gentle.mean() > steep.mean()
+    from_field = hillshade(HeightField(z, cell_size=(100.0, 100.0)), azimuth=90)
+    np.testing.assert_allclose(from_field, gentle)
+    anisotropic = hillshade(z, cell_size=(1.0, 100.0), azimuth=90)
+    np.testing.assert_allclose(anisotropic, gentle, atol=1e-6)
+
+
+def test_hillshade_is_nan_safe_and_in_range():
+    rng = np.random.default_rng(1)
+    z = rng.normal(0, 50, (60, 60)).astype(np.float32)
+    z[20:25, 30:40] = np.nan
+    before = z.copy()
+    shade = hillshade(z, cell_size=30)
+    np.testing.assert_array_equal(np.isnan(shade), np.isnan(z))
+    valid = shade[~np.isnan(shade)]
+    assert valid.min() >= 0 and valid.max() <= 1
+    np.testing.assert_array_equal(z, before)
+    with pytest.raises(ParamsError, match="altitude"):
+        hillshade(z, altitude=95)
+    with pytest.raises(ParamsError, match="cell_size"):
+        hillshade(z, cell_size=(0, 30))
+    grey = grey_hillshade(z, cell_size=30)
+    assert grey.dtype == np.uint8 and (grey[20:25, 30:40] == 255).all()
+
+
+# -- the height ramp -----------------------------------------------------------
+def test_ramp_ends_are_lowland_green_and_snow():
+    assert TERRAIN_LUT.shape == (256, 3) and TERRAIN_LUT.dtype == np.uint8
+    np.testing.assert_array_equal(TERRAIN_LUT[0], RAMP_RGB[0])
+    np.testing.assert_array_equal(TERRAIN_LUT[-1], RAMP_RGB[-1])
+    z = np.linspace(100, 900, 50, dtype=np.float32).reshape(5, 10)
+    colours = terrain_colours(z, vrange=(100, 900))
+    np.testing.assert_array_equal(colours[0, 0], RAMP_RGB[0])
+    np.testing.assert_array_equal(colours[-1, -1], RAMP_RGB[-1])
+    # Beyond the range the ends repeat; without a range 0.5 % tails are cut.
+    np.testing.assert_array_equal(terrain_colours(z, vrange=(300, 400))[-1, -1], RAMP_RGB[-1])
+    np.testing.assert_array_equal(terrain_colours(z)[-1, -1], RAMP_RGB[-1])
+
+
+def test_height_range_skips_nan_and_is_never_empty():
+    z = np.array([[np.nan, 1.0], [5.0, 3.0]], np.float32)
+    assert height_range(z) == (1.0, 5.0)
+    assert height_range(np.full((3, 3), 7.0)) == (7.0, 8.0)
+    assert height_range(np.full((3, 3), np.nan)) == (0.0, 1.0)
+    assert 0.0 < height_range(np.arange(1000.0), tail=1.0)[0] < 20.0
+
+
+def test_shaded_relief_is_rgba_transparent_at_nan():
+    rng = np.random.default_rng(3)
+    z = rng.normal(500, 40, (30, 40)).astype(np.float32)
+    z[:4, :4] = np.nan
+    rgba = shaded_relief(z, cell_size=30.0, vrange=height_range(z))
+    assert rgba.shape == (30, 40, 4) and rgba.dtype == np.uint8
+    assert (rgba[:4, :4, 3] == 0).all() and (rgba[4:, 4:, 3] == 255).all()
+    assert (shaded_relief(np.full((5, 5), np.nan, np.float32)) == 0).all()
+    window = shaded_window(z, (10, 20, 5, 25), cell_size=30.0, vrange=height_range(z))
+    np.testing.assert_array_equal(window, rgba[10:20, 5:25])
+    small = thumbnail(np.zeros((300, 100), np.float32), cell_size=(30.0, 30.0), side=100)
+    assert small.shape == (100, 34, 4)
+
+
+# -- patch colours ------------------------------------------------------------
+def test_patch_colours_are_distinct_for_neighbouring_ids():
+    ids = np.arange(-1, 64).reshape(5, 13)
+    rgba = patch_colours(ids)
+    assert rgba.shape == (5, 13, 4) and rgba.dtype == np.uint8
+    assert (rgba[0, 0] == 0).all()  # id -1
+    colours = rgba.reshape(-1, 4)[1:, :3].astype(int)
+    assert len({tuple(c) for c in colours}) == 64
+    # Ids one apart, typically touching patches, differ clearly.
+    assert np.abs(np.diff(colours, axis=0)).sum(axis=1).min() > 60
+    np.testing.assert_array_equal(patch_colours(np.array([[5]])), patch_colours(np.array([[5 + 256]])))
+
+
+# -- overlay -----------------------------------------------------------------
+def test_overlay_is_drawn_where_the_graph_is(tmp_path):
+    rows, cols = 120, 160
+    z = np.repeat(100 * np.sin(np.arange(cols, dtype=np.float32) / 4)[None, :], rows, axis=0)  # N-S ridges
+    z[:5, :5] = np.nan
+    maps = extract_features(z)
+    rgb = render_overlay(z, maps, cell_size=30.0, line_width=1, show_nodes=False)
+    assert rgb.shape == z.shape + (3,) and rgb.dtype == np.uint8
+    ridge_cells = graph_mask(maps.ridges)
+    assert (rgb[ridge_cells] == RIDGE_COLOUR).all(axis=1).mean() > 0.9
+    assert not (rgb[~ridge_cells] == RIDGE_COLOUR).all(axis=1).any()
+    assert (rgb == VALLEY_COLOUR).all(axis=2).any()
+    with pytest.raises(ParamsError, match="shape"):
+        render_overlay(z[:50], maps)
+
+
+# -- files -------------------------------------------------------------------
+def test_save_png_scales_quantizes_and_keeps_a_budget(tmp_path):
+    rgb = np.random.default_rng(4).integers(0, 256, (60, 800, 3), dtype=np.uint8)
+    path = save_png(rgb, tmp_path / "a.png", max_width=300, colours=16)
+    with Image.open(path) as image:
+        assert image.size == (300, round(60 * 300 / 800)) and image.mode == "P"
+    with pytest.raises(ParamsError, match="budget"):
+        save_png(rgb, tmp_path / "b.png", max_bytes=1000)
+    with pytest.raises(ParamsError, match="uint8"):
+        save_png(rgb.astype(float), tmp_path / "c.png")
+    assert [p.name for p in tmp_path.iterdir()] == ["a.png"]
+
+
+# -- 3D arrays ----------------------------------------------------------------
+def test_surface_grid_runs_south_to_north():
+    z = np.array([[10.0, 11.0], [0.0, 1.0]])  # the north row is higher
+    colours = np.zeros((2, 2, 3))
+    colours[0] = 255
+    heights, rgb = surface_grid(z, colours)
+    np.testing.assert_array_equal(heights, [0.0, 1.0, 10.0, 11.0])
+    assert rgb.dtype == np.uint8 and rgb[:2].max() == 0 and rgb[2:].min() == 255
+
+
+def test_camera_direction_and_trim():
+    np.testing.assert_allclose(camera_direction(0, 0), [0, -1, 0], atol=1e-12)  # from the south
+    np.testing.assert_allclose(camera_direction(90, 0), [1, 0, 0], atol=1e-12)  # from the east
+    np.testing.assert_allclose(np.linalg.norm(camera_direction(-30, 35)), 1.0)
+    shot = np.full((100, 100, 3), 255, np.uint8)
+    shot[40:50, 20:30] = 0
+    assert trim_background(shot, pad=2).shape == (14, 14, 3)
