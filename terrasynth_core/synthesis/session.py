@@ -36,7 +36,8 @@ from .events import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 from ..matching.fill_search import FillSearch
 from .params import SynthesisParams
 from ..matching.candidates import FeaturePool
-from ..features.samples import FeatureSample, sketch_samples
+from ..features.samples import FeatureSample
+from ..order.bfs import feature_order
 from ..controls.layout import build_layout
 
 
@@ -408,15 +409,9 @@ class _Run:
 
     # -- order ----------------------------------------------------------------
     def _ordered_samples(self) -> list[FeatureSample]:
-        comps = []
-        for graph in (self.s.sketch_maps.ridges, self.s.sketch_maps.valleys):
-            comps.extend(sketch_samples(graph, self.radius, spacing=self.radius))
-        # Longest networks first: they set the terrain's frame.
-        comps.sort(key=lambda c: -len(c))
-        samples = [s for comp in comps for s in comp if self._sample_wanted(s)]
-        if self.p.order == "raster":
-            samples.sort(key=lambda s: (round(s.center[0]), round(s.center[1])))
-        return samples
+        graphs = (self.s.sketch_maps.ridges, self.s.sketch_maps.valleys)
+        return feature_order(graphs, self.radius, spacing=self.radius, keep=self._sample_wanted,
+                             raster=self.p.order == "raster")
 
     def _sample_wanted(self, sample: FeatureSample) -> bool:
         """Stamps override the sketch under them; a re-synthesis only
