@@ -36,6 +36,7 @@ from .events import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 from ..matching.fill_search import FillSearch
 from .params import SynthesisParams
 from ..matching.candidates import FeaturePool
+from ..matching.costs import match_cost, overlap_ssd, settle
 from ..features.samples import FeatureSample
 from ..order.bfs import feature_order
 from ..controls.layout import build_layout
@@ -240,10 +241,6 @@ class Session:
         run cleanly at the next patch boundary.
         """
         return _Run(self).events()
-
-
-#: Weight of the squared height shift (in reliefs) against the overlap SSD.
-OFFSET_WEIGHT = 0.2
 
 
 class _Run:
@@ -561,8 +558,8 @@ class _Run:
         relief = float(self.lay.relief[warped[0][0].example])
         evaluated = []
         for cand, patch in warped:
-            ssd, offset = _settle(*_overlap_ssd(existing, patch, filled))
-            score = self._match_cost(ssd, offset, relief) + self.p.feature_weight * cand.deformation
+            ssd, offset = settle(*overlap_ssd(existing, patch, filled))
+            score = match_cost(ssd, offset, relief) + self.p.feature_weight * cand.deformation
             evaluated.append((score, ssd, offset, patch, cand))
         evaluated.sort(key=lambda t: t[0])
         rr, cc = np.ogrid[r0:r1, c0:c1]
@@ -596,8 +593,8 @@ class _Run:
                 er, ec = pos
                 P = self.p.patch_size
                 mean = float(self.lay.detail[ei][er:er + P, ec:ec + P].mean())
-                ssd, offset = _settle(ssd, offset, mean)
-                cost = self._match_cost(ssd, offset + mean, relief)
+                ssd, offset = settle(ssd, offset, mean)
+                cost = match_cost(ssd, offset + mean, relief)
                 options.append((cost, ssd, offset, ei, pos, relief))
         options.sort(key=lambda t: t[0])
         return options[: self.p.k]
@@ -621,13 +618,6 @@ class _Run:
                           cut.normalized_cost, total)
         self.records.append(rec)
         return rec
-
-    def _match_cost(self, ssd: float, offset: float, relief: float) -> float:
-        """Overlap mismatch in units of the relief, plus a penalty on the height
-        shift a candidate needs away from the level field: without it the
-        shifts random-walk and the terrain drifts far outside the example's
-        heights over many patches."""
-        return ssd / relief**2 + OFFSET_WEIGHT * (offset / relief) ** 2
 
     def _event(self, rec: PatchRecord, total: int) -> PatchPlaced:
         r0, r1, c0, c1 = rec.bbox
@@ -663,33 +653,3 @@ class _WindowQueue:
             if self.share[i] < 1.0:
                 return tuple(int(v) for v in self.boxes[i])
         return None
-
-
-def _settle(ssd: float, offset: float, mean: float = 0.0) -> tuple[float, float]:
-    """The height shift that minimises the match cost, and the SSD it leaves.
-
-    The cost is the overlap SSD plus ``OFFSET_WEIGHT * (shift + mean)**2``
-    (both over the relief squared), where ``mean`` is the candidate's mean
-    detail (0 to anchor the shift alone): its minimiser is
-    ``(offset - w mean) / (1 + w)`` for the SSD-optimal ``offset``.
-
-    Matching the overlap exactly would carry every patch at its neighbours'
-    level, so levels random-walk away from the level field over many
-    patches, and fronts that grew apart meet in a step.  Settling a fraction
-    ``w / (1 + w)`` of the way back to the level field at every patch keeps
-    the drift bounded; the small step it leaves in the overlap is what the
-    seam solve removes.
-    """
-    settled = (offset - OFFSET_WEIGHT * mean) / (1.0 + OFFSET_WEIGHT)
-    return ssd + (offset - settled) ** 2, settled
-
-
-def _overlap_ssd(existing: np.ndarray, patch: np.ndarray, filled: np.ndarray) -> tuple[float, float]:
-    """Mean squared difference over the filled cells after the best vertical
-    offset, and that offset (to add to ``patch``)."""
-    n = int(filled.sum())
-    if n == 0:
-        return 0.0, 0.0
-    diff = existing[filled].astype(np.float64) - patch[filled]
-    offset = float(diff.mean())
-    return float(((diff - offset) ** 2).mean()), offset
