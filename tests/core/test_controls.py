@@ -15,7 +15,7 @@ from terrasynth_core.heightfield import HeightField
 from terrasynth_core.io import load_dem
 from terrasynth_core.controls.pins import Pin, apply_pins
 from terrasynth_core.synthesis import Controls, Session, Stamp, Style, SynthesisParams, Water, run_variations
-from terrasynth_core.controls.options import render_stamp
+from terrasynth_core.controls.stamps import render_stamp
 from terrasynth_core.controls.water import apply_water
 
 P = SynthesisParams(patch_size=32, k=2, seed=5)
