@@ -144,8 +144,7 @@ class ThinPlateSpline:
     ``f(x) = c + L (x - m) + sum_i w_i U(|x - p_i|)`` with ``U(r) = r^2 log r^2``
     (Bookstein 1989), control points ``p_i``, their mean ``m``, an affine part
     ``(c, L)`` and kernel weights ``w`` (one column per output coordinate).
-    Build one with :meth:`fit` (interpolating control points) or
-    :meth:`similarity` (a rotation/scale/mirror, no bending).
+    Build one with :meth:`fit`.
 
     Attributes
     ----------
@@ -225,7 +224,7 @@ class ThinPlateSpline:
           that similarity across the line.
 
         A spline through 3 non-collinear points is always affine (bending
-        energy 0): use :attr:`anisotropy` to also rank affine distortion.
+        energy 0).
         """
         src = _as_points(src, "src control points")
         dst = _as_points(dst, "dst control points")
@@ -282,49 +281,6 @@ class ThinPlateSpline:
         weights = sol[:n]
         return cls(src, weights, sol[n], sol[n + 1 :].T, center)
 
-    @classmethod
-    def similarity(
-        cls,
-        *,
-        angle: float = 0.0,
-        scale: float = 1.0,
-        mirror: bool = False,
-        center=(0.0, 0.0),
-        offset=(0.0, 0.0),
-    ) -> "ThinPlateSpline":
-        """A map without bending: ``x -> center + offset + scale R M (x - center)``.
-
-        Parameters
-        ----------
-        angle : float, default 0.0
-            Rotation in radians, counter-clockwise as seen on a north-up map
-            (rows down): a quarter turn takes the ``+col`` direction to
-            ``-row``.
-        scale : float, default 1.0
-            Uniform scale, > 0.
-        mirror : bool, default False
-            Flip left-right (negate the column offset from ``center``) before
-            rotating.
-        center : (row, col), default (0, 0)
-            Fixed point of the rotation, scale and mirror.
-        offset : (row, col), default (0, 0)
-            Translation applied afterwards.
-
-        Returns
-        -------
-        ThinPlateSpline
-            With bending energy 0 and anisotropy 0.
-        """
-        if not (scale > 0.0 and math.isfinite(scale)):
-            raise ParamsError(f"similarity scale must be a finite value > 0, got {scale}")
-        cos, sin = math.cos(angle), math.sin(angle)
-        linear = scale * np.array([[cos, -sin], [sin, cos]])
-        if mirror:
-            linear = linear @ np.diag([1.0, -1.0])
-        c = np.asarray(center, dtype=np.float64)
-        empty = np.zeros((0, 2))
-        return cls(empty, empty, c + np.asarray(offset, dtype=np.float64), linear, c)
-
     # -- evaluation ------------------------------------------------------
     def transform(self, points) -> np.ndarray:
         """Map points.
@@ -353,17 +309,6 @@ class ThinPlateSpline:
         with the square of the displacements).
         """
         return self._bending_energy
-
-    @property
-    def anisotropy(self) -> float:
-        """``1 - s_min / s_max`` of the affine part's singular values.
-
-        0 for a similarity (rotation, uniform scale, mirror), towards 1 for
-        strong stretch or shear.  Complements :attr:`bending_energy`, which
-        ignores every affine distortion.
-        """
-        s = np.linalg.svd(self.linear, compute_uv=False)
-        return float(1.0 - s[-1] / s[0]) if s[0] > 0 else 1.0
 
 
 def warp_patch(
