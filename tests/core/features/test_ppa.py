@@ -70,28 +70,25 @@ def _check_graph(graph: FeatureGraph) -> None:
 
 
 # -- synthetic terrain --------------------------------------------------------
+def _one_straight_path(found, other) -> None:
+    """``found`` is one path along the sloping line (within 2 cells, at
+    least 90 % of its length); ``other`` is empty."""
+    _check_graph(found)
+    assert len(found.paths) == 1
+    assert found.count("end") == 2 and found.count("branch") == 0
+    assert _offset_from_line(found.paths[0].points).max() <= 2.0
+    assert found.paths[0].length >= 0.9 * COLS * np.hypot(1, SLOPE)
+    assert not other.paths
+
+
 def test_gaussian_ridge_gives_one_path_on_its_crest(gaussian_ridge):
     maps = extract_features(gaussian_ridge)
-    ridges = maps.ridges
-    _check_graph(ridges)
-    assert len(ridges.paths) == 1
-    assert ridges.count("end") == 2 and ridges.count("branch") == 0
-    points = ridges.paths[0].points
-    assert _offset_from_line(points).max() <= 2.0
-    crest_length = COLS * np.hypot(1, SLOPE)
-    assert ridges.paths[0].length >= 0.9 * crest_length
-    assert not maps.valleys.paths
+    _one_straight_path(maps.ridges, maps.valleys)
 
 
 def test_v_valley_gives_one_path_on_its_floor(v_valley):
     maps = extract_features(v_valley)
-    valleys = maps.valleys
-    _check_graph(valleys)
-    assert len(valleys.paths) == 1
-    assert valleys.count("end") == 2 and valleys.count("branch") == 0
-    assert _offset_from_line(valleys.paths[0].points).max() <= 2.0
-    assert valleys.paths[0].length >= 0.9 * COLS * np.hypot(1, SLOPE)
-    assert not maps.ridges.paths
+    _one_straight_path(maps.valleys, maps.ridges)
 
 
 def test_kind_selects_one_graph(gaussian_ridge):
