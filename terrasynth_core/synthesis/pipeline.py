@@ -51,6 +51,8 @@ class RunState:
 
     @classmethod
     def start(cls, session: Session) -> "RunState":
+        """An empty canvas (or the previous result of a re-synthesis) for
+        ``session``."""
         p, c = session.params, session.controls
         canvas = Canvas(session.shape, float(np.mean(session.layout.relief)), patch_size=p.patch_size, seam=p.seam,
                         blend=p.blend, previous=c.previous, selection=c.selection)
@@ -68,11 +70,16 @@ class RunState:
                            self.canvas.heights[r0:r1, c0:c1].copy(), rec.cost)
 
 
-def run_pipeline(session: Session) -> Iterator[object]:
-    """Run a validated session stage by stage, yielding its events; the
-    last is :class:`SynthesisFinished` with the result."""
+def run_pipeline(state: RunState) -> Iterator[object]:
+    """Run stage by stage, yielding the events; the last is
+    :class:`SynthesisFinished` with the result.
+
+    Parameters
+    ----------
+    state : RunState
+        A fresh state (:meth:`RunState.start`) of a validated session.
+    """
     t_start = time.perf_counter()
-    state = RunState.start(session)
     samples, pools = yield from analyse_stage(state)
     yield from feature_stage(state, samples, pools)
     yield from fill_stage(state)

@@ -29,7 +29,7 @@ from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
 from .events import SynthesisFinished
 from .params import SynthesisParams
-from .pipeline import run_pipeline
+from .pipeline import RunState, run_pipeline
 from .result import SynthesisResult
 
 __all__ = ["Session"]
@@ -148,4 +148,4 @@ class Session:
         Closing the generator (or simply not asking for more) cancels the
         run cleanly at the next patch boundary.
         """
-        return run_pipeline(self)
+        return run_pipeline(RunState.start(self))
