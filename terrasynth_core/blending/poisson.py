@@ -17,10 +17,8 @@ References
 
 from __future__ import annotations
 
-import math
 import threading
 from collections import OrderedDict
-from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
@@ -55,25 +53,6 @@ def _seam_guidance(d: np.ndarray, crosses: np.ndarray, valid: np.ndarray, mode: 
     return g
 
 
-def _pin_mask(pins, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """Boolean mask of pinned pixels and the pinned heights (float64 grid)."""
-    mask = np.zeros(shape, bool)
-    values = np.zeros(shape)
-    for pin in pins:
-        try:
-            row, col, height = pin
-            r, c, height = int(row), int(col), float(height)
-        except (TypeError, ValueError):
-            raise ParamsError(f"a pin must be (row, col, height) numbers, got {pin!r}") from None
-        if r != row or c != col or not (0 <= r < shape[0] and 0 <= c < shape[1]):
-            raise ParamsError(f"pin at ({row}, {col}) is not an integer cell inside the {shape} window")
-        if not math.isfinite(height):
-            raise ParamsError(f"pin at ({row}, {col}) has non-finite height {height}")
-        mask[r, c] = True
-        values[r, c] = height
-    return mask, values
-
-
 def remove_seam(
     heights: np.ndarray,
     take_new: np.ndarray,
@@ -81,7 +60,6 @@ def remove_seam(
     *,
     fixed: np.ndarray | None = None,
     mode: BlendMode = "poisson",
-    pins: Sequence[tuple[int, int, float]] | None = None,
 ) -> np.ndarray:
     """Smooth the seam of a composited window by a local Poisson solve.
 
@@ -102,40 +80,32 @@ def remove_seam(
         Guidance across the seam: zero gradient (the paper), or the mean of
         the two neighbouring gradients along the same axis, which continues
         the slope (first-derivative continuity).
-    pins : sequence of (row, col, height), optional
-        Integer window cells that must end at the given height (Dirichlet),
-        e.g. user elevation pins.  A pin on a pixel that may not change
-        (``fixed`` or outside ``region``) is left as it is: that pixel was
-        settled when it was synthesized.  A single pinned cell pulls its
-        surroundings with a harmonic (logarithmic) falloff, so it reads as a
-        cone tip: pin a small disk of cells for a rounded summit.
 
     Returns
     -------
     ndarray of float32, shape (h, w)
-        ``heights`` with the solved values in ``region`` minus ``fixed``
-        (and the pins); every other pixel unchanged, bit for bit.
+        ``heights`` with the solved values in ``region`` minus ``fixed``;
+        every other pixel unchanged, bit for bit.
 
     Raises
     ------
     ParamsError
-        Mismatched shapes, an unknown mode, a pin outside the window or not
-        on an integer cell, or non-finite heights in ``region`` minus
+        Mismatched shapes, an unknown mode, or non-finite heights in ``region`` minus
         ``fixed`` (NaN fixed pixels are allowed and act as a Neumann
         border).
 
     Notes
     -----
     Minimises ``sum (h(q) - h(p) - g(p, q))^2`` over the 4-neighbour edges
-    that touch a free pixel and whose other end is free, fixed or pinned;
+    that touch a free pixel and whose other end is free or fixed;
     edges to pixels neither in ``region`` nor ``fixed`` are dropped (Neumann
     border).  The guidance ``g`` is the composite's own differences except
     on edges crossing the seam (``take_new`` differs at the two ends).  A
-    connected group of free pixels with no edge to a fixed or pinned pixel
+    connected group of free pixels with no edge to a fixed pixel
     has nothing to anchor it and is returned unchanged.  The normal
     equations (a sparse graph Laplacian) are solved directly; the last few
-    factorizations are cached by mask, so windows with the same region,
-    fixed and pinned pixels (common in a regular fill) only pay for the
+    factorizations are cached by mask, so windows with the same region and
+    fixed pixels (common in a regular fill) only pay for the
     back-substitution.
     """
     h0 = np.asarray(heights)
@@ -153,19 +123,16 @@ def remove_seam(
     region = np.asarray(region, dtype=bool)
     fixed = ~region if fixed is None else np.asarray(fixed, dtype=bool)
 
-    pinned, pin_values = _pin_mask(pins or (), shape)
-    pinned &= region & ~fixed
-    free = region & ~fixed & ~pinned
+    free = region & ~fixed
     result = h0.astype(np.float32)  # a copy: the caller's array is never touched
-    result[pinned] = pin_values[pinned]
-    values = np.where(pinned, pin_values, h0.astype(np.float64))
-    bad = ~np.isfinite(h0) & (free | pinned)
+    values = h0.astype(np.float64)
+    bad = ~np.isfinite(h0) & free
     if bad.any():
         raise ParamsError(f"heights hold {int(bad.sum())} non-finite values among the pixels to solve")
     finite = np.isfinite(values)
     # A fixed pixel without a height (NaN: no terrain there) cannot anchor
     # anything; it borders the solve like a pixel outside the region.
-    known = (fixed | pinned) & finite
+    known = fixed & finite
 
     # Free groups with no edge to a known pixel cannot be anchored: drop them.
     labels, n_groups = ndimage.label(free)
@@ -177,8 +144,6 @@ def remove_seam(
         return result
     take = free | known
     values = np.where(take, values, 0.0)
-    # Guidance comes from the composite itself, not from the pinned values:
-    # a pin then pulls its surroundings instead of standing as a spike.
     composite = np.where(take, h0, 0.0).astype(np.float64)
 
     # Edges along rows (down) and columns (right), as masks on their first
@@ -197,7 +162,7 @@ def remove_seam(
     # One least-squares equation x_q - x_p = g per used edge p -> q; the
     # normal equations are the graph Laplacian of the free pixels.  Solving
     # for the change d = x - values (0 at known pixels) keeps the right-hand
-    # side small, nonzero only near the seam and the pins, and the result
+    # side small, nonzero only near the seam, and the result
     # exact to float64 round-off whatever the absolute heights.
     index = np.full(shape, -1, dtype=np.int64)
     index[free] = np.arange(int(free.sum()))
@@ -254,29 +219,3 @@ def _laplacian_solver(free: np.ndarray, known: np.ndarray, p_idx: np.ndarray, q_
         ):
             _SOLVER_CACHE.popitem(last=False)
     return solver
-
-
-def seam_step(heights: np.ndarray, take_new: np.ndarray) -> float:
-    """Mean absolute height jump across the seam.
-
-    Parameters
-    ----------
-    heights : ndarray of float, shape (h, w)
-    take_new : ndarray of bool, shape (h, w)
-
-    Returns
-    -------
-    float
-        Mean ``|h(p) - h(q)|`` over 4-neighbour edges whose ends differ in
-        ``take_new``, in height units; 0.0 when there is no seam.
-    """
-    h = np.asarray(heights, dtype=np.float64)
-    t = np.asarray(take_new, dtype=bool)
-    if h.ndim != 2 or t.shape != h.shape:
-        raise ParamsError(f"heights and take_new must be 2-D arrays of one shape, got {h.shape} and {t.shape}")
-    across_down = t[:-1, :] != t[1:, :]
-    across_right = t[:, :-1] != t[:, 1:]
-    jumps = np.concatenate(
-        [np.abs(np.diff(h, axis=0))[across_down], np.abs(np.diff(h, axis=1))[across_right]]
-    )
-    return float(jumps.mean()) if len(jumps) else 0.0

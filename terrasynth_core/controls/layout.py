@@ -3,7 +3,7 @@
 A run has style *groups*: the session's plain examples (one group, used for
 unpainted cells) and one group per :class:`~.controls.Style`.  Every example
 is synthesized as detail about its median height, times its style's relief
-scale; the level field (:func:`~.controls.level_field`) adds each region's
+scale; the level field (:func:`.levels.level_field`) adds each region's
 base height back, smoothly across region borders.
 """
 
@@ -14,7 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exemplars.prepare import ExampleAnalysis, prepare_example
-from .options import Controls, RenderedStamp, level_field, render_stamp, steer_level
+from .levels import level_field, steer_level
+from .options import Controls
+from .stamps import RenderedStamp, render_stamp
 
 
 @dataclass(frozen=True, eq=False)

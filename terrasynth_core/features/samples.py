@@ -13,7 +13,6 @@ into a branch.
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,8 +53,24 @@ class FeatureSample:
         return np.vstack([[0.0, 0.0], self.crossings - self.center])
 
 
-class _Walker:
-    """Walks a feature graph outwards from a point until it leaves a disc."""
+class NetworkSampler:
+    """Feature samples of one network, at its nodes and along its paths.
+
+    Walks the graph outwards from a sample centre until it leaves the disc
+    of the patch's inscribed circle, which gives the sample's crossings.
+
+    Parameters
+    ----------
+    graph : FeatureGraph
+    radius : float
+        Inscribed-circle radius in cells (half the patch).
+
+    Attributes
+    ----------
+    at_node : list of list of (int, int)
+        Per node, the paths that meet there: (path index, direction away
+        from the node, +1 from the path's start, -1 from its end).
+    """
 
     def __init__(self, graph: FeatureGraph, radius: float):
         self.graph = graph
@@ -63,9 +78,27 @@ class _Walker:
         self.points = [np.asarray(p.points, dtype=float) for p in graph.paths]
         self.at_node: list[list[tuple[int, int]]] = [[] for _ in graph.nodes]
         for i, p in enumerate(graph.paths):
-            # (path index, direction away from the node: +1 from start, -1 from end)
             self.at_node[p.start].append((i, +1))
             self.at_node[p.end].append((i, -1))
+
+    def node_sample(self, node: int) -> FeatureSample | None:
+        """The sample centred on node ``node`` (None when nothing leaves the disc)."""
+        nd = self.graph.nodes[node]
+        c = np.array([nd.row, nd.col])
+        return _make_sample(c, self.graph.kind, self.crossings_from_node(c, node))
+
+    def path_samples(self, path: int, spacing: float, *, reverse: bool = False) -> list[FeatureSample]:
+        """Samples every ``spacing`` cells along path ``path``, half a spacing
+        clear of both ends, from its start (or from its end with ``reverse``)."""
+        pts = self.points[path][::-1] if reverse else self.points[path]
+        out = []
+        for j in _arc_positions(pts, spacing, spacing / 2):
+            idx = len(pts) - 1 - j if reverse else j
+            c = self.points[path][idx]
+            s = _make_sample(c, self.graph.kind, self.crossings_from_path(c, path, idx))
+            if s is not None:
+                out.append(s)
+        return out
 
     def crossings_from_node(self, center: np.ndarray, node: int) -> list[np.ndarray]:
         out: list[np.ndarray] = []
@@ -152,77 +185,10 @@ def example_samples(graph: FeatureGraph, radius: float, spacing: float) -> list[
     spacing : float
         Distance between path samples in cells.
     """
-    walker = _Walker(graph, radius)
-    out: list[FeatureSample] = []
-    for node in graph.nodes:
-        c = np.array([node.row, node.col])
-        s = _make_sample(c, graph.kind, walker.crossings_from_node(c, node.id))
-        if s is not None:
-            out.append(s)
-    for i, p in enumerate(graph.paths):
-        for j in _arc_positions(walker.points[i], spacing, spacing / 2):
-            c = walker.points[i][j]
-            s = _make_sample(c, graph.kind, walker.crossings_from_path(c, i, j))
-            if s is not None:
-                out.append(s)
+    sampler = NetworkSampler(graph, radius)
+    out = [s for s in (sampler.node_sample(node.id) for node in graph.nodes) if s is not None]
+    for i in range(len(graph.paths)):
+        out.extend(sampler.path_samples(i, spacing))
     return out
 
 
-def sketch_samples(graph: FeatureGraph, radius: float, spacing: float) -> list[list[FeatureSample]]:
-    """Feature samples of a sketch network in breadth-first order.
-
-    Each connected component is traversed from a root (its highest-degree
-    branch point, or an endpoint when it has none); the samples along a path
-    come in order from the node nearer the root, then the node at its far
-    end, as in the paper (§4.1, Fig. 6).
-
-    Returns
-    -------
-    list of list of FeatureSample
-        One breadth-first list per connected component, longest component
-        first.
-    """
-    walker = _Walker(graph, radius)
-    n = len(graph.nodes)
-    seen_node = np.zeros(n, dtype=bool)
-    components: list[tuple[float, list[FeatureSample]]] = []
-    degree = np.array([len(a) for a in walker.at_node])
-    # Roots: highest degree first, then by position for determinism.
-    candidates = sorted(range(n), key=lambda i: (-degree[i], graph.nodes[i].row, graph.nodes[i].col))
-    for root in candidates:
-        if seen_node[root]:
-            continue
-        order: list[FeatureSample] = []
-        length = 0.0
-        seen_node[root] = True
-        queue = deque([root])
-        _append(order, walker, graph, root)
-        while queue:
-            node = queue.popleft()
-            for path, direction in walker.at_node[node]:
-                p = graph.paths[path]
-                other = p.end if direction > 0 else p.start
-                if seen_node[other]:
-                    continue
-                seen_node[other] = True
-                pts = walker.points[path] if direction > 0 else walker.points[path][::-1]
-                length += p.length
-                for j in _arc_positions(pts, spacing, spacing / 2):
-                    idx = j if direction > 0 else len(pts) - 1 - j
-                    c = walker.points[path][idx]
-                    s = _make_sample(c, graph.kind, walker.crossings_from_path(c, path, idx))
-                    if s is not None:
-                        order.append(s)
-                _append(order, walker, graph, other)
-                queue.append(other)
-        components.append((length, order))
-    components.sort(key=lambda t: -t[0])
-    return [c for _, c in components]
-
-
-def _append(order: list, walker: _Walker, graph: FeatureGraph, node: int) -> None:
-    nd = graph.nodes[node]
-    c = np.array([nd.row, nd.col])
-    s = _make_sample(c, graph.kind, walker.crossings_from_node(c, node))
-    if s is not None:
-        order.append(s)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..features.samples import FeatureSample
+from ..warping.thin_plate import bending_energies
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,12 +55,6 @@ class Candidate:
     target: np.ndarray
     mirrored: bool
     deformation: float
-
-
-def _tps_kernel(d2: np.ndarray) -> np.ndarray:
-    """U(r) = r^2 log r^2 on squared distances, 0 at r = 0."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(d2 > 0, d2 * np.log(np.where(d2 > 0, d2, 1.0)), 0.0)
 
 
 class FeaturePool:
@@ -134,7 +129,9 @@ class FeaturePool:
         mflat = mirrored.reshape(-1)
         cost = _rotation_residual(src, flat, mflat) / (d + 1)
         if d >= 3:
-            cost = cost + _bending_energy(src, flat)
+            # The spline through the centre (0, 0) and the crossings.
+            centre = np.zeros((len(flat), 1, 2))
+            cost = cost + bending_energies(np.vstack([[0.0, 0.0], src]), np.concatenate([centre, flat], axis=1))
         cost = cost + rng.random(cost.shape) * 1e-6  # random tie-break, seeded
         take = np.argsort(cost, kind="stable")[:count]
         target = np.vstack([[0.0, 0.0], src]) * self.radius + sample.center
@@ -170,24 +167,3 @@ def _rotation_residual(src: np.ndarray, dst: np.ndarray, mirrored: np.ndarray) -
     cross = np.einsum("md,md->m", s[..., 0], dst[..., 1]) - np.einsum("md,md->m", s[..., 1], dst[..., 0])
     total = np.einsum("mdk,mdk->m", s, s) + np.einsum("mdk,mdk->m", dst, dst)
     return np.maximum(total - 2.0 * np.hypot(dot, cross), 0.0)
-
-
-def _bending_energy(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
-    """Thin-plate bending energy of the spline through ``src`` (centre plus d
-    crossings) -> each ``dst``; src : (d, 2), dst : (M, d, 2) -> (M,)."""
-    pts = np.vstack([[0.0, 0.0], src])  # (m, 2)
-    m = pts.shape[0]
-    d2 = ((pts[:, None, :] - pts[None, :, :]) ** 2).sum(-1)
-    K = _tps_kernel(d2)
-    P = np.hstack([np.ones((m, 1)), pts])
-    L = np.zeros((m + 3, m + 3))
-    L[:m, :m] = K
-    L[:m, m:] = P
-    L[m:, :m] = P.T
-    try:
-        Linv = np.linalg.inv(L)
-    except np.linalg.LinAlgError:
-        return np.zeros(dst.shape[0])
-    Y = np.concatenate([np.zeros((dst.shape[0], 1, 2)), dst], axis=1)  # (M, m, 2)
-    W = np.einsum("ij,mjk->mik", Linv[:m, :m], Y)  # non-affine weights (M, m, 2)
-    return np.maximum(np.einsum("mik,ij,mjk->m", W, K, W), 0.0)

@@ -9,7 +9,6 @@ import numpy as np
 
 from ..blending.poisson import remove_seam
 from .graph_cut import graph_cut_seam
-from ..synthesis.params import SynthesisParams
 
 
 @dataclass(frozen=True, eq=False)
@@ -31,9 +30,14 @@ class Canvas:
     Parameters
     ----------
     shape : (rows, cols)
-    params : SynthesisParams
     relief : float
         Typical height spread within a patch, metres (cost unit).
+    patch_size : int
+        Patch side in cells (normalises the seam cost per patch side).
+    seam : {"cut", "paste"}, default "cut"
+        Graph-cut seam in the overlap, or the new patch pasted over it.
+    blend : {"poisson", "c1", "none"}, default "c1"
+        Seam removal after each patch (see :func:`~..blending.remove_seam`).
     previous : ndarray of float32, shape (rows, cols), optional
         Local re-synthesis: terrain that is already there ...
     selection : ndarray of bool, shape (rows, cols), optional
@@ -41,11 +45,13 @@ class Canvas:
         graph cuts keep them and seam solves hold them fixed.
     """
 
-    def __init__(self, shape: tuple[int, int], params: SynthesisParams, relief: float, *,
-                 previous: np.ndarray | None = None, selection: np.ndarray | None = None):
+    def __init__(self, shape: tuple[int, int], relief: float, *, patch_size: int, seam: str = "cut",
+                 blend: str = "c1", previous: np.ndarray | None = None, selection: np.ndarray | None = None):
         self.shape = shape
-        self.params = params
         self.relief = relief
+        self.patch_size = patch_size
+        self.seam_mode = seam
+        self.blend_mode = blend
         if selection is None:
             self.heights = np.zeros(shape, dtype=np.float32)
             self.locked = np.zeros(shape, dtype=bool)
@@ -72,14 +78,14 @@ class Canvas:
             keep_new = keep_new & ~locked
         if not filled.any():
             return Cut(np.ones(patch.shape, dtype=bool), np.zeros(patch.shape, dtype=bool), 0.0)
-        if self.params.seam == "paste":
+        if self.seam_mode == "paste":
             return Cut(~locked, np.zeros(patch.shape, dtype=bool), 0.0)
         keep_existing = self.protected[r0:r1, c0:c1]
         if keep_new is not None:
             keep_existing = keep_existing & ~keep_new
         res = graph_cut_seam(self.heights[r0:r1, c0:c1], patch, filled,
                              keep_new=keep_new, keep_existing=keep_existing | locked)
-        norm = res.cost / (2.0 * (relief or self.relief) * self.params.patch_size)
+        norm = res.cost / (2.0 * (relief or self.relief) * self.patch_size)
         return Cut(res.take_new & ~locked, res.seam, float(norm))
 
     def place(self, bbox, patch: np.ndarray, cut: Cut, index: int, *, protect: np.ndarray | None = None) -> None:
@@ -101,7 +107,7 @@ class Canvas:
 
     def blend(self, bbox) -> None:
         """Remove the seam of the patch last placed in ``bbox`` by a local
-        Poisson solve (mode from the params).
+        Poisson solve (the canvas's blend mode).
 
         The solve runs on the window plus a one-cell ring: ring cells that
         hold terrain are its fixed boundary, so the window meets the terrain
@@ -110,7 +116,7 @@ class Canvas:
         placed_bbox, take, has_seam = self._pending
         if tuple(placed_bbox) != tuple(bbox):
             raise RuntimeError("blend() must follow place() for the same window")
-        if self.params.blend != "none" and has_seam:
+        if self.blend_mode != "none" and has_seam:
             self._blend(bbox, take)
 
     def _touches(self, bbox) -> bool:
@@ -138,7 +144,7 @@ class Canvas:
         # Locked cells inside the window hold like the ring; empty cells
         # (beside a stamp) take no part.
         fixed = (~inner & filled) | (inner & self.locked[R0:R1, C0:C1])
-        solved = remove_seam(heights, take_new, inner & filled, fixed=fixed, mode=self.params.blend)
+        solved = remove_seam(heights, take_new, inner & filled, fixed=fixed, mode=self.blend_mode)
         self.heights[r0:r1, c0:c1] = solved[inner].reshape(r1 - r0, c1 - c0)
 
     def finish(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

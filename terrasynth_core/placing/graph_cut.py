@@ -60,17 +60,6 @@ def _bool_grid(mask, shape: tuple[int, int], name: str) -> np.ndarray:
     return m.astype(bool, copy=False)
 
 
-def _pixel_mismatch(existing: np.ndarray, new: np.ndarray, gradient_weight: float) -> np.ndarray:
-    """Per-pixel mismatch ``|a - b|`` (+ weighted gradient mismatch), float64."""
-    diff = existing.astype(np.float64) - new
-    mismatch = np.abs(diff)
-    if gradient_weight > 0.0:
-        # grad(a) - grad(b) = grad(a - b); central differences inside.
-        gr, gc = np.gradient(diff)
-        mismatch += gradient_weight * np.hypot(gr, gc)
-    return mismatch
-
-
 def _edge_weights(mismatch: np.ndarray, filled: np.ndarray, axis: int) -> np.ndarray:
     """Weights ``M(s) + M(t)`` of the edges s -> s + 1 along ``axis``.
 
@@ -121,7 +110,6 @@ def graph_cut_seam(
     *,
     keep_new: np.ndarray | None = None,
     keep_existing: np.ndarray | None = None,
-    gradient_weight: float = 0.0,
     epsilon: float | None = None,
 ) -> SeamResult:
     """Minimum-cost seam between existing heights and a new patch.
@@ -139,10 +127,6 @@ def graph_cut_seam(
         Pixels that must take the new / keep the existing height (hard
         constraints, e.g. a branch patch's centre).  They must not overlap,
         and ``keep_existing`` must lie inside ``filled``.
-    gradient_weight : float, default 0.0
-        Weight of the gradient mismatch ``|grad a - grad b|`` added to each
-        pixel's height mismatch; > 0 favours seams where slopes also agree
-        (C1-aware seams).
     epsilon : float or None, default None
         Floor added to every edge weight; ``None`` uses 1e-4 times the
         windows' height range.
@@ -158,8 +142,7 @@ def graph_cut_seam(
     of the window) unless ``keep_new`` says otherwise.  The weight of the
     edge between 4-neighbours s, t is
     ``M = |a(s) - b(s)| + |a(t) - b(t)| + epsilon`` (a = existing, b = new;
-    Kwatra et al. 2003), plus ``gradient_weight`` times the same sum of
-    gradient mismatches.  Hard constraints are terminal links heavier than
+    Kwatra et al. 2003).  Hard constraints are terminal links heavier than
     every edge of the window together.  Without any filled pixel no graph is
     built: everything takes the new patch at cost 0.
     """
@@ -175,8 +158,6 @@ def graph_cut_seam(
     keep_existing = (
         np.zeros(shape, bool) if keep_existing is None else _bool_grid(keep_existing, shape, "keep_existing mask")
     )
-    if not gradient_weight >= 0.0:
-        raise ParamsError(f"gradient_weight must be >= 0, got {gradient_weight}")
     if (keep_new & keep_existing).any():
         raise ParamsError(f"keep_new and keep_existing overlap at {int((keep_new & keep_existing).sum())} pixels")
     if (keep_existing & ~filled).any():
@@ -200,7 +181,7 @@ def graph_cut_seam(
     elif not epsilon > 0.0:
         raise ParamsError(f"epsilon must be > 0, got {epsilon}")
 
-    mismatch = _pixel_mismatch(a, b, gradient_weight)
+    mismatch = np.abs(a - b)
     w_down = _edge_weights(mismatch, filled, axis=0) + epsilon
     w_right = _edge_weights(mismatch, filled, axis=1) + epsilon
 

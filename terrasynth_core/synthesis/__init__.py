@@ -6,7 +6,8 @@ from ..controls.water import Water
 from ..controls.options import Controls, Stamp, Style
 from .events import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 from .params import SynthesisParams
-from .session import PatchRecord, Session, SynthesisResult
+from .result import PatchRecord, SynthesisResult
+from .session import Session
 from .variations import run_variations
 
 __all__ = [

@@ -19,7 +19,8 @@ from typing import Callable, Sequence
 from ..errors import ParamsError, SynthesisCancelled
 from ..controls.options import Controls
 from .params import SynthesisParams
-from .session import Session, SynthesisResult
+from .result import SynthesisResult
+from .session import Session
 
 #: Seconds between polls of the cancel callable.
 POLL_SECONDS = 0.1

@@ -36,18 +36,79 @@ _DEGENERACY_TOL = 1e-9
 _CROP_MARGIN = 12
 
 
-def _radial_kernel(r2: np.ndarray) -> np.ndarray:
-    """Bookstein's ``U = r^2 log r^2`` from squared distances (``U(0) = 0``)."""
+def radial_kernel(r2: np.ndarray) -> np.ndarray:
+    """Bookstein's ``U = r^2 log r^2`` from squared distances (``U(0) = 0``).
+
+    Parameters
+    ----------
+    r2 : ndarray of float64, any shape
+        Squared distances, cells squared.
+
+    Returns
+    -------
+    ndarray of float64, the shape of ``r2``
+    """
     with np.errstate(divide="ignore", invalid="ignore"):
         u = r2 * np.log(r2)
     return np.where(r2 > 0.0, u, 0.0)
 
 
-def _squared_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def squared_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``(len(a), len(b))`` squared Euclidean distances between point sets."""
     dr = a[:, 0, None] - b[None, :, 0]
     dc = a[:, 1, None] - b[None, :, 1]
     return dr * dr + dc * dc
+
+
+def kernel_energy(weights: np.ndarray, kernel: np.ndarray) -> np.ndarray:
+    """Bending energies ``sum_k w_k^T K w_k`` of splines sharing their kernel.
+
+    Parameters
+    ----------
+    weights : ndarray of float64, shape (M, n, 2)
+        Kernel weights of M splines with the same n control points.
+    kernel : ndarray of float64, shape (n, n)
+        ``U(|p_i - p_j|)`` of those control points.
+
+    Returns
+    -------
+    ndarray of float64, shape (M,)
+        Clipped at 0: ``w^T K w`` is non-negative on the space ``P^T w = 0``
+        the weights live in, up to round-off.
+    """
+    return np.maximum(np.einsum("mik,ij,mjk->m", weights, kernel, weights), 0.0)
+
+
+def bending_energies(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """Bending energies of the interpolating splines from one point set onto many.
+
+    Parameters
+    ----------
+    src : ndarray of float64, shape (n, 2)
+        Control points, distinct.
+    dst : ndarray of float64, shape (M, n, 2)
+        M point sets the control points are carried onto.
+
+    Returns
+    -------
+    ndarray of float64, shape (M,)
+        The same quantity as :attr:`ThinPlateSpline.bending_energy` of
+        ``ThinPlateSpline.fit(src, dst[i])`` for general ``src``, all from
+        one inverse of the spline's system; zeros when ``src`` leaves the
+        system singular (e.g. collinear points).
+    """
+    m = src.shape[0]
+    k = radial_kernel(squared_distances(src, src))
+    system = np.zeros((m + 3, m + 3))
+    system[:m, :m] = k
+    system[:m, m:] = np.hstack([np.ones((m, 1)), src])
+    system[m:, :m] = system[:m, m:].T
+    try:
+        inverse = np.linalg.inv(system)
+    except np.linalg.LinAlgError:
+        return np.zeros(dst.shape[0])
+    weights = np.einsum("ij,mjk->mik", inverse[:m, :m], dst)
+    return kernel_energy(weights, k)
 
 
 def _as_points(points, name: str) -> np.ndarray:
@@ -83,8 +144,7 @@ class ThinPlateSpline:
     ``f(x) = c + L (x - m) + sum_i w_i U(|x - p_i|)`` with ``U(r) = r^2 log r^2``
     (Bookstein 1989), control points ``p_i``, their mean ``m``, an affine part
     ``(c, L)`` and kernel weights ``w`` (one column per output coordinate).
-    Build one with :meth:`fit` (interpolating control points) or
-    :meth:`similarity` (a rotation/scale/mirror, no bending).
+    Build one with :meth:`fit`.
 
     Attributes
     ----------
@@ -109,13 +169,10 @@ class ThinPlateSpline:
         self.linear = linear
         self._offset = offset
         self._center = center
+        self._bending_energy = 0.0
         if len(control_points):
-            k = _radial_kernel(_squared_distances(control_points, control_points))
-            energy = float(np.einsum("ik,ij,jk->", weights, k, weights))
-        else:
-            energy = 0.0
-        # w^T K w is non-negative on the space P^T w = 0; clip round-off.
-        self._bending_energy = max(energy, 0.0)
+            k = radial_kernel(squared_distances(control_points, control_points))
+            self._bending_energy = float(kernel_energy(weights[None], k)[0])
 
     # -- construction ----------------------------------------------------
     @classmethod
@@ -167,7 +224,7 @@ class ThinPlateSpline:
           that similarity across the line.
 
         A spline through 3 non-collinear points is always affine (bending
-        energy 0): use :attr:`anisotropy` to also rank affine distortion.
+        energy 0).
         """
         src = _as_points(src, "src control points")
         dst = _as_points(dst, "dst control points")
@@ -185,7 +242,7 @@ class ThinPlateSpline:
         spread = float(np.sqrt(((src - center) ** 2).sum(axis=1).max()))
         tol = _DEGENERACY_TOL * max(spread, 1.0)
         if n > 1:
-            d2 = _squared_distances(src, src)
+            d2 = squared_distances(src, src)
             d2[np.diag_indices(n)] = np.inf
             if d2.min() <= tol * tol:
                 i, j = np.unravel_index(np.argmin(d2), d2.shape)
@@ -211,7 +268,7 @@ class ThinPlateSpline:
             n += 1
 
         x = src - center
-        k = _radial_kernel(_squared_distances(src, src))
+        k = radial_kernel(squared_distances(src, src))
         system = np.zeros((n + 3, n + 3))
         system[:n, :n] = k + regularization * np.eye(n)
         system[:n, n] = 1.0
@@ -223,49 +280,6 @@ class ThinPlateSpline:
         sol = np.linalg.solve(system, rhs)
         weights = sol[:n]
         return cls(src, weights, sol[n], sol[n + 1 :].T, center)
-
-    @classmethod
-    def similarity(
-        cls,
-        *,
-        angle: float = 0.0,
-        scale: float = 1.0,
-        mirror: bool = False,
-        center=(0.0, 0.0),
-        offset=(0.0, 0.0),
-    ) -> "ThinPlateSpline":
-        """A map without bending: ``x -> center + offset + scale R M (x - center)``.
-
-        Parameters
-        ----------
-        angle : float, default 0.0
-            Rotation in radians, counter-clockwise as seen on a north-up map
-            (rows down): a quarter turn takes the ``+col`` direction to
-            ``-row``.
-        scale : float, default 1.0
-            Uniform scale, > 0.
-        mirror : bool, default False
-            Flip left-right (negate the column offset from ``center``) before
-            rotating.
-        center : (row, col), default (0, 0)
-            Fixed point of the rotation, scale and mirror.
-        offset : (row, col), default (0, 0)
-            Translation applied afterwards.
-
-        Returns
-        -------
-        ThinPlateSpline
-            With bending energy 0 and anisotropy 0.
-        """
-        if not (scale > 0.0 and math.isfinite(scale)):
-            raise ParamsError(f"similarity scale must be a finite value > 0, got {scale}")
-        cos, sin = math.cos(angle), math.sin(angle)
-        linear = scale * np.array([[cos, -sin], [sin, cos]])
-        if mirror:
-            linear = linear @ np.diag([1.0, -1.0])
-        c = np.asarray(center, dtype=np.float64)
-        empty = np.zeros((0, 2))
-        return cls(empty, empty, c + np.asarray(offset, dtype=np.float64), linear, c)
 
     # -- evaluation ------------------------------------------------------
     def transform(self, points) -> np.ndarray:
@@ -283,7 +297,7 @@ class ThinPlateSpline:
         p = _as_points(points, "points")
         out = (p - self._center) @ self.linear.T + self._offset
         if len(self.control_points):
-            out += _radial_kernel(_squared_distances(p, self.control_points)) @ self.weights
+            out += radial_kernel(squared_distances(p, self.control_points)) @ self.weights
         return out
 
     @property
@@ -295,17 +309,6 @@ class ThinPlateSpline:
         with the square of the displacements).
         """
         return self._bending_energy
-
-    @property
-    def anisotropy(self) -> float:
-        """``1 - s_min / s_max`` of the affine part's singular values.
-
-        0 for a similarity (rotation, uniform scale, mirror), towards 1 for
-        strong stretch or shear.  Complements :attr:`bending_energy`, which
-        ignores every affine distortion.
-        """
-        s = np.linalg.svd(self.linear, compute_uv=False)
-        return float(1.0 - s[-1] / s[0]) if s[0] > 0 else 1.0
 
 
 def warp_patch(

@@ -10,7 +10,7 @@ import pytest
 
 from terrasynth_core.errors import ParamsError, SketchError
 from terrasynth_core.synthesis import Pin, SynthesisParams
-from terrasynth_core.controls.options import render_stamp
+from terrasynth_core.controls.stamps import render_stamp
 from terrasynth_app.model import (Document, ExampleRef, RecoveryStore, Sketch, StampSpec, TerrainResult,
                                   fitting_scale, load_project, save_project)
 

@@ -92,25 +92,6 @@ def test_cut_runs_where_the_windows_agree():
     assert result.cost == pytest.approx(_cut_cost(result.take_new, existing, new, 1e-3), rel=1e-9)
 
 
-def test_gradient_weight_prefers_seams_where_slopes_match():
-    # A tall window, so the vertical run of the cut outweighs the short
-    # horizontal runs it needs along the (existing-tied) top and bottom rows.
-    shape = (400, 40)
-    cols = np.arange(shape[1], dtype=np.float64)
-    existing = np.tile(500.0 + 2.5 * cols, (shape[0], 1)).astype(np.float32)
-    # Columns 0-14: same height at column 7 but a different slope (cheapest
-    # for a plain cut); columns 15-29: a constant 1 m offset, same slope.
-    new = (existing + np.where(cols < 15, cols - 7.0, 1.0)).astype(np.float32)
-    filled = np.zeros(shape, bool)
-    filled[:, :30] = True
-
-    plain = graph_cut_seam(existing, new, filled, epsilon=1e-3)
-    aware = graph_cut_seam(existing, new, filled, epsilon=1e-3, gradient_weight=1.0)
-    # Away from the top and bottom rows the cut runs straight down.
-    assert np.nonzero(plain.seam[10:-10])[1].max() <= 8
-    assert np.nonzero(aware.seam)[1].min() >= 15
-
-
 def test_fully_filled_window_without_keep_new_keeps_existing():
     result = graph_cut_seam(_terrain(5), _terrain(6), np.ones(SHAPE, bool))
     assert not result.take_new.any()
@@ -135,7 +116,7 @@ def test_inputs_are_not_mutated_and_unfilled_nan_is_ignored():
         (dict(keep_new=np.ones(SHAPE, bool), keep_existing=np.ones(SHAPE, bool)), "overlap"),
         (dict(keep_existing=np.ones(SHAPE, bool)), "unfilled"),
         (dict(keep_new=np.ones((3, 3), bool)), "shape"),
-        (dict(gradient_weight=-1.0), "gradient_weight"),
+        (dict(epsilon=0.0), "epsilon"),
     ],
 )
 def test_bad_arguments_raise(kwargs, words):

@@ -17,7 +17,7 @@ from terrasynth_core.features.sketch import (
     sketch_features,
 )
 
-SKETCHES = Path(__file__).parents[2] / "resources" / "sketches"
+SKETCHES = Path(__file__).parents[3] / "resources" / "sketches"
 Y_ARMS = [((150, 150), (40, 60)), ((150, 150), (40, 240)), ((150, 150), (280, 150))]
 
 

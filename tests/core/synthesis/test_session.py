@@ -10,7 +10,6 @@ from terrasynth_core.measures import feature_tpi_score
 from terrasynth_core.errors import ParamsError, SynthesisCancelled
 from terrasynth_core.features.sketch import SketchMap, read_sketch, sketch_features
 from terrasynth_core.heightfield import HeightField
-from terrasynth_core.io import load_dem
 from terrasynth_core.synthesis import (
     PatchPlaced,
     Session,
@@ -19,16 +18,8 @@ from terrasynth_core.synthesis import (
     SynthesisFinished,
     SynthesisParams,
 )
-from terrasynth_core.matching.fill_search import FillSearch
 
 SMALL = SynthesisParams(patch_size=32, k=3, seed=3)
-
-
-@pytest.fixture(scope="module")
-def example(dems_dir) -> HeightField:
-    """A 400x400 corner of the White Mountains: quick but real."""
-    field = load_dem(dems_dir / "N44W072.hgt")
-    return field.with_heights(field.heights[300:700, 300:700].copy())
 
 
 @pytest.fixture(scope="module")
@@ -37,8 +28,8 @@ def y_sketch(sketch_dir) -> SketchMap:
 
 
 @pytest.fixture(scope="module")
-def y_result(example, y_sketch):
-    return Session([example], y_sketch, params=SMALL).run()
+def y_result(white_mountains, y_sketch):
+    return Session([white_mountains], y_sketch, params=SMALL).run()
 
 
 def test_params_are_validated():
@@ -76,15 +67,15 @@ def test_terrain_follows_the_sketch(y_result, y_sketch):
     assert score > 0.5
 
 
-def test_same_seed_same_bytes(example, y_sketch, y_result):
-    again = Session([example], y_sketch, params=SMALL).run()
+def test_same_seed_same_bytes(white_mountains, y_sketch, y_result):
+    again = Session([white_mountains], y_sketch, params=SMALL).run()
     assert again.heights.tobytes() == y_result.heights.tobytes()
-    other = Session([example], y_sketch, params=SynthesisParams(patch_size=32, k=3, seed=4)).run()
+    other = Session([white_mountains], y_sketch, params=SynthesisParams(patch_size=32, k=3, seed=4)).run()
     assert other.heights.tobytes() != y_result.heights.tobytes()
 
 
-def test_events_come_in_order(example, y_sketch):
-    events = list(Session([example], y_sketch, params=SMALL).iter_run())
+def test_events_come_in_order(white_mountains, y_sketch):
+    events = list(Session([white_mountains], y_sketch, params=SMALL).iter_run())
     kinds = [type(e) for e in events]
     assert kinds[0] is StageStarted and kinds[-1] is SynthesisFinished
     stages = [e.stage for e in events if isinstance(e, StageStarted)]
@@ -106,8 +97,8 @@ def test_events_come_in_order(example, y_sketch):
     assert sum(isinstance(e, StageFinished) for e in events) == 4
 
 
-def test_cancel_stops_at_a_patch(example, y_sketch):
-    session = Session([example], y_sketch, params=SMALL)
+def test_cancel_stops_at_a_patch(white_mountains, y_sketch):
+    session = Session([white_mountains], y_sketch, params=SMALL)
     seen = []
 
     def cancel():
@@ -118,15 +109,15 @@ def test_cancel_stops_at_a_patch(example, y_sketch):
     assert len(seen) == 3
 
 
-def test_raster_order_and_plain_paste_also_run(example, y_sketch):
+def test_raster_order_and_plain_paste_also_run(white_mountains, y_sketch):
     params = SynthesisParams(patch_size=32, k=2, order="raster", seam="paste", blend="none")
-    r = Session([example], y_sketch, params=params).run()
+    r = Session([white_mountains], y_sketch, params=params).run()
     assert np.isfinite(r.heights).all() and not r.seam_mask.any()
 
 
-def test_blank_sketch_gives_non_feature_synthesis(example):
+def test_blank_sketch_gives_non_feature_synthesis(white_mountains):
     blank = SketchMap(np.zeros((96, 96), bool), np.zeros((96, 96), bool))
-    session = Session([example], blank, params=SMALL)
+    session = Session([white_mountains], blank, params=SMALL)
     assert any("no strokes" in w for w in session.warnings)
     r = session.run()
     assert r.counts()["fill"] > 0 and r.counts()["path"] == 0
@@ -144,74 +135,16 @@ def test_example_without_needed_features_is_refused(y_sketch):
         Session([HeightField(ramp, source="ramp")], y_sketch, params=SMALL)
 
 
-def test_nodata_in_the_example_is_cropped(example, y_sketch):
-    h = example.heights.copy()
+def test_nodata_in_the_example_is_cropped(white_mountains, y_sketch):
+    h = white_mountains.heights.copy()
     h[:40, :] = np.nan
-    session = Session([example.with_heights(h)], y_sketch, params=SMALL)
+    session = Session([white_mountains.with_heights(h)], y_sketch, params=SMALL)
     assert any("cropped" in w for w in session.warnings)
     assert session.examples[0].heights.shape == (360, 400)
 
 
-def test_sketch_is_scaled_to_the_output_size(example, y_sketch):
-    session = Session([example], y_sketch, shape=(128, 160), params=SMALL)
+def test_sketch_is_scaled_to_the_output_size(white_mountains, y_sketch):
+    session = Session([white_mountains], y_sketch, shape=(128, 160), params=SMALL)
     assert session.sketch.shape == (128, 160)
     with pytest.raises(ParamsError, match="smaller than a patch"):
-        Session([example], y_sketch, shape=(20, 300), params=SMALL)
-
-
-def test_fft_search_matches_brute_force(example):
-    """The FFT SSD (offset removed) ranks windows like a direct computation."""
-    E = example.heights[:160, :160]
-    search = FillSearch(E, (32, 32), coarse_factor=1)
-    filled = np.zeros((32, 32), bool)
-    filled[:, :10] = True
-    target = E[50:82, 70:102] + 123.0  # an exact match, shifted in height
-    best = search.best(target, filled, 3, np.random.default_rng(0))
-    (r, c), ssd, offset = best[0]
-    assert (r, c) == (50, 70)
-    assert ssd < 1e-3 and offset == pytest.approx(123.0, abs=1e-3)
-
-
-def test_fft_search_ranks_by_normalised_ssd_like_brute_force(example):
-    """The search ranks windows by the SSD over the two windows' variances
-    (so rough candidates are not beaten by smooth ones just for being
-    smooth): its best pick is the brute-force best."""
-    E = example.heights[:120, :120].astype(np.float64)
-    search = FillSearch(example.heights[:120, :120], (24, 24), coarse_factor=1)
-    filled = np.zeros((24, 24), bool)
-    filled[:8, :] = True
-    filled[:, :6] = True
-    rng = np.random.default_rng(1)
-    target = E[30:54, 40:64] + rng.normal(0, 20, (24, 24))
-    o = target[filled]
-    scores = np.full((97, 97), np.inf)
-    for r in range(97):
-        for c in range(97):
-            e = E[r:r + 24, c:c + 24][filled]
-            d = o - e
-            scores[r, c] = ((d - d.mean()) ** 2).mean() / (e.var() + o.var() + 1e-6)
-    (r, c), _, _ = search.best(target, filled, 1, rng)[0]
-    assert (r, c) == np.unravel_index(np.argmin(scores), scores.shape)
-
-
-def test_analysis_disk_cache_round_trips_and_survives_damage(example, tmp_path, monkeypatch):
-    from terrasynth_core.exemplars import prepare as an
-
-    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
-    an._CACHE.clear()
-    first = an.prepare_example(example, 32)
-    files = list(tmp_path.glob("example-*.npz"))
-    assert len(files) == 1
-    an._CACHE.clear()
-    second = an.prepare_example(example, 32)  # from disk
-    for kind in ("ridge", "valley"):
-        a, b = first.samples[kind], second.samples[kind]
-        assert len(a) == len(b) > 0
-        assert all(np.array_equal(x.crossings, y.crossings) and np.array_equal(x.center, y.center)
-                   for x, y in zip(a, b))
-    assert np.array_equal(first.strong_mask, second.strong_mask) and first.relief == second.relief
-    assert len(second.features.ridges.paths) == len(first.features.ridges.paths)
-    files[0].write_bytes(b"not an npz")
-    an._CACHE.clear()
-    third = an.prepare_example(example, 32)  # damaged file: recomputed, not an error
-    assert len(third.samples["ridge"]) == len(first.samples["ridge"])
+        Session([white_mountains], y_sketch, shape=(20, 300), params=SMALL)

@@ -1,0 +1,184 @@
+"""Feature patches (paper §4.1) and stamps: candidates from the style's
+pool, warped onto the sketch, chosen by match cost plus seam cost.
+
+A feature patch is prepared (ranked and warped, reading only the examples)
+and then placed (matched against the output, cut and merged), so that the
+preparation of the next patch can run on another thread while this one is
+placed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..controls.layout import StyleLayout
+from ..features.samples import FeatureSample
+from ..matching.candidates import Candidate, FeaturePool
+from ..matching.costs import match_cost, overlap_ssd, settle
+from ..placing.canvas import Canvas, Cut
+from ..placing.windows import patch_window
+from ..warping.thin_plate import ThinPlateSpline, warp_patch
+from .result import PatchRecord
+
+#: Share of a warped patch's cells that must come from inside its example.
+MIN_VALID_SHARE = 0.98
+
+
+def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
+    """Feature pools per (kind, style group), and per (kind, None) over all
+    examples.
+
+    Parameters
+    ----------
+    layout : StyleLayout
+    radius : float
+        Inscribed-circle radius in cells (half the patch).
+    mirror : bool
+        Also offer mirror images.
+    """
+    pools = {}
+    everyone = list(range(len(layout.examples)))
+    for kind in ("ridge", "valley"):
+        for g, members in enumerate(layout.members + [everyone]):
+            key = (kind, g if g < len(layout.members) else None)
+            pools[key] = FeaturePool([(i, layout.examples[i].samples[kind]) for i in members], radius,
+                                     mirror=mirror)
+    return pools
+
+
+def pool_for(pools: dict, layout: StyleLayout, sample: FeatureSample, warnings: list[str], *,
+             patch_size: int) -> FeaturePool:
+    """The pool of the style under a sample; all examples' when that style
+    has no feature of the kind (said once in ``warnings``)."""
+    g = layout.group_at(*sample.center)
+    pool = pools[(sample.kind, g)]
+    if pool.size() == 0:
+        note = (f"{layout.names[g]} has no {sample.kind} features for a {patch_size}-cell patch: "
+                f"its sketched {sample.kind}s use the other styles' examples")
+        if note not in warnings:
+            warnings.append(note)
+        pool = pools[(sample.kind, None)]
+    return pool
+
+
+def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.ndarray], *,
+                    shape: tuple[int, int], patch_size: int, count: int,
+                    rng: np.random.Generator) -> tuple[tuple, list[tuple[Candidate, np.ndarray]]]:
+    """Rank candidates for a sample and warp them onto its window.
+
+    Reads only the examples, never the output, so it can run ahead on
+    another thread.
+
+    Parameters
+    ----------
+    sample : FeatureSample
+    pool : FeaturePool
+    detail : list of ndarray of float32
+        Each example's detail heights, metres.
+    shape : (rows, cols)
+        Output size.
+    patch_size : int
+    count : int
+        Candidates to rank.
+    rng : numpy.random.Generator
+        Random tie-breaks of the ranking.
+
+    Returns
+    -------
+    bbox : (r0, r1, c0, c1)
+    warped : list of (Candidate, ndarray of float32)
+        Candidates whose warp stays inside their example, best first.
+    """
+    bbox = patch_window(sample.center, patch_size, shape)
+    r0, r1, c0, c1 = bbox
+    if r1 - r0 < 4 or c1 - c0 < 4:
+        return bbox, []
+    warped = []
+    for cand in pool.rank(sample, count, rng):
+        tps = ThinPlateSpline.fit(cand.target, cand.control, regularization=1e-3)
+        patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), (r1 - r0, c1 - c0), return_valid=True)
+        if valid >= MIN_VALID_SHARE:
+            warped.append((cand, patch))
+    return bbox, warped
+
+
+def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: StyleLayout, *, index: int,
+                  radius: float, k: int, feature_weight: float) -> PatchRecord | None:
+    """Choose among prepared candidates by match cost, deformation and seam
+    cost, and merge the best into ``canvas`` (blended).
+
+    Parameters
+    ----------
+    canvas : Canvas
+    sample : FeatureSample
+    prepared : tuple
+        What :func:`prepare_feature` returned.
+    layout : StyleLayout
+        Level field and reliefs.
+    index : int
+        The patch's index in the run's records.
+    radius : float
+        Inscribed-circle radius, cells: the centre disc of half of it is
+        protected from later cuts.
+    k : int
+        Candidates (best by cost) for which the seam is computed.
+    feature_weight : float
+        Weight of the deformation cost.
+
+    Returns
+    -------
+    PatchRecord or None
+        None when no candidate survived the preparation.
+    """
+    bbox, warped = prepared
+    if not warped:
+        return None
+    r0, r1, c0, c1 = bbox
+    filled = canvas.filled[r0:r1, c0:c1]
+    level = layout.level[r0:r1, c0:c1]
+    existing = canvas.heights[r0:r1, c0:c1] - level
+    relief = float(layout.relief[warped[0][0].example])
+    evaluated = []
+    for cand, patch in warped:
+        ssd, offset = settle(*overlap_ssd(existing, patch, filled))
+        score = match_cost(ssd, offset, relief) + feature_weight * cand.deformation
+        evaluated.append((score, ssd, offset, patch, cand))
+    evaluated.sort(key=lambda t: t[0])
+    rr, cc = np.ogrid[r0:r1, c0:c1]
+    keep_new = (rr - sample.center[0]) ** 2 + (cc - sample.center[1]) ** 2 <= (radius / 2) ** 2
+    best = None
+    for score, ssd, offset, patch, cand in evaluated[:k]:
+        placed = patch + np.float32(offset) + level
+        cut = canvas.cut(bbox, placed, keep_new=keep_new, relief=relief)
+        total = score + cut.normalized_cost
+        if best is None or total < best[0]:
+            best = (total, ssd, placed, cand, cut)
+    total, ssd, patch, cand, cut = best
+    canvas.place(bbox, patch, cut, index, protect=keep_new & cut.take_new)
+    canvas.blend(bbox)
+    return PatchRecord(sample.patch_type, sample.kind, bbox, cand.example,
+                       (float(cand.center[0]), float(cand.center[1])), cand.mirrored,
+                       cand.deformation, ssd, cut.normalized_cost, total)
+
+
+def place_stamp(canvas: Canvas, stamp, level: np.ndarray, *, index: int, stamp_index: int) -> PatchRecord:
+    """Put a rendered stamp on the level field (pasted: it is the reference
+    the terrain around it adapts to), its core protected from later cuts.
+
+    Parameters
+    ----------
+    canvas : Canvas
+    stamp : RenderedStamp
+    level : ndarray of float32, shape (rows, cols)
+        The level field, metres.
+    index : int
+        The patch's index in the run's records.
+    stamp_index : int
+        The stamp's index in the controls (kept in the record's source).
+    """
+    r0, r1, c0, c1 = bbox = stamp.bbox
+    patch = stamp.detail + level[r0:r1, c0:c1]
+    take = stamp.valid & ~canvas.locked[r0:r1, c0:c1]
+    canvas.place(bbox, patch, Cut(take, np.zeros(take.shape, bool), 0.0), index, protect=stamp.core & take)
+    canvas.blend(bbox)
+    return PatchRecord("stamp", None, bbox, -1, (float(stamp_index), 0.0), False, 0.0, 0.0, 0.0, 0.0)

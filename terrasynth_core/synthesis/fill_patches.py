@@ -1,0 +1,111 @@
+"""Fill patches (paper §4.2): the example windows that best continue the
+terrain already in an output window, chosen by match cost plus seam cost."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..controls.layout import StyleLayout
+from ..matching.costs import match_cost, settle
+from ..matching.fill_search import FillSearch
+from ..placing.canvas import Canvas
+from .params import SynthesisParams
+from .result import PatchRecord
+
+
+def fill_searches(layout: StyleLayout, params: SynthesisParams) -> list[FillSearch | None]:
+    """One FFT search per example a style group on the output uses (None
+    for the others: nothing asks them)."""
+    used = {int(g) for g in np.unique(layout.group_map)}
+    size = (params.patch_size, params.patch_size)
+    return [
+        FillSearch(detail, size, feature_mask=ex.strong_mask, coarse_factor=params.coarse_factor_for(detail.shape),
+                   workers=params.thread_count)
+        if any(i in layout.members[g] for g in used) else None
+        for i, (ex, detail) in enumerate(zip(layout.examples, layout.detail))
+    ]
+
+
+def window_examples(layout: StyleLayout, bbox) -> tuple[list[int], float]:
+    """Examples of the styles present in a window, and their largest relief."""
+    r0, r1, c0, c1 = bbox
+    groups = np.unique(layout.group_map[r0:r1, c0:c1])
+    members = sorted({i for g in groups for i in layout.members[int(g)]})
+    return members, float(max(layout.relief[i] for i in members))
+
+
+def search_fill(searches: list, detail: list[np.ndarray], members: list[int], relief: float,
+                target: np.ndarray, filled: np.ndarray, rng: np.random.Generator, *,
+                patch_size: int, k: int) -> list[tuple]:
+    """Candidate example windows for one output window, best first.
+
+    Parameters
+    ----------
+    searches : list of FillSearch or None
+        Per example (see :func:`fill_searches`).
+    detail : list of ndarray of float32
+        Each example's detail heights, metres.
+    members : list of int
+        Examples to search.
+    relief : float
+        Cost unit, metres.
+    target : ndarray of float32, shape (patch_size, patch_size)
+        The output window minus the level field, metres.
+    filled : ndarray of bool, shape (patch_size, patch_size)
+    rng : numpy.random.Generator
+        Random tie-breaks of the searches.
+    patch_size, k : int
+        Window side; candidates kept per example and in all.
+
+    Returns
+    -------
+    list of (cost, ssd, offset, example, (row, col), relief)
+        At most ``k``, cheapest first.
+    """
+    options = []
+    for ei in members:
+        for pos, ssd, offset in searches[ei].best(target, filled, k, rng):
+            # Fill windows are anchored by their mean level: the search
+            # favours some parts of an example (often its smooth valley
+            # floors), and a region built from them would sit below its
+            # style's level.  Feature patches keep their own level, so
+            # sketched ridges still stand above their surroundings.
+            er, ec = pos
+            mean = float(detail[ei][er:er + patch_size, ec:ec + patch_size].mean())
+            ssd, offset = settle(ssd, offset, mean)
+            cost = match_cost(ssd, offset + mean, relief)
+            options.append((cost, ssd, offset, ei, pos, relief))
+    options.sort(key=lambda t: t[0])
+    return options[:k]
+
+
+def choose_fill(canvas: Canvas, bbox, options: list[tuple], layout: StyleLayout, *, index: int,
+                patch_size: int) -> PatchRecord:
+    """Pick among searched candidates by match cost plus seam cost and merge
+    the best into ``canvas`` (the caller blends it).
+
+    Parameters
+    ----------
+    canvas : Canvas
+    bbox : (r0, r1, c0, c1)
+    options : list of tuple
+        What :func:`search_fill` returned.
+    layout : StyleLayout
+        Example detail and the level field.
+    index : int
+        The patch's index in the run's records.
+    patch_size : int
+    """
+    r0, r1, c0, c1 = bbox
+    level = layout.level[r0:r1, c0:c1]
+    best = None
+    for score, ssd, offset, ei, (er, ec), relief in options:
+        patch = layout.detail[ei][er:er + patch_size, ec:ec + patch_size] + np.float32(offset) + level
+        cut = canvas.cut(bbox, patch, relief=relief)
+        total = score + cut.normalized_cost
+        if best is None or total < best[0]:
+            best = (total, ssd, patch, ei, (er, ec), cut)
+    total, ssd, patch, ei, pos, cut = best
+    canvas.place(bbox, patch, cut, index)
+    return PatchRecord("fill", None, bbox, ei, (float(pos[0]), float(pos[1])), False, 0.0, ssd,
+                       cut.normalized_cost, total)

@@ -1,0 +1,239 @@
+"""The stages of a run, in order, as events: analyse (feature order and
+pools), features (stamps, then feature patches), fill, finish.
+
+Each stage is a generator over the run's state that yields progress events
+and returns what the next stage needs; :func:`run_pipeline` chains them.
+Random numbers come from generators seeded by ``[seed, stage, i]`` (0:
+feature sample i, 1: fill window i, 2: style region i), so what a patch
+draws depends neither on thread timing nor on the other patches.
+"""
+
+from __future__ import annotations
+
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Iterator
+
+import numpy as np
+
+from ..controls.layout import StyleLayout
+from ..controls.options import Controls
+from ..features.samples import FeatureSample
+from ..order.bfs import feature_order
+from ..placing.canvas import Canvas
+from ..placing.windows import WindowQueue, estimate_fill_count, fill_windows, region_seeds
+from .events import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
+from .feature_patches import feature_pools, place_feature, place_stamp, pool_for, prepare_feature
+from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
+from .finish import finish_heights
+from .params import SynthesisParams
+from .result import PatchRecord, SynthesisResult
+
+if TYPE_CHECKING:
+    from .session import Session
+
+
+@dataclass(eq=False)
+class RunState:
+    """What one run builds (kept out of the Session so a session can run
+    again): the canvas, the records of the patches placed, warnings and
+    timings."""
+
+    session: Session
+    params: SynthesisParams
+    controls: Controls
+    layout: StyleLayout
+    canvas: Canvas
+    warnings: list[str]
+    records: list[PatchRecord] = field(default_factory=list)
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @classmethod
+    def start(cls, session: Session) -> "RunState":
+        """An empty canvas (or the previous result of a re-synthesis) for
+        ``session``."""
+        p, c = session.params, session.controls
+        canvas = Canvas(session.shape, float(np.mean(session.layout.relief)), patch_size=p.patch_size, seam=p.seam,
+                        blend=p.blend, previous=c.previous, selection=c.selection)
+        return cls(session, p, c, session.layout, canvas, list(session.warnings))
+
+    @property
+    def radius(self) -> float:
+        return self.params.patch_size / 2
+
+    def placed(self, rec: PatchRecord, total: int) -> PatchPlaced:
+        """Record a placed patch; its progress event."""
+        self.records.append(rec)
+        r0, r1, c0, c1 = rec.bbox
+        return PatchPlaced(len(self.records) - 1, max(total, len(self.records)), rec.kind, rec.bbox,
+                           self.canvas.heights[r0:r1, c0:c1].copy(), rec.cost)
+
+
+def run_pipeline(state: RunState) -> Iterator[object]:
+    """Run stage by stage, yielding the events; the last is
+    :class:`SynthesisFinished` with the result.
+
+    Parameters
+    ----------
+    state : RunState
+        A fresh state (:meth:`RunState.start`) of a validated session.
+    """
+    t_start = time.perf_counter()
+    samples, pools = yield from analyse_stage(state)
+    yield from feature_stage(state, samples, pools)
+    yield from fill_stage(state)
+    yield from finish_stage(state, t_start)
+
+
+def analyse_stage(state: RunState):
+    """The sketch samples in placing order, and the feature pools."""
+    t = time.perf_counter()
+    yield StageStarted("analyse", 0)
+    graphs = (state.session.sketch_maps.ridges, state.session.sketch_maps.valleys)
+    samples = feature_order(graphs, state.radius, spacing=state.radius, keep=lambda s: _sample_wanted(state, s),
+                            raster=state.params.order == "raster")
+    pools = feature_pools(state.layout, state.radius, mirror=state.params.mirror)
+    state.timings["analyse"] = time.perf_counter() - t
+    yield StageFinished("analyse", state.timings["analyse"])
+    return samples, pools
+
+
+def _sample_wanted(state: RunState, sample: FeatureSample) -> bool:
+    """Stamps override the sketch under them; a re-synthesis only places
+    features centred in its selection."""
+    rows, cols = state.session.shape
+    r = min(max(int(round(sample.center[0])), 0), rows - 1)
+    c = min(max(int(round(sample.center[1])), 0), cols - 1)
+    for st in state.layout.stamps:
+        r0, r1, c0, c1 = st.bbox
+        if r0 <= r < r1 and c0 <= c < c1 and st.valid[r - r0, c - c0]:
+            return False
+    return not state.canvas.locked[r, c]
+
+
+def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
+    """Stamps, then one feature patch per sample."""
+    t = time.perf_counter()
+    p, lay = state.params, state.layout
+    fill_estimate = estimate_fill_count(state.session.shape, p.patch_size, overlap=p.overlap_cells,
+                                        n_features=len(samples), selection=state.controls.selection)
+    total = len(lay.stamps) + len(samples) + fill_estimate
+    yield StageStarted("features", len(lay.stamps) + len(samples))
+    for i, stamp in enumerate(lay.stamps):
+        yield state.placed(place_stamp(state.canvas, stamp, lay.level, index=len(state.records), stamp_index=i),
+                           total)
+    fallbacks: dict[tuple[str, int, int], int] = {}
+    # One helper thread prepares the next patch (ranking and warping, which
+    # do not read the output) while this one merges the current patch.
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-prefetch") as pre:
+        def prepare(i):
+            pool = pool_for(pools, lay, samples[i], state.warnings, patch_size=p.patch_size)
+            rng = np.random.default_rng([p.seed, 0, i])
+            return pool, pre.submit(prepare_feature, samples[i], pool, lay.detail, shape=state.session.shape,
+                                    patch_size=p.patch_size, count=3 * p.k, rng=rng)
+
+        pending = prepare(0) if samples else None
+        for i, sample in enumerate(samples):
+            pool, future = pending
+            got = pool.nearest_degree(sample.degree)
+            if got != sample.degree:
+                key = (sample.kind, sample.degree, got)
+                fallbacks[key] = fallbacks.get(key, 0) + 1
+            prepared = future.result()
+            pending = prepare(i + 1) if i + 1 < len(samples) else None
+            rec = place_feature(state.canvas, sample, prepared, lay, index=len(state.records), radius=state.radius,
+                                k=p.k, feature_weight=p.feature_weight)
+            if rec is not None:
+                yield state.placed(rec, total)
+    for (kind, want, got), n in sorted(fallbacks.items()):
+        state.warnings.append(
+            f"no degree-{want} {kind} patch in the examples: used degree {got} instead ({n} patch(es))"
+        )
+    state.timings["features"] = time.perf_counter() - t
+    yield StageFinished("features", state.timings["features"])
+
+
+def fill_stage(state: RunState):
+    """Fill windows, most constrained first, until the output is full."""
+    t = time.perf_counter()
+    p, lay, canvas = state.params, state.layout, state.canvas
+    windows = fill_windows(canvas.filled, p.patch_size, overlap=p.overlap_cells)
+    total = len(state.records) + len(windows)
+    yield StageStarted("fill", len(windows))
+    searches = fill_searches(lay, p)
+    state.timings["fill_setup"] = time.perf_counter() - t
+    options = dict(patch_size=p.patch_size, k=p.k)
+    # The search for the next window runs on the helper thread (FFTs free
+    # the interpreter) while this thread blends the patch just placed.  It
+    # gets a copy of its window taken before that blend, so what it sees
+    # does not depend on timing: same seed, same bytes.  Heights are
+    # matched relative to the level field.
+    level = lay.level
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-search") as pre:
+        def search(bbox, n):
+            r0, r1, c0, c1 = bbox
+            target = canvas.heights[r0:r1, c0:c1] - level[r0:r1, c0:c1]
+            filled = canvas.filled[r0:r1, c0:c1].copy()
+            members, relief = window_examples(lay, bbox)
+            rng = np.random.default_rng([p.seed, 1, n])
+            return bbox, pre.submit(search_fill, searches, lay.detail, members, relief, target, filled, rng,
+                                    **options)
+
+        # A style region no feature reached starts from a window of its
+        # own terrain: grown only from its neighbours, it would copy
+        # their smoothness (the SSD prefers the example's smoothest
+        # windows there) instead of its own style.
+        for g, bbox in region_seeds(lay.group_map, canvas.filled, windows):
+            r0, r1, c0, c1 = bbox
+            rng = np.random.default_rng([p.seed, 2, g])
+            members = lay.members[g]
+            found = search_fill(searches, lay.detail, members, float(max(lay.relief[members])),
+                                canvas.heights[r0:r1, c0:c1] - level[r0:r1, c0:c1],
+                                canvas.filled[r0:r1, c0:c1].copy(), rng, **options)
+            rec = choose_fill(canvas, bbox, found, lay, index=len(state.records), patch_size=p.patch_size)
+            canvas.blend(rec.bbox)
+            yield state.placed(rec, total)
+        remaining = WindowQueue(windows, canvas.filled)
+        n_fill = 0
+        bbox = remaining.pop()
+        pending = search(bbox, n_fill) if bbox else None
+        while pending is not None:
+            bbox, future = pending
+            rec = choose_fill(canvas, bbox, future.result(), lay, index=len(state.records), patch_size=p.patch_size)
+            n_fill += 1
+            remaining.update(rec.bbox)
+            nxt = remaining.pop()
+            pending = search(nxt, n_fill) if nxt else None
+            canvas.blend(rec.bbox)
+            yield state.placed(rec, total)
+    state.timings["fill"] = time.perf_counter() - t
+    yield StageFinished("fill", state.timings["fill"])
+
+
+def finish_stage(state: RunState, t_start: float):
+    """Height range, water and pins; then the result."""
+    t = time.perf_counter()
+    yield StageStarted("finish", 0)
+    c = state.controls
+    heights, patch_id, seams = state.canvas.finish()
+    locked = state.canvas.locked if c.resynthesis else None
+    heights, pin_errors, notes = finish_heights(heights, c, state.layout, locked=locked,
+                                                bank_width=state.params.patch_size / 2)
+    state.warnings.extend(notes)
+    state.timings["finish"] = time.perf_counter() - t
+    yield StageFinished("finish", state.timings["finish"])
+    yield SynthesisFinished(SynthesisResult(
+        heights=heights,
+        patch_id=patch_id,
+        seam_mask=seams,
+        patches=tuple(state.records),
+        sketch_features=state.session.sketch_maps,
+        timings=dict(state.timings),
+        total_seconds=time.perf_counter() - t_start,
+        warnings=tuple(state.warnings),
+        params=state.params,
+        style_map=None if c.style_map is None else c.style_map.copy(),
+        pin_errors=pin_errors,
+        selection=None if c.selection is None else c.selection.copy(),
+    ))

@@ -1,0 +1,38 @@
+"""Water: below its level, smooth banks, locked cells untouched."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from terrasynth_core.controls.water import Water, apply_water
+from terrasynth_core.synthesis import Controls, Session, SynthesisParams
+
+
+P = SynthesisParams(patch_size=32, k=2, seed=5)
+SHAPE = (160, 240)
+
+
+def test_water_is_below_the_level_and_the_banks_are_smooth(lowland):
+    mask = np.zeros(SHAPE, bool)
+    mask[:, :30] = True  # a sea
+    mask[78:83, 30:200] = True  # a river
+    level = float(np.median(lowland.heights))
+    result = Session([lowland], None, shape=SHAPE, params=P, controls=Controls(water=Water(mask, level))).run()
+    h = result.heights
+    assert (h[mask] < level).all()
+    shore = ndimage.binary_dilation(mask) & ~mask
+    assert (h[shore] >= level).all()
+    # No wall at the shore: the step across it is small against the relief.
+    step = np.abs(np.diff(h, axis=1))[:, 28:32].max()
+    assert step < 0.2 * np.ptp(lowland.heights)
+
+
+def test_water_outside_a_lock_is_untouched():
+    h = np.linspace(0, 100, 100 * 100, dtype=np.float32).reshape(100, 100)
+    mask = np.zeros((100, 100), bool)
+    mask[40:60, 40:60] = True
+    locked = np.zeros((100, 100), bool)
+    locked[:, :50] = True
+    out = apply_water(h, Water(mask, 10.0), bank_width=8, locked=locked)
+    assert (out[locked] == h[locked]).all() and not (out[~locked] == h[~locked]).all()

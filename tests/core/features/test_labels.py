@@ -1,0 +1,34 @@
+"""Style-label and water-mask PNGs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from terrasynth_core.errors import SketchError
+from terrasynth_core.features.labels import read_label_map, read_mask
+
+
+
+
+def test_label_and_water_pngs(tmp_path):
+    rgb = np.zeros((20, 30, 3), np.uint8)
+    rgb[:, :15] = (0, 128, 0)
+    rgb[:, 15:] = (128, 64, 0)
+    rgb[:, 15] = (64, 96, 0)  # an anti-aliased edge column
+    Image.fromarray(rgb).save(tmp_path / "styles.png")
+    labels = read_label_map(tmp_path / "styles.png", ["#008000", "#804000"])
+    assert (labels[:, :15] == 0).all() and (labels[:, 16:] == 1).all()
+    rgb[:10, :10] = (255, 0, 255)
+    Image.fromarray(rgb).save(tmp_path / "extra.png")
+    with pytest.raises(SketchError, match="#ff00ff"):
+        read_label_map(tmp_path / "extra.png", ["#008000", "#804000"])
+    assert (read_label_map(tmp_path / "extra.png", ["#008000", "#804000"], default=True)[:10, :10] == -1).all()
+    water = np.full((20, 30), 255, np.uint8)
+    water[5:8] = 0
+    Image.fromarray(water).save(tmp_path / "water.png")
+    mask = read_mask(tmp_path / "water.png")
+    assert mask[5:8].all() and mask.sum() == 3 * 30
+    with pytest.raises(SketchError, match="does not exist"):
+        read_mask(tmp_path / "nope.png")

@@ -1,0 +1,56 @@
+"""The match cost: overlap SSD after the best shift, the settled shift and
+the relief-normalised cost."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrasynth_core.matching.costs import OFFSET_WEIGHT, match_cost, overlap_ssd, settle
+
+
+def test_overlap_ssd_removes_the_best_shift_and_ignores_empty_cells():
+    rng = np.random.default_rng(4)
+    patch = rng.normal(100.0, 30.0, (16, 16)).astype(np.float32)
+    noise = rng.normal(0.0, 2.0, (16, 16))
+    existing = (patch + 42.0 + noise).astype(np.float32)
+    filled = np.zeros((16, 16), bool)
+    filled[:, :5] = True
+    existing[~filled] = np.nan  # never read
+    ssd, offset = overlap_ssd(existing, patch, filled)
+    diff = existing[filled].astype(np.float64) - patch[filled]
+    assert offset == pytest.approx(diff.mean(), rel=1e-12)
+    assert offset == pytest.approx(42.0, abs=1.0)
+    assert ssd == pytest.approx(diff.var(), rel=1e-12)
+    # The SSD after any other shift is larger.
+    for other in (offset - 1.0, offset + 0.5):
+        assert ((diff - other) ** 2).mean() > ssd
+    assert overlap_ssd(existing, patch, np.zeros((16, 16), bool)) == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("ssd, offset, mean, relief", [(3.0, 20.0, 0.0, 50.0), (0.5, -8.0, 12.0, 7.0),
+                                                        (0.0, 0.0, -30.0, 120.0)])
+def test_settle_minimises_the_match_cost_over_the_shift(ssd, offset, mean, relief):
+    settled_ssd, shift = settle(ssd, offset, mean)
+    assert settled_ssd == pytest.approx(ssd + (offset - shift) ** 2)
+
+    def cost(s):
+        # Moving the shift away from the SSD-optimal one adds its square to the SSD.
+        return match_cost(ssd + (offset - s) ** 2, s + mean, relief)
+
+    grid = shift + np.linspace(-5.0, 5.0, 2001)
+    assert cost(shift) <= min(cost(s) for s in grid) + 1e-12
+    assert shift == pytest.approx((offset - OFFSET_WEIGHT * mean) / (1.0 + OFFSET_WEIGHT))
+
+
+def test_settling_pulls_part_of_the_way_back_to_the_level_field():
+    _, shift = settle(0.0, 60.0)
+    assert 0.0 < shift < 60.0
+    assert shift == pytest.approx(60.0 / (1.0 + OFFSET_WEIGHT))
+
+
+def test_match_cost_is_in_units_of_the_relief():
+    assert match_cost(400.0, 0.0, 20.0) == pytest.approx(1.0)
+    assert match_cost(0.0, 20.0, 20.0) == pytest.approx(OFFSET_WEIGHT)
+    # Same mismatch, twice the relief: a quarter of the cost.
+    assert match_cost(90.0, 6.0, 40.0) == pytest.approx(match_cost(90.0, 6.0, 20.0) / 4)

@@ -1,0 +1,104 @@
+"""Golden runs: tiny seeded syntheses whose bytes are pinned.
+
+Each case is a 128x128 run on crops of built-in examples (patch 32): a
+sketch, a sketch in raster order without mirrors, and style regions with a
+stamp, water and a pin.  Its
+digest is the SHA-256 of the heights' bytes followed by the patch-id map's.
+A change that should not change behaviour must leave every digest as it is;
+one that does change the terrain on purpose updates them here (print them
+with ``python tests/core/synthesis/test_golden.py``).  The same runs in a
+fresh interpreter give the same digests: nothing depends on the process
+(hash seeds, thread timing, caches).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+from terrasynth_core.examples import builtin_example, resource_path
+from terrasynth_core.features import read_sketch
+from terrasynth_core.synthesis import Controls, Pin, Session, Stamp, Style, SynthesisParams, Water
+
+SHAPE = (128, 128)
+
+
+def _crop(key: str, r0: int, c0: int, size: int = 256):
+    field = builtin_example(key).load()
+    return field.with_heights(field.heights[r0:r0 + size, c0:c0 + size].copy())
+
+
+def _sketch(name: str):
+    return read_sketch(resource_path("sketches") / name).resized(SHAPE)
+
+
+def _y_junction():
+    return Session([_crop("white-mountains", 300, 300)], _sketch("y_junction_512.png"),
+                   params=SynthesisParams(patch_size=32, k=3, seed=0)).run()
+
+
+def _ring_cross_raster():
+    params = SynthesisParams(patch_size=32, k=2, seed=7, order="raster", mirror=False, blend="poisson")
+    return Session([_crop("big-tujunga", 200, 200)], _sketch("ring_cross_512.png"), params=params).run()
+
+
+def _styles_stamp_water_pin():
+    labels = np.zeros(SHAPE, np.int16)
+    labels[:, 64:] = 1
+    water = np.zeros(SHAPE, bool)
+    water[100:108, :40] = True
+    controls = Controls(styles=(Style(_crop("white-mountains", 600, 600), name="hills"),
+                                Style(_crop("himalaya", 0, 0), relief_scale=0.5, name="peaks")),
+                        style_map=labels, water=Water(water, 150.0), pins=(Pin(40, 96, 2500.0),),
+                        stamps=(Stamp(builtin_example("st-helens").load(), (70, 30), rotation=30.0, scale=0.15),))
+    return Session([], None, shape=SHAPE, params=SynthesisParams(patch_size=32, k=2, seed=3),
+                   controls=controls).run()
+
+
+CASES = {
+    "y_junction": _y_junction,
+    "ring_cross_raster": _ring_cross_raster,
+    "styles_stamp_water_pin": _styles_stamp_water_pin,
+}
+
+#: Digests of the cases; also what the engine gave before its split into
+#: stage packages (commit c88c8ba).
+GOLDEN = {
+    "y_junction": "c4dee34d96d31f16a999a818082223024665cf82c23176ee79d471cb9faed75d",
+    "ring_cross_raster": "f4bcbd300eabcb0133551c088039610a2a075e7c001bfbfb4c754de4d4ec20bf",
+    "styles_stamp_water_pin": "0506a1d784ae3460649a0e370996fd52d292800c5c4e5e1962b09040b49d4d60",
+}
+
+
+def digest(result) -> str:
+    """SHA-256 of the heights' bytes, then the patch-id map's."""
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(result.heights).tobytes())
+    h.update(np.ascontiguousarray(result.patch_id).tobytes())
+    return h.hexdigest()
+
+
+def digests() -> dict[str, str]:
+    return {name: digest(run()) for name, run in CASES.items()}
+
+
+def test_golden_runs_give_their_stored_bytes():
+    assert digests() == GOLDEN
+
+
+def test_a_fresh_process_gives_the_same_bytes(tmp_path):
+    code = ("import json, runpy, sys; "
+            f"module = runpy.run_path({__file__!r}); "
+            "print(json.dumps(module['digests']()))")
+    env = dict(os.environ, TERRASYNTH_CACHE_DIR=str(tmp_path), PYTHONHASHSEED="random")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == GOLDEN
+
+
+if __name__ == "__main__":
+    print(json.dumps(digests(), indent=4))
