@@ -19,7 +19,7 @@ from terrasynth_core.examples import builtin_example
 from terrasynth_core.io import READ_EXTENSIONS
 
 from ..model.document import Document
-from ..model.examples import ExampleRef, builtin_refs
+from ..model.example_library import ExampleRef, builtin_refs
 from ..workers import run_in_background
 from .terrain_colors import thumbnail
 

@@ -13,12 +13,12 @@ from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QDoubleSpinBox, QFileDialog, QFormLayout, QGroupBox,
                                QHeaderView, QLabel, QPushButton, QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget)
 
+from terrasynth_core.controls.options import STAMP_SCALE_RANGE
 from terrasynth_core.errors import TerraSynthError
 from terrasynth_core.io import READ_EXTENSIONS
 
-from ..model.controls import STAMP_SCALE_RANGE
 from ..model.document import Document
-from ..model.examples import ExampleRef, builtin_refs
+from ..model.example_library import ExampleRef, builtin_refs
 from ..workers import run_in_background
 
 #: The built-in stamp offered first: the paper's Mount Doom.

@@ -25,7 +25,7 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QGraphicsEl
 from terrasynth_core.features import sketch_features
 
 from ..model.document import Document
-from ..model.sketch import TOOLS, Sketch
+from ..model.sketch_layers import TOOLS, Sketch
 from ..workers import run_in_background
 from .controls_overlay import ControlsOverlay
 from .feature_overlay import FeatureGraphOverlay, legend_text

@@ -19,9 +19,9 @@ from PySide6.QtWidgets import (QCheckBox, QColorDialog, QDoubleSpinBox, QFileDia
 from terrasynth_core.errors import TerraSynthError
 from terrasynth_core.io import READ_EXTENSIONS
 
-from ..model.controls import RELIEF_SCALE_RANGE, StyleSpec
+from ..model.control_specs import RELIEF_SCALE_RANGE, StyleSpec
 from ..model.document import Document
-from ..model.examples import ExampleRef, builtin_refs
+from ..model.example_library import ExampleRef, builtin_refs
 from ..workers import run_in_background
 
 _ID_ROLE = Qt.UserRole + 1

@@ -30,6 +30,30 @@ from ..heightfield import HeightField
 from .pins import check_pins
 from .water import Water
 
+#: Footprint scales a :class:`Stamp` may have, (lowest, highest).
+STAMP_SCALE_RANGE = (0.05, 20.0)
+
+
+def check_height_range(height_range) -> tuple[float, float] | None:
+    """A final height range as two floats, or None for none.
+
+    Parameters
+    ----------
+    height_range : (lo, hi) or None
+        Metres.
+
+    Raises
+    ------
+    ParamsError
+        Unless both are finite and ``lo < hi``.
+    """
+    if height_range is None:
+        return None
+    lo, hi = (float(v) for v in height_range)
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+        raise ParamsError(f"height range must be two finite heights LO < HI, got {height_range}")
+    return lo, hi
+
 
 @dataclass(frozen=True, eq=False)
 class Style:
@@ -170,21 +194,16 @@ class Controls:
         for i, st in enumerate(self.stamps):
             if not isinstance(st, Stamp):
                 raise ParamsError(f"stamp {i + 1} must be a Stamp, got {type(st).__name__}")
-            if not (math.isfinite(st.scale) and 0.05 <= st.scale <= 20):
-                raise ParamsError(f"stamp {i + 1}: scale must be between 0.05 and 20, got {st.scale}")
+            lo, hi = STAMP_SCALE_RANGE
+            if not (math.isfinite(st.scale) and lo <= st.scale <= hi):
+                raise ParamsError(f"stamp {i + 1}: scale must be between {lo:g} and {hi:g}, got {st.scale}")
             if not math.isfinite(st.rotation):
                 raise ParamsError(f"stamp {i + 1}: rotation must be a finite angle in degrees, got {st.rotation}")
             r, c = st.center
             if not (0 <= r < shape[0] and 0 <= c < shape[1]):
                 raise ParamsError(f"stamp {i + 1} centre ({r}, {c}) is outside the {shape[0]}x{shape[1]} output")
         pins = check_pins(self.pins, shape)
-        if self.height_range is not None:
-            lo, hi = (float(v) for v in self.height_range)
-            if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-                raise ParamsError(f"height range must be two finite heights LO < HI, got {self.height_range}")
-            height_range = (lo, hi)
-        else:
-            height_range = None
+        height_range = check_height_range(self.height_range)
         radius = float(patch_size if self.pin_radius is None else self.pin_radius)
         if not (math.isfinite(radius) and radius > 2):
             raise ParamsError(f"pin radius must be more than 2 cells, got {self.pin_radius}")

@@ -13,19 +13,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from terrasynth_core.controls.options import STAMP_SCALE_RANGE
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.features.labels import parse_colour
 from terrasynth_core.synthesis import Stamp, Style
 
-from .examples import ExampleRef
+from .example_library import ExampleRef
 
 #: Colours given to new styles in turn: distinct, and none of them the
 #: sketch's red, blue or white, nor the water's blue.
 STYLE_PALETTE = ("#e6a10f", "#3aa655", "#b05ad6", "#d9534f", "#17a2b8", "#8c6d46", "#e377c2", "#7f7f7f")
 #: Relief scales a style may have.
 RELIEF_SCALE_RANGE = (0.05, 10.0)
-#: Footprint scales a stamp may have (the core's limits).
-STAMP_SCALE_RANGE = (0.05, 20.0)
 
 
 @dataclass(frozen=True)

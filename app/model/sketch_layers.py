@@ -21,7 +21,7 @@ import numpy as np
 from terrasynth_core.errors import SketchError
 from terrasynth_core.features import SketchMap
 
-from .events import Event
+from .observable import Event
 from .history import BBox, SketchEdit, SketchHistory
 
 Tool = Literal["ridge", "valley", "erase", "style", "style_erase", "water", "water_erase"]
