@@ -28,12 +28,13 @@ from .project import PROJECT_EXTENSION, ProjectError, load_project, save_project
 from .recovery import RecoveryStore
 from .region_maps import style_layer_from_png, water_layer_from_png
 from .result import TerrainResult
-from .run_request import (RunInfo, RunStarted, SynthesisRequest, VariationMade, run_info, synthesis_events,
+from .run_request import (MAX_SEED, RunInfo, RunStarted, SynthesisRequest, VariationMade, run_info, synthesis_events,
                           variation_events)
 from .sketch_layers import REGION_TOOLS, STROKE_TOOLS, TOOLS, Sketch, capsule_coverage, resize_nearest
 
 __all__ = [
     "EXAMPLE_MAPS",
+    "MAX_SEED",
     "PROJECT_EXTENSION",
     "REGION_TOOLS",
     "STROKE_TOOLS",

@@ -23,6 +23,9 @@ from .control_specs import StampSpec, StyleSpec
 from .example_library import ExampleRef
 from .result import TerrainResult
 
+#: Largest seed the app hands out or shows (its seed box holds a 32-bit int).
+MAX_SEED = 2**31 - 1
+
 
 @dataclass(frozen=True, eq=False)
 class SynthesisRequest:

@@ -11,10 +11,8 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.synthesis import SynthesisParams
 
+from ..model import MAX_SEED
 from ..model.document import Document
-
-#: Largest seed the spin box takes (Qt spin boxes are 32-bit).
-MAX_SEED = 2**31 - 1
 
 _TIPS = {
     "patch_size": "Side of a square patch in output cells (the paper uses 80). Larger patches copy "

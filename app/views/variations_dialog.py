@@ -6,6 +6,7 @@ from __future__ import annotations
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QDialog, QDialogButtonBox, QGridLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
+from ..controllers import VariationsController
 from ..model.result import TerrainResult
 from .example_panel import rgba_pixmap
 from .terrain_colors import thumbnail
@@ -66,6 +67,25 @@ class VariationsDialog(QDialog):
         layout.addWidget(self.status)
         layout.addWidget(self.buttons)
         self._running = True
+
+    def follow(self, variations: VariationsController) -> None:
+        """Show the batch ``variations`` is making; "Use this one" and
+        closing act on it."""
+        self.chosen.connect(variations.use)
+        self.cancel_requested.connect(variations.cancel)
+        variations.variation_made.connect(self.show_result)
+        variations.finished.connect(self._batch_finished)
+        variations.failed.connect(self._batch_failed)
+        variations.cancelled.connect(self._batch_cancelled)
+
+    def _batch_finished(self, terrains) -> None:
+        self.finish(f"{len(terrains)} variations made: pick one")
+
+    def _batch_failed(self, message: str) -> None:
+        self.finish(f"Failed: {message}")
+
+    def _batch_cancelled(self) -> None:
+        self.finish("Cancelled")
 
     def show_result(self, index: int, result: TerrainResult) -> None:
         """Variation ``index`` arrived: show its thumbnail and let it be used."""
