@@ -168,12 +168,10 @@ class LatestRunner(QObject):
         thread = QThread()
         worker.moveToThread(thread)
         thread.started.connect(worker.run)
-        # Queued to this object's slots, which drop the signals of old requests.
-        worker.yielded.connect(self._yielded)
-        worker.returned.connect(self._returned)
-        worker.errored.connect(self._errored)
-        worker.cancelled.connect(self._cancelled)
-        worker.finished.connect(self._finished)
+        # Queued to this object's slots of the same names, which drop the
+        # signals of old requests.
+        for name in ("yielded", "returned", "errored", "cancelled", "finished"):
+            getattr(worker, name).connect(getattr(self, f"_{name}"))
         # Direct: QThread.quit is thread-safe, and a queued call would wait for
         # the GUI thread, which may be blocked in wait() at exit.
         worker.finished.connect(thread.quit, Qt.DirectConnection)

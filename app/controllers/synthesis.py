@@ -20,7 +20,8 @@ from PySide6.QtCore import QObject, QTimer, Signal
 from terrasynth_core.errors import TerraSynthError
 from terrasynth_core.synthesis import PatchPlaced, StageStarted, SynthesisFinished
 
-from ..model import MAX_SEED, Document, RunInfo, RunStarted, TerrainResult, VariationMade, synthesis_events, variation_events
+from ..model import (MAX_SEED, Document, RunInfo, RunStarted, TerrainResult, VariationMade, synthesis_events,
+                     variation_events)
 from ..workers import LatestRunner
 
 #: Shortest period between progress updates, in ms.
@@ -40,7 +41,41 @@ def new_seeds(count: int) -> list[int]:
     return seeds
 
 
-class SynthesisController(QObject):
+class _RunController(QObject):
+    """What both controllers share: a latest-request-wins runner whose
+    items, return value, errors and cancellation go to the subclass's
+    ``_event``, ``_returned``, ``_failed`` and ``_cancelled``."""
+
+    running_changed = Signal(bool)
+    status = Signal(str, int)
+    error = Signal(str, str)
+
+    def __init__(self, document: Document, parent: QObject | None, *, wait_ms: int) -> None:
+        super().__init__(parent)
+        self.document = document
+        self.runner = LatestRunner(self, wait_ms=wait_ms)
+        self.runner.yielded.connect(self._event)
+        self.runner.returned.connect(self._returned)
+        self.runner.errored.connect(self._failed)
+        self.runner.cancelled.connect(self._cancelled)
+        self.runner.running_changed.connect(self.running_changed)
+
+    @property
+    def running(self) -> bool:
+        return self.runner.running
+
+    def cancel(self) -> None:
+        self.runner.cancel()
+
+    def wait(self) -> bool:
+        """Cancel and wait for every request's thread (at exit)."""
+        return self.runner.wait()
+
+    def _returned(self, value) -> None:
+        """The generator's return value (unused unless overridden)."""
+
+
+class SynthesisController(_RunController):
     """Synthesizes the document (or its selection again), one run at a time.
 
     Parameters
@@ -86,14 +121,9 @@ class SynthesisController(QObject):
     finished = Signal(object)
     failed = Signal(str)
     cancelled = Signal()
-    running_changed = Signal(bool)
-    status = Signal(str, int)
-    error = Signal(str, str)
 
     def __init__(self, document: Document, parent: QObject | None = None, *, progress_ms: int = PROGRESS_MS) -> None:
-        super().__init__(parent)
-        self.document = document
-        self.runner = LatestRunner(self)
+        super().__init__(document, parent, wait_ms=10_000)
         self._info: RunInfo | None = None
         self._started_at = 0.0
         self._progress: tuple[int, int] | None = None  # (done, total) not sent yet
@@ -101,14 +131,6 @@ class SynthesisController(QObject):
         self._progress_timer.timeout.connect(self._send_progress)
         self._handlers = {RunStarted: self._run_started, StageStarted: self._stage_started,
                           PatchPlaced: self._patch_placed, SynthesisFinished: self._synthesis_finished}
-        self.runner.yielded.connect(self._event)
-        self.runner.errored.connect(self._failed)
-        self.runner.cancelled.connect(self._cancelled)
-        self.runner.running_changed.connect(self.running_changed)
-
-    @property
-    def running(self) -> bool:
-        return self.runner.running
 
     def synthesize(self) -> None:
         """Start a run with the document as it is now (cancelling a running one)."""
@@ -130,12 +152,8 @@ class SynthesisController(QObject):
         self._start(request)
 
     def cancel(self) -> None:
-        self.runner.cancel()
+        super().cancel()
         self.stage_changed.emit("Cancelling…")
-
-    def wait(self) -> bool:
-        """Cancel and wait for every run's thread (at exit)."""
-        return self.runner.wait()
 
     def _start(self, request) -> None:
         self._stop_progress()
@@ -202,7 +220,7 @@ class SynthesisController(QObject):
         self._progress = None
 
 
-class VariationsController(QObject):
+class VariationsController(_RunController):
     """Makes batches of variations (one terrain per new seed), one batch at a time.
 
     Signals
@@ -226,24 +244,10 @@ class VariationsController(QObject):
     finished = Signal(object)
     failed = Signal(str)
     cancelled = Signal()
-    running_changed = Signal(bool)
-    status = Signal(str, int)
-    error = Signal(str, str)
 
     def __init__(self, document: Document, parent: QObject | None = None) -> None:
-        super().__init__(parent)
-        self.document = document
         # Cancelling a batch stops worker processes; they may take a while.
-        self.runner = LatestRunner(self, wait_ms=30_000)
-        self.runner.yielded.connect(self._event)
-        self.runner.returned.connect(self._finished)
-        self.runner.errored.connect(self._failed)
-        self.runner.cancelled.connect(self._cancelled)
-        self.runner.running_changed.connect(self.running_changed)
-
-    @property
-    def running(self) -> bool:
-        return self.runner.running
+        super().__init__(document, parent, wait_ms=30_000)
 
     def make(self, count: int) -> None:
         """Start a batch of ``count`` variations of the document (cancelling a running one)."""
@@ -263,17 +267,11 @@ class VariationsController(QObject):
         self.document.set_result(terrain)
         self.status.emit(f"Using the variation with seed {seed}", 10_000)
 
-    def cancel(self) -> None:
-        self.runner.cancel()
-
-    def wait(self) -> bool:
-        return self.runner.wait()
-
     def _event(self, event) -> None:
         if isinstance(event, VariationMade):
             self.variation_made.emit(event.index, event.terrain)
 
-    def _finished(self, terrains) -> None:
+    def _returned(self, terrains) -> None:
         self.finished.emit(terrains)
         self.status.emit(f"{len(terrains)} variations made", 10_000)
 

@@ -15,6 +15,7 @@ drains.  Derived data: :class:`SketchGraph` and :class:`TerrainGraph`, the
 feature graphs of the sketch and of the terrain.
 """
 
+from .brushes import capsule_coverage
 from .control_specs import StampSpec, StyleSpec, fitting_scale
 from .dem_features import dem_feature_layers, dem_file_feature_layers
 from .document import Document
@@ -30,7 +31,7 @@ from .region_maps import style_layer_from_png, water_layer_from_png
 from .result import TerrainResult
 from .run_request import (MAX_SEED, RunInfo, RunStarted, SynthesisRequest, VariationMade, run_info, synthesis_events,
                           variation_events)
-from .sketch_layers import REGION_TOOLS, STROKE_TOOLS, TOOLS, Sketch, capsule_coverage, resize_nearest
+from .sketch_layers import REGION_TOOLS, STROKE_TOOLS, TOOLS, Sketch, resize_nearest
 
 __all__ = [
     "EXAMPLE_MAPS",

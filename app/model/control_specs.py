@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrasynth_core.controls.options import STAMP_SCALE_RANGE
+from terrasynth_core.controls.options import STAMP_SCALE_RANGE, check_stamp_transform
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.features.labels import parse_colour
 from terrasynth_core.synthesis import Stamp, Style
@@ -120,11 +120,7 @@ class StampSpec:
             raise ParamsError(f"stamp centre {self.center} must be finite")
         if rows < 1 or cols < 1:
             raise ParamsError(f"stamp source shape {self.source_shape} must be positive")
-        lo, hi = STAMP_SCALE_RANGE
-        if not (math.isfinite(self.scale) and lo <= self.scale <= hi):
-            raise ParamsError(f"stamp scale {self.scale}: expected {lo} to {hi}")
-        if not math.isfinite(self.rotation):
-            raise ParamsError(f"stamp rotation {self.rotation} must be a finite angle in degrees")
+        check_stamp_transform(self.scale, self.rotation)
         object.__setattr__(self, "center", (r, c))
         object.__setattr__(self, "source_shape", (rows, cols))
         object.__setattr__(self, "rotation", float(self.rotation))

@@ -26,7 +26,8 @@ from .example_library import ExampleRef
 from .observable import Event
 from .result import TerrainResult
 from .run_request import SynthesisRequest
-from .sketch_layers import MAX_STYLE_ID, Sketch, capsule_coverage
+from .brushes import capsule_coverage
+from .sketch_layers import MAX_STYLE_ID, Sketch
 
 #: Marks "keep the current value" for keyword arguments that accept None.
 _KEEP = object()

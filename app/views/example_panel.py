@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from PySide6.QtCore import QSize, Qt, Signal
 from PySide6.QtGui import QIcon, QImage, QPixmap
-from PySide6.QtWidgets import (QFileDialog, QHBoxLayout, QListWidget, QListWidgetItem, QPushButton, QVBoxLayout,
+from PySide6.QtWidgets import (QListWidget, QListWidgetItem, QPushButton, QVBoxLayout,
                                QWidget)
 
 from terrasynth_core.examples import builtin_example
@@ -21,6 +21,7 @@ from terrasynth_core.io import READ_EXTENSIONS
 from ..model.document import Document
 from ..model.example_library import ExampleRef, builtin_refs
 from ..workers import run_in_background
+from .panel_widgets import ask_dem_file, hbox
 from .terrain_colors import thumbnail
 
 THUMB_SIDE = 96
@@ -100,9 +101,7 @@ class ExamplePanel(QWidget):
         self.remove_button = QPushButton("Remove")
         self.remove_button.setToolTip("Remove the selected file from the library")
         self.remove_button.clicked.connect(self.remove_current)
-        buttons = QHBoxLayout()
-        buttons.addWidget(self.add_button)
-        buttons.addWidget(self.remove_button)
+        buttons = hbox(self.add_button, self.remove_button)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.list, 1)
@@ -168,9 +167,8 @@ class ExamplePanel(QWidget):
 
     # -- user actions -----------------------------------------------------------------------------
     def choose_file(self) -> None:
-        patterns = " ".join(f"*{ext}" for ext in READ_EXTENSIONS)
-        path, _ = QFileDialog.getOpenFileName(self, "Add a DEM", "", f"DEM files ({patterns});;All files (*)")
-        if path:
+        path = ask_dem_file(self, "Add a DEM", any_file=True)
+        if path is not None:
             self.add_file(path)
 
     def add_file(self, path: str) -> None:

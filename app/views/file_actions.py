@@ -13,12 +13,11 @@ from pathlib import Path
 from PySide6.QtCore import QObject
 from PySide6.QtWidgets import QFileDialog, QMenu, QMessageBox, QWidget
 
-from terrasynth_core.io import READ_EXTENSIONS
-
 from ..controllers import AutosaveController, FilesController
 from ..model import PROJECT_EXTENSION, Document
 from .dialogs import NewSketchDialog
 from .export_dialog import ExportDialog
+from .panel_widgets import ask_dem_file
 
 APP_NAME = "TerraSynth"
 _PROJECT_FILTER = f"TerraSynth projects (*{PROJECT_EXTENSION})"
@@ -125,8 +124,7 @@ class FileActions(QObject):
             self.controller.save_sketch(path)
 
     def import_dem_features(self, path: str | None = None) -> None:
-        patterns = " ".join(f"*{ext}" for ext in READ_EXTENSIONS)
-        path = path or self._ask_open("Import DEM features", f"DEM files ({patterns})")
+        path = path or ask_dem_file(self.window, "Import DEM features")
         if path is not None:
             self.controller.import_dem_features(path)
 

@@ -71,12 +71,10 @@ class VariationsDialog(QDialog):
     def follow(self, variations: VariationsController) -> None:
         """Show the batch ``variations`` is making; "Use this one" and
         closing act on it."""
-        self.chosen.connect(variations.use)
-        self.cancel_requested.connect(variations.cancel)
-        variations.variation_made.connect(self.show_result)
-        variations.finished.connect(self._batch_finished)
-        variations.failed.connect(self._batch_failed)
-        variations.cancelled.connect(self._batch_cancelled)
+        for signal, slot in ((self.chosen, variations.use), (self.cancel_requested, variations.cancel),
+                             (variations.variation_made, self.show_result), (variations.finished, self._batch_finished),
+                             (variations.failed, self._batch_failed), (variations.cancelled, self._batch_cancelled)):
+            signal.connect(slot)
 
     def _batch_finished(self, terrains) -> None:
         self.finish(f"{len(terrains)} variations made: pick one")

@@ -34,6 +34,22 @@ from .water import Water
 STAMP_SCALE_RANGE = (0.05, 20.0)
 
 
+def check_stamp_transform(scale: float, rotation: float, what: str = "stamp") -> None:
+    """Check a stamp's footprint scale and rotation (degrees).
+
+    Raises
+    ------
+    ParamsError
+        Naming ``what``, unless the scale is within :data:`STAMP_SCALE_RANGE`
+        and the rotation is finite.
+    """
+    lo, hi = STAMP_SCALE_RANGE
+    if not (math.isfinite(scale) and lo <= scale <= hi):
+        raise ParamsError(f"{what}: scale must be between {lo:g} and {hi:g}, got {scale}")
+    if not math.isfinite(rotation):
+        raise ParamsError(f"{what}: rotation must be a finite angle in degrees, got {rotation}")
+
+
 def check_height_range(height_range) -> tuple[float, float] | None:
     """A final height range as two floats, or None for none.
 
@@ -194,11 +210,7 @@ class Controls:
         for i, st in enumerate(self.stamps):
             if not isinstance(st, Stamp):
                 raise ParamsError(f"stamp {i + 1} must be a Stamp, got {type(st).__name__}")
-            lo, hi = STAMP_SCALE_RANGE
-            if not (math.isfinite(st.scale) and lo <= st.scale <= hi):
-                raise ParamsError(f"stamp {i + 1}: scale must be between {lo:g} and {hi:g}, got {st.scale}")
-            if not math.isfinite(st.rotation):
-                raise ParamsError(f"stamp {i + 1}: rotation must be a finite angle in degrees, got {st.rotation}")
+            check_stamp_transform(st.scale, st.rotation, f"stamp {i + 1}")
             r, c = st.center
             if not (0 <= r < shape[0] and 0 <= c < shape[1]):
                 raise ParamsError(f"stamp {i + 1} centre ({r}, {c}) is outside the {shape[0]}x{shape[1]} output")
