@@ -173,7 +173,7 @@ def middle_earth_picture(window, args, fail, done):
     window.example_map_opened.connect(opened)
     window.synthesis.finished.connect(lambda _result: QTimer.singleShot(500, finish))
     window.synthesis.failed.connect(fail)
-    QTimer.singleShot(500, window.example_map_actions["middle-earth"].trigger)
+    QTimer.singleShot(500, window.actions.example_maps["middle-earth"].trigger)
     return window
 
 
