@@ -15,7 +15,6 @@ from PySide6.QtGui import QIcon, QImage, QPixmap
 from PySide6.QtWidgets import (QListWidget, QListWidgetItem, QPushButton, QVBoxLayout,
                                QWidget)
 
-from terrasynth_core.examples import builtin_example
 from terrasynth_core.io import READ_EXTENSIONS
 
 from ..model.document import Document
@@ -54,7 +53,7 @@ def load_info(ref: ExampleRef) -> ExampleInfo:
     """Read ``ref`` and make its library entry (runs on a pool thread)."""
     field = ref.load()
     thumb = None
-    if ref.builtin is None or not builtin_example(ref.builtin).thumbnail_path.is_file():
+    if ref.thumbnail_file is None:
         thumb = thumbnail(field.heights, cell_size=field.cell_size, side=THUMB_SIDE)
     return ExampleInfo(ref, field.shape, field.cell_size, (field.min, field.max), thumb)
 
@@ -129,13 +128,9 @@ class ExamplePanel(QWidget):
         item.setData(_REF_ROLE, ref)
         item.setFlags(item.flags() | Qt.ItemIsUserCheckable)
         item.setCheckState(Qt.Checked if checked else Qt.Unchecked)
-        if ref.builtin is not None:
-            ex = builtin_example(ref.builtin)
-            item.setToolTip(f"{ex.name}\n{ex.style}\nSource: {ex.source} ({ex.licence})")
-            if ex.thumbnail_path.is_file():
-                item.setIcon(QIcon(str(ex.thumbnail_path)))
-        else:
-            item.setToolTip(ref.path)
+        item.setToolTip(ref.description)
+        if ref.thumbnail_file is not None:
+            item.setIcon(QIcon(str(ref.thumbnail_file)))
         self._syncing = True
         self.list.addItem(item)
         self._syncing = False
