@@ -12,7 +12,7 @@ RUN_TIMEOUT_MS = 90_000
 
 
 #: The name each event of a run is logged under.
-_KINDS = {RunStarted: "session_ready", StageStarted: "stage_started", PatchPlaced: "patch_placed",
+_KINDS = {RunStarted: "run_started", StageStarted: "stage_started", PatchPlaced: "patch_placed",
           StageFinished: "stage_finished", SynthesisFinished: "synthesis_finished"}
 
 
@@ -45,7 +45,7 @@ def test_a_run_updates_the_views_patch_by_patch_then_shows_the_result(qtbot, win
                            timeout=RUN_TIMEOUT_MS):
         window.synthesize()
     kinds = [k for k, _ in log]
-    assert kinds[0] == "session_ready" and kinds[-1] == "synthesis_finished"
+    assert kinds[0] == "run_started" and kinds[-1] == "synthesis_finished"
     stages = [arg for k, arg in log if k == "stage_started"]
     assert stages == ["analyse", "features", "fill", "finish"]
     patches = [arg for k, arg in log if k == "patch_placed"]
