@@ -7,7 +7,8 @@ thread it is moved to and turns each item it yields into one
 keeps one current: a new request cancels the old one, whose late signals
 are dropped.  Nothing here knows what the items are, so a new kind of event
 needs no relay code: whoever consumes :attr:`LatestRunner.yielded` handles
-it.  :func:`run_in_background` runs a one-off function on Qt's thread pool.
+it.  :func:`run_in_background` runs a one-off function with the same worker on
+Qt's thread pool.
 
 A small class of our own rather than superqt's ``GeneratorWorker``: the
 app needs the latest-request-wins bookkeeping on top anyway, and this keeps
@@ -234,40 +235,52 @@ class LatestRunner(QObject):
                 del self._threads[worker]
 
 
-class _JobSignals(QObject):
-    finished = Signal(object)
-    failed = Signal(str)
-
-    #: Signals of jobs whose result is not delivered yet, kept alive here
-    #: because the pool deletes the runnable as soon as it has run.
-    active: set["_JobSignals"] = set()
-
-    @Slot()
-    def release(self) -> None:
-        _JobSignals.active.discard(self)
+def _call(function: Callable[[], object]):
+    """A generator that yields nothing and returns ``function()``."""
+    yield from ()
+    return function()
 
 
-class _BackgroundJob(QRunnable):
-    """A function run on Qt's global thread pool; its result or error comes back by signal."""
+class _PoolJob(QRunnable):
+    """Runs a :class:`GeneratorWorker` on a pool thread."""
 
-    def __init__(self, function: Callable[[], object]) -> None:
+    def __init__(self, worker: GeneratorWorker) -> None:
         super().__init__()
-        self._function = function
-        self.signals = _JobSignals()
+        self._worker = worker
 
     def run(self) -> None:
-        try:
-            value = self._function()
-        except Exception as exc:
-            _log_failure(exc)
-            self.signals.failed.emit(describe_error(exc))
-        else:
-            self.signals.finished.emit(value)
+        self._worker.run()
+
+
+class _PoolWorkers(QObject):
+    """The workers running on the thread pool, kept alive (on the GUI thread)
+    until their last signal has been delivered."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._workers: set[GeneratorWorker] = set()
+
+    def start(self, worker: GeneratorWorker) -> None:
+        self._workers.add(worker)
+        # Queued, and connected after the caller's slots: runs after them.
+        worker.finished.connect(self._release)
+        QThreadPool.globalInstance().start(_PoolJob(worker))
+
+    @Slot()
+    def _release(self) -> None:
+        self._workers.discard(self.sender())
+
+
+_pool_workers: _PoolWorkers | None = None
 
 
 def run_in_background(function: Callable[[], object], on_finished: Callable[[object], None],
                       on_failed: Callable[[str], None]) -> None:
     """Run ``function`` on Qt's thread pool and call back on the GUI thread.
+
+    The same :class:`GeneratorWorker`, around a generator that yields nothing
+    and returns ``function()``, run on a pool thread rather than a thread of
+    its own.  Call from the GUI thread.
 
     Parameters
     ----------
@@ -281,12 +294,10 @@ def run_in_background(function: Callable[[], object], on_finished: Callable[[obj
     The callbacks must be bound methods of QObjects living on the GUI thread,
     so Qt queues the calls there.
     """
-    job = _BackgroundJob(function)
-    signals = job.signals
-    signals.finished.connect(on_finished)
-    signals.failed.connect(on_failed)
-    # Connected last, so it runs after the callbacks of the same emission.
-    signals.finished.connect(signals.release)
-    signals.failed.connect(signals.release)
-    _JobSignals.active.add(signals)
-    QThreadPool.globalInstance().start(job)
+    global _pool_workers
+    if _pool_workers is None:
+        _pool_workers = _PoolWorkers()
+    worker = GeneratorWorker(_call(function))
+    worker.returned.connect(on_finished)
+    worker.errored.connect(on_failed)
+    _pool_workers.start(worker)

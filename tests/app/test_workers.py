@@ -1,12 +1,12 @@
-"""The generic worker and the latest-request-wins runner, with toy generators."""
+"""The generic worker, the latest-request-wins runner and one-off pool jobs, with toy work."""
 
 import threading
 
 import pytest
-from PySide6.QtCore import QCoreApplication
+from PySide6.QtCore import QCoreApplication, QObject, Signal
 
 from terrasynth_core.errors import ParamsError, SynthesisCancelled
-from terrasynth_app.workers import GeneratorWorker, LatestRunner
+from terrasynth_app.workers import GeneratorWorker, LatestRunner, run_in_background
 
 TIMEOUT_MS = 10_000
 
@@ -115,3 +115,27 @@ def test_a_new_request_cancels_the_old_one_whose_late_signals_are_dropped(qtbot)
     QCoreApplication.sendPostedEvents()  # the old request's late signals arrive, and are dropped
     assert log == [("yielded", "old 1"), ("yielded", "new 1"), ("yielded", "new 2"), ("returned", "new")]
     assert states == [True, True, False] and not runner.running
+
+
+class _Receiver(QObject):
+    """Callbacks of a GUI-thread object, as run_in_background wants them."""
+
+    got = Signal(str, object)
+
+    def finished(self, value):
+        self.got.emit("finished", (value, threading.current_thread() is threading.main_thread()))
+
+    def failed(self, message):
+        self.got.emit("failed", message)
+
+
+def test_run_in_background_hands_back_the_value_or_the_error_on_the_gui_thread(qtbot):
+    receiver = _Receiver()
+    pool_thread = []
+    with qtbot.waitSignal(receiver.got, timeout=TIMEOUT_MS) as got:
+        run_in_background(lambda: pool_thread.append(threading.current_thread()) or 42, receiver.finished,
+                          receiver.failed)
+    assert got.args == ["finished", (42, True)] and pool_thread[0] is not threading.main_thread()
+    with qtbot.waitSignal(receiver.got, timeout=TIMEOUT_MS) as got:
+        run_in_background(lambda: 1 / 0, receiver.finished, receiver.failed)
+    assert got.args == ["failed", "internal error: ZeroDivisionError: division by zero"]
