@@ -24,7 +24,7 @@ from .example_maps import EXAMPLE_MAPS, example_map_document
 from .export import export_terrain
 from .feature_graphs import DerivedGraph, SketchGraph, TerrainGraph
 from .history import SketchEdit, SketchHistory
-from .observable import Event
+from .observable import Observable
 from .project import PROJECT_EXTENSION, ProjectError, load_project, save_project
 from .recovery import RecoveryStore
 from .region_maps import style_layer_from_png, water_layer_from_png
@@ -42,8 +42,8 @@ __all__ = [
     "TOOLS",
     "DerivedGraph",
     "Document",
-    "Event",
     "ExampleRef",
+    "Observable",
     "ProjectError",
     "RecoveryStore",
     "RunInfo",

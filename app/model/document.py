@@ -23,7 +23,7 @@ from terrasynth_core.synthesis import Pin, SynthesisParams
 
 from .control_specs import STYLE_PALETTE, StampSpec, StyleSpec
 from .example_library import ExampleRef
-from .observable import Event
+from .observable import Observable
 from .result import TerrainResult
 from .run_request import SynthesisRequest
 from .brushes import capsule_coverage
@@ -61,7 +61,7 @@ class Document:
 
     Attributes
     ----------
-    changed : Event
+    changed : Observable
         Emitted with what changed: ``"examples"``, ``"params"``,
         ``"result"``, ``"styles"``, ``"water_level"``, ``"height_range"``,
         ``"pins"``, ``"stamps"``, ``"selection"``, ``"path"`` or ``"dirty"``
@@ -87,7 +87,7 @@ class Document:
         self._stamps = list(stamps)
         self._next_style_id = int(next_style_id)
         self._selection: np.ndarray | None = None
-        self.changed = Event()
+        self.changed = Observable()
         # Every change bumps the generation; the document is dirty while it
         # differs from the generation last saved.
         self._generation = 0

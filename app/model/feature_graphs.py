@@ -15,7 +15,7 @@ from typing import Callable
 from terrasynth_core.features import FeatureMaps, extract_features, sketch_features
 
 from .document import Document
-from .observable import Event
+from .observable import Observable
 from .sketch_layers import Sketch
 
 
@@ -24,13 +24,13 @@ class DerivedGraph:
 
     Attributes
     ----------
-    invalidated : Event
+    invalidated : Observable
         Emitted with no argument when the source changed, so :attr:`maps`
         (still the last graph made) is out of date.
     """
 
     def __init__(self) -> None:
-        self.invalidated = Event()
+        self.invalidated = Observable()
         self._maps: FeatureMaps | None = None
         self._generation = 0  # bumped by every change of the source
         self._maps_generation = -1

@@ -21,7 +21,7 @@ import numpy as np
 from terrasynth_core.errors import SketchError
 from terrasynth_core.features import SketchMap
 
-from .observable import Event
+from .observable import Observable
 from .brushes import capsule_coverage
 from .history import BBox, SketchEdit, SketchHistory
 
@@ -85,10 +85,10 @@ class Sketch:
 
     Attributes
     ----------
-    changed : Event
+    changed : Observable
         Emitted with the window ``(r0, r1, c0, c1)`` that changed, or
         ``None`` when whole layers (maybe their shape) changed.
-    history_changed : Event
+    history_changed : Observable
         Emitted with no argument when undo/redo availability may have changed.
     """
 
@@ -100,8 +100,8 @@ class Sketch:
         self._layers = {"ridge": ridge.astype(np.uint8, copy=True), "valley": valley.astype(np.uint8, copy=True)}
         self._layers.update(_region_layers(ridge.shape, style, water))
         self.history = SketchHistory()
-        self.changed = Event()
-        self.history_changed = Event()
+        self.changed = Observable()
+        self.history_changed = Observable()
         self._stroke: _Stroke | None = None
 
     # -- construction -----------------------------------------------------------
