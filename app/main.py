@@ -65,11 +65,11 @@ def main(argv: list[str] | None = None) -> int:
 
     window = MainWindow(recovery=RecoveryStore(recovery_directory()))
     window.show()
-    if not window.offer_recovery() and args.file is not None:
+    if not window.files.offer_recovery() and args.file is not None:
         if args.file.suffix.lower() == PROJECT_EXTENSION:
-            window.open_project(str(args.file))
+            window.files.open_project(str(args.file))
         else:
-            window.open_sketch(str(args.file))
+            window.files.open_sketch(str(args.file))
     return app.exec()
 
 

@@ -1,12 +1,18 @@
-"""Thread workers: the core's ``iter_run``, variations and slow one-off jobs
-off the GUI thread.
+"""Work off the GUI thread: one generic worker around any generator of events.
 
-:class:`SynthesisRunner` owns at most one current run.  Each run drains
-``session.iter_run()`` on its own ``QThread`` and turns every event into a
-signal; starting a new run cancels the old one, whose late events are
-dropped.  Cancelling closes the generator at the next patch boundary.
-:class:`VariationsRunner` does the same for a batch of variations (which
-the core makes in worker processes).
+:class:`GeneratorWorker` drains an iterator (usually a generator) on the
+thread it is moved to and turns each item it yields into one
+:attr:`~GeneratorWorker.yielded` signal; every yield is a cancel checkpoint.
+:class:`LatestRunner` gives each request its own worker and ``QThread`` and
+keeps one current: a new request cancels the old one, whose late signals
+are dropped.  Nothing here knows what the items are, so a new kind of event
+needs no relay code: whoever consumes :attr:`LatestRunner.yielded` handles
+it.  :func:`run_in_background` runs a one-off function with the same worker on
+Qt's thread pool.
+
+A small class of our own rather than superqt's ``GeneratorWorker``: the
+app needs the latest-request-wins bookkeeping on top anyway, and this keeps
+the GUI extra to PySide6, pyqtgraph and pyvista.
 """
 
 from __future__ import annotations
@@ -14,12 +20,11 @@ from __future__ import annotations
 import logging
 import threading
 import traceback
-from typing import Callable
+from typing import Callable, Iterable
 
 from PySide6.QtCore import QObject, QRunnable, Qt, QThread, QThreadPool, Signal, Slot
 
 from terrasynth_core.errors import SynthesisCancelled, TerraSynthError
-from terrasynth_core.synthesis import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 
 log = logging.getLogger(__name__)
 
@@ -31,405 +36,251 @@ def describe_error(exc: BaseException) -> str:
     return f"internal error: {type(exc).__name__}: {exc}"
 
 
-def _log_failure(what: str, exc: Exception) -> None:
+def _log_failure(exc: Exception) -> None:
     # A user's mistake gets its one line; anything else its traceback, for a bug report.
     if isinstance(exc, TerraSynthError):
-        log.info("%s failed: %s", what, exc)
+        log.info("background work failed: %s", exc)
     else:
-        log.error("%s failed:\n%s", what, traceback.format_exc())
+        log.error("background work failed:\n%s", traceback.format_exc())
 
 
-class SynthesisWorker(QObject):
-    """Runs one synthesis on the thread it is moved to.
+class GeneratorWorker(QObject):
+    """Drains an iterator of events on the thread it is moved to.
 
     Parameters
     ----------
-    make_session : callable
-        Returns a core ``Session``; called on the worker thread, since reading
-        and analysing examples is slow.
-    prepare : callable, optional
-        Called on the worker thread after the session is made; its return
-        value is sent with :attr:`session_ready` (e.g. the output cell size).
+    events : iterable
+        Usually a generator object: its body (the slow part) only runs
+        when the worker asks for the first item, so it may be made on the
+        GUI thread.  A ``None`` item is a bare cancel checkpoint (a
+        generator waiting on something else yields it now and then) and is
+        not emitted.  Raising ``SynthesisCancelled`` counts as cancelled.
 
     Signals
     -------
-    session_ready(object)
-        The session is valid and the run starts; carries ``prepare()``'s value.
-    stage_started(str, int)
-        Stage name and the patches it will place.
-    patch_placed(object)
-        The core's :class:`PatchPlaced` event.
-    stage_finished(str, float)
-        Stage name and its seconds.
-    synthesis_finished(object)
-        The core's ``SynthesisResult``.
-    synthesis_failed(str)
-        One-line message; the run is over.
-    synthesis_cancelled()
-        The run stopped on request.
-    done()
+    yielded(object)
+        One per item, in order.
+    returned(object)
+        The generator's return value; it ended normally.
+    errored(str)
+        One-line message; it raised.
+    cancelled()
+        It stopped on request: at the first yield after :meth:`cancel`.
+    finished()
         Always last, whatever the outcome.
     """
 
-    session_ready = Signal(object)
-    stage_started = Signal(str, int)
-    patch_placed = Signal(object)
-    stage_finished = Signal(str, float)
-    synthesis_finished = Signal(object)
-    synthesis_failed = Signal(str)
-    synthesis_cancelled = Signal()
-    done = Signal()
+    yielded = Signal(object)
+    returned = Signal(object)
+    errored = Signal(str)
+    cancelled = Signal()
+    finished = Signal()
 
-    def __init__(self, make_session: Callable[[], object], prepare: Callable[[], object] | None = None) -> None:
+    def __init__(self, events: Iterable) -> None:
         super().__init__()
-        self._make_session = make_session
-        self._prepare = prepare
+        self._events = events
         self._cancel = threading.Event()
 
     def cancel(self) -> None:
-        """Ask the run to stop at its next event (callable from any thread)."""
+        """Ask the worker to stop at its next yield (callable from any thread)."""
         self._cancel.set()
 
     @property
-    def cancelled(self) -> bool:
+    def is_cancelled(self) -> bool:
         return self._cancel.is_set()
 
     @Slot()
     def run(self) -> None:
+        """Drain the events; call once, on the worker thread."""
         try:
-            self._run()
+            self._drain()
+        except SynthesisCancelled:
+            self.cancelled.emit()
         except Exception as exc:  # shown to the user, never lost in a thread
-            _log_failure("synthesis", exc)
-            self.synthesis_failed.emit(describe_error(exc))
+            _log_failure(exc)
+            self.errored.emit(describe_error(exc))
         finally:
-            self.done.emit()
+            self.finished.emit()
 
-    def _run(self) -> None:
-        session = self._make_session()
-        extra = self._prepare() if self._prepare is not None else None
-        if self._cancel.is_set():
-            self.synthesis_cancelled.emit()
-            return
-        self.session_ready.emit(extra)
-        events = session.iter_run()
+    def _drain(self) -> None:
+        events = iter(self._events)
         try:
-            for event in events:
+            while not self._cancel.is_set():
+                try:
+                    item = next(events)
+                except StopIteration as stop:
+                    if not self._cancel.is_set():
+                        self.returned.emit(stop.value)
+                        return
+                    break
                 if self._cancel.is_set():
-                    self.synthesis_cancelled.emit()
-                    return
-                if isinstance(event, PatchPlaced):
-                    self.patch_placed.emit(event)
-                elif isinstance(event, StageStarted):
-                    self.stage_started.emit(event.stage, event.total)
-                elif isinstance(event, StageFinished):
-                    self.stage_finished.emit(event.stage, event.seconds)
-                elif isinstance(event, SynthesisFinished):
-                    self.synthesis_finished.emit(event.result)
+                    break
+                if item is not None:
+                    self.yielded.emit(item)
+            self.cancelled.emit()
         finally:
-            events.close()
+            close = getattr(events, "close", None)
+            if close is not None:
+                close()  # runs the generator's ``finally`` blocks on this thread
 
 
-class _OneAtATime(QObject):
-    """Bookkeeping shared by the runners: one current job, older ones still
-    alive until their threads end, their late signals dropped.
+class LatestRunner(QObject):
+    """Runs requests one current at a time: a new one cancels the old one.
 
-    Subclasses define the forwarded signals and ``running_changed(bool)``;
-    a run is an object with ``worker`` (having ``cancel()``) and ``thread``.
+    Each request gets a :class:`GeneratorWorker` on its own ``QThread``;
+    the runner's signals mean the worker's, for the current request only
+    (an old request's late signals are dropped).  A cancelled request stays
+    current until it says it stopped, so listeners learn that it ended.
+
+    Parameters
+    ----------
+    parent : QObject, optional
+    wait_ms : int, default 10 000
+        Milliseconds :meth:`wait` allows each thread at exit.
+
+    Signals
+    -------
+    yielded(object), returned(object), errored(str), cancelled()
+        As :class:`GeneratorWorker`'s.
+    running_changed(bool)
+        A request started, or the current one ended (after its last signal).
     """
 
-    running_changed: Signal
-    #: Milliseconds :meth:`wait` allows each thread at exit.
-    WAIT_MS = 10_000
+    yielded = Signal(object)
+    returned = Signal(object)
+    errored = Signal(str)
+    cancelled = Signal()
+    running_changed = Signal(bool)
 
-    def __init__(self, parent: QObject | None = None) -> None:
+    def __init__(self, parent: QObject | None = None, *, wait_ms: int = 10_000) -> None:
         super().__init__(parent)
-        self._current = None
-        self._runs: set = set()  # alive until their thread ends
+        self.wait_ms = wait_ms
+        self._current: GeneratorWorker | None = None
+        self._threads: dict[GeneratorWorker, QThread] = {}  # alive until their thread ends
 
     @property
     def running(self) -> bool:
         return self._current is not None
 
-    def _start(self, run) -> None:
+    def start(self, events: Iterable) -> GeneratorWorker:
+        """Run ``events`` (see :class:`GeneratorWorker`), cancelling the current request."""
         self.cancel()
-        self._runs.add(run)
-        self._current = run
+        worker = GeneratorWorker(events)
+        thread = QThread()
+        worker.moveToThread(thread)
+        thread.started.connect(worker.run)
+        # Queued to this object's slots of the same names, which drop the
+        # signals of old requests.
+        for name in ("yielded", "returned", "errored", "cancelled", "finished"):
+            getattr(worker, name).connect(getattr(self, f"_{name}"))
+        # Direct: QThread.quit is thread-safe, and a queued call would wait for
+        # the GUI thread, which may be blocked in wait() at exit.
+        worker.finished.connect(thread.quit, Qt.DirectConnection)
+        thread.finished.connect(self._thread_finished)
+        self._threads[worker] = thread
+        self._current = worker
         self.running_changed.emit(True)
-        run.thread.start()
+        thread.start()
+        return worker
 
     def cancel(self) -> None:
-        """Cancel the current job; its cancelled signal is still forwarded."""
+        """Cancel the current request; its ``cancelled`` signal still comes."""
         if self._current is not None:
-            self._current.worker.cancel()
-            # Keep it current until it says it stopped, so the views learn
-            # the job ended; only a newer one replaces it.
+            self._current.cancel()
 
     def wait(self, msecs: int | None = None) -> bool:
-        """Cancel everything and wait for the threads (at exit); False on timeout."""
-        for run in list(self._runs):
-            run.worker.cancel()
+        """Cancel every request and wait for their threads (at exit); False on timeout."""
+        for worker in list(self._threads):
+            worker.cancel()
         ok = True
-        for run in list(self._runs):
-            ok &= run.thread.wait(self.WAIT_MS if msecs is None else msecs)
+        for thread in list(self._threads.values()):
+            ok &= thread.wait(self.wait_ms if msecs is None else msecs)
         return ok
 
-    # -- called by the runs on the GUI thread ------------------------------------
-    def _forward(self, run, signal: str, *args) -> None:
-        if run is self._current:
-            getattr(self, signal).emit(*args)
+    # -- the current worker's signals, on the GUI thread -----------------------------
+    def _is_current(self) -> bool:
+        return self._current is not None and self.sender() is self._current
 
-    def _run_done(self, run) -> None:
-        if run is self._current:
+    @Slot(object)
+    def _yielded(self, item) -> None:
+        if self._is_current():
+            self.yielded.emit(item)
+
+    @Slot(object)
+    def _returned(self, value) -> None:
+        if self._is_current():
+            self.returned.emit(value)
+
+    @Slot(str)
+    def _errored(self, message: str) -> None:
+        if self._is_current():
+            self.errored.emit(message)
+
+    @Slot()
+    def _cancelled(self) -> None:
+        if self._is_current():
+            self.cancelled.emit()
+
+    @Slot()
+    def _finished(self) -> None:
+        if self._is_current():
             self._current = None
             self.running_changed.emit(False)
 
-    def _thread_finished(self, run) -> None:
-        self._runs.discard(run)
-
-
-class SynthesisRunner(_OneAtATime):
-    """Starts synthesis runs, one current at a time, and forwards their signals.
-
-    Signals have the meaning of :class:`SynthesisWorker`'s, for the current
-    run only.  ``running_changed(bool)`` tells when a run starts or ends.
-    """
-
-    session_ready = Signal(object)
-    stage_started = Signal(str, int)
-    patch_placed = Signal(object)
-    stage_finished = Signal(str, float)
-    synthesis_finished = Signal(object)
-    synthesis_failed = Signal(str)
-    synthesis_cancelled = Signal()
-    running_changed = Signal(bool)
-
-    def start(self, make_session: Callable[[], object], prepare: Callable[[], object] | None = None) -> None:
-        """Start a run, cancelling the current one."""
-        self._start(_Run(self, SynthesisWorker(make_session, prepare)))
-
-
-class _Run(QObject):
-    """One run: a worker, its thread, and slots (on the GUI thread) relaying
-    the worker's queued signals to the runner if the run is still current."""
-
-    def __init__(self, runner: SynthesisRunner, worker: SynthesisWorker) -> None:
-        super().__init__()
-        self.runner = runner
-        self.worker = worker
-        self.thread = QThread()
-        worker.moveToThread(self.thread)
-        self.thread.started.connect(worker.run)
-        worker.session_ready.connect(self._session_ready)
-        worker.stage_started.connect(self._stage_started)
-        worker.patch_placed.connect(self._patch_placed)
-        worker.stage_finished.connect(self._stage_finished)
-        worker.synthesis_finished.connect(self._synthesis_finished)
-        worker.synthesis_failed.connect(self._synthesis_failed)
-        worker.synthesis_cancelled.connect(self._synthesis_cancelled)
-        worker.done.connect(self._done)
-        # Direct: QThread.quit is thread-safe, and a queued call would wait for
-        # the GUI thread, which may be blocked in wait() at exit.
-        worker.done.connect(self.thread.quit, Qt.DirectConnection)
-        self.thread.finished.connect(self._thread_finished)
-
-    @Slot(object)
-    def _session_ready(self, extra) -> None:
-        self.runner._forward(self, "session_ready", extra)
-
-    @Slot(str, int)
-    def _stage_started(self, stage: str, total: int) -> None:
-        self.runner._forward(self, "stage_started", stage, total)
-
-    @Slot(object)
-    def _patch_placed(self, event) -> None:
-        self.runner._forward(self, "patch_placed", event)
-
-    @Slot(str, float)
-    def _stage_finished(self, stage: str, seconds: float) -> None:
-        self.runner._forward(self, "stage_finished", stage, seconds)
-
-    @Slot(object)
-    def _synthesis_finished(self, result) -> None:
-        self.runner._forward(self, "synthesis_finished", result)
-
-    @Slot(str)
-    def _synthesis_failed(self, message: str) -> None:
-        self.runner._forward(self, "synthesis_failed", message)
-
-    @Slot()
-    def _synthesis_cancelled(self) -> None:
-        self.runner._forward(self, "synthesis_cancelled")
-
-    @Slot()
-    def _done(self) -> None:
-        self.runner._run_done(self)
-
     @Slot()
     def _thread_finished(self) -> None:
-        self.runner._thread_finished(self)
+        for worker, thread in list(self._threads.items()):
+            if thread is self.sender():
+                thread.wait()  # finished is emitted just before the thread really ends
+                del self._threads[worker]
 
 
-class VariationsWorker(QObject):
-    """Runs one batch of variations on the thread it is moved to.
+def _call(function: Callable[[], object]):
+    """A generator that yields nothing and returns ``function()``."""
+    yield from ()
+    return function()
 
-    Parameters
-    ----------
-    job : callable
-        ``job(progress, cancel)`` returns the list of core results;
-        ``progress(index, result)`` is to be called as each one finishes and
-        ``cancel()`` polled (e.g. ``SynthesisRequest.make_variations``).
 
-    Signals
-    -------
-    variation_finished(int, object)
-        Variation ``index`` is done; carries its ``SynthesisResult``.
-    variations_finished(object)
-        The list of all results, in seed order.
-    variations_failed(str)
-        One-line message; the batch is over.
-    variations_cancelled()
-        The batch stopped on request.
-    done()
-        Always last.
-    """
+class _PoolJob(QRunnable):
+    """Runs a :class:`GeneratorWorker` on a pool thread."""
 
-    variation_finished = Signal(int, object)
-    variations_finished = Signal(object)
-    variations_failed = Signal(str)
-    variations_cancelled = Signal()
-    done = Signal()
-
-    def __init__(self, job: Callable[[Callable, Callable], list]) -> None:
+    def __init__(self, worker: GeneratorWorker) -> None:
         super().__init__()
-        self._job = job
-        self._cancel = threading.Event()
-
-    def cancel(self) -> None:
-        """Ask the batch to stop (callable from any thread)."""
-        self._cancel.set()
-
-    @Slot()
-    def run(self) -> None:
-        try:
-            results = self._job(self.variation_finished.emit, self._cancel.is_set)
-        except SynthesisCancelled:
-            self.variations_cancelled.emit()
-        except Exception as exc:  # shown to the user, never lost in a thread
-            _log_failure("variations", exc)
-            self.variations_failed.emit(describe_error(exc))
-        else:
-            if self._cancel.is_set():
-                self.variations_cancelled.emit()
-            else:
-                self.variations_finished.emit(results)
-        finally:
-            self.done.emit()
-
-
-class VariationsRunner(_OneAtATime):
-    """Starts batches of variations, one current at a time, and forwards
-    their signals (those of :class:`VariationsWorker`, for the current batch
-    only).  ``running_changed(bool)`` tells when a batch starts or ends."""
-
-    variation_finished = Signal(int, object)
-    variations_finished = Signal(object)
-    variations_failed = Signal(str)
-    variations_cancelled = Signal()
-    running_changed = Signal(bool)
-
-    WAIT_MS = 30_000
-
-    def start(self, job: Callable[[Callable, Callable], list]) -> None:
-        """Start a batch, cancelling the current one."""
-        self._start(_VariationsRun(self, VariationsWorker(job)))
-
-
-class _VariationsRun(QObject):
-    """One batch: a worker, its thread, and GUI-thread slots relaying the
-    worker's queued signals to the runner while the batch is current."""
-
-    def __init__(self, runner: VariationsRunner, worker: VariationsWorker) -> None:
-        super().__init__()
-        self.runner = runner
-        self.worker = worker
-        self.thread = QThread()
-        worker.moveToThread(self.thread)
-        self.thread.started.connect(worker.run)
-        worker.variation_finished.connect(self._variation_finished)
-        worker.variations_finished.connect(self._variations_finished)
-        worker.variations_failed.connect(self._variations_failed)
-        worker.variations_cancelled.connect(self._variations_cancelled)
-        worker.done.connect(self._done)
-        # Direct: QThread.quit is thread-safe, and a queued call would wait for
-        # the GUI thread, which may be blocked in wait() at exit.
-        worker.done.connect(self.thread.quit, Qt.DirectConnection)
-        self.thread.finished.connect(self._thread_finished)
-
-    @Slot(int, object)
-    def _variation_finished(self, index: int, result) -> None:
-        self.runner._forward(self, "variation_finished", index, result)
-
-    @Slot(object)
-    def _variations_finished(self, results) -> None:
-        self.runner._forward(self, "variations_finished", results)
-
-    @Slot(str)
-    def _variations_failed(self, message: str) -> None:
-        self.runner._forward(self, "variations_failed", message)
-
-    @Slot()
-    def _variations_cancelled(self) -> None:
-        self.runner._forward(self, "variations_cancelled")
-
-    @Slot()
-    def _done(self) -> None:
-        self.runner._run_done(self)
-
-    @Slot()
-    def _thread_finished(self) -> None:
-        self.runner._thread_finished(self)
-
-
-class _JobSignals(QObject):
-    finished = Signal(object)
-    failed = Signal(str)
-
-    #: Signals of jobs whose result is not delivered yet, kept alive here
-    #: because the pool deletes the runnable as soon as it has run.
-    active: set["_JobSignals"] = set()
-
-    @Slot()
-    def release(self) -> None:
-        _JobSignals.active.discard(self)
-
-
-class BackgroundJob(QRunnable):
-    """A function run on Qt's global thread pool; its result or error comes back by signal.
-
-    Parameters
-    ----------
-    function : callable
-        Called with no argument on a pool thread.
-    """
-
-    def __init__(self, function: Callable[[], object]) -> None:
-        super().__init__()
-        self._function = function
-        self.signals = _JobSignals()
+        self._worker = worker
 
     def run(self) -> None:
-        try:
-            value = self._function()
-        except Exception as exc:
-            _log_failure("background job", exc)
-            self.signals.failed.emit(describe_error(exc))
-        else:
-            self.signals.finished.emit(value)
+        self._worker.run()
+
+
+class _PoolWorkers(QObject):
+    """The workers running on the thread pool, kept alive (on the GUI thread)
+    until their last signal has been delivered."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._workers: set[GeneratorWorker] = set()
+
+    def start(self, worker: GeneratorWorker) -> None:
+        self._workers.add(worker)
+        # Queued, and connected after the caller's slots: runs after them.
+        worker.finished.connect(self._release)
+        QThreadPool.globalInstance().start(_PoolJob(worker))
+
+    @Slot()
+    def _release(self) -> None:
+        self._workers.discard(self.sender())
+
+
+_pool_workers: _PoolWorkers | None = None
 
 
 def run_in_background(function: Callable[[], object], on_finished: Callable[[object], None],
                       on_failed: Callable[[str], None]) -> None:
     """Run ``function`` on Qt's thread pool and call back on the GUI thread.
+
+    The same :class:`GeneratorWorker`, around a generator that yields nothing
+    and returns ``function()``, run on a pool thread rather than a thread of
+    its own.  Call from the GUI thread.
 
     Parameters
     ----------
@@ -443,12 +294,10 @@ def run_in_background(function: Callable[[], object], on_finished: Callable[[obj
     The callbacks must be bound methods of QObjects living on the GUI thread,
     so Qt queues the calls there.
     """
-    job = BackgroundJob(function)
-    signals = job.signals
-    signals.finished.connect(on_finished)
-    signals.failed.connect(on_failed)
-    # Connected last, so it runs after the callbacks of the same emission.
-    signals.finished.connect(signals.release)
-    signals.failed.connect(signals.release)
-    _JobSignals.active.add(signals)
-    QThreadPool.globalInstance().start(job)
+    global _pool_workers
+    if _pool_workers is None:
+        _pool_workers = _PoolWorkers()
+    worker = GeneratorWorker(_call(function))
+    worker.returned.connect(on_finished)
+    worker.errored.connect(on_failed)
+    _pool_workers.start(worker)

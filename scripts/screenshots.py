@@ -117,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
     QTimer.singleShot(0, next_picture)
     app.exec()
     for window in windows:
-        window.runner.wait()
+        window.synthesis.wait()
         if window.view3d.plotter is not None:
             window.view3d.plotter.close()
     return state["status"]
@@ -141,9 +141,9 @@ def default_pictures(window, args, fail, done):
         if grabbed(window, args.out / "app_finished.png", fail):
             done()
 
-    window.runner.patch_placed.connect(patch_placed)
-    window.runner.synthesis_finished.connect(lambda _result: QTimer.singleShot(500, finish))
-    window.runner.synthesis_failed.connect(fail)
+    window.synthesis.patch_placed.connect(patch_placed)
+    window.synthesis.finished.connect(lambda _result: QTimer.singleShot(500, finish))
+    window.synthesis.failed.connect(fail)
     QTimer.singleShot(500, window.synthesize)
     return window
 
@@ -168,9 +168,9 @@ def middle_earth_picture(window, args, fail, done):
         QTimer.singleShot(300, window.synthesize)
 
     window.example_map_opened.connect(opened)
-    window.runner.synthesis_finished.connect(lambda _result: QTimer.singleShot(500, finish))
-    window.runner.synthesis_failed.connect(fail)
-    QTimer.singleShot(500, window.example_map_actions["middle-earth"].trigger)
+    window.synthesis.finished.connect(lambda _result: QTimer.singleShot(500, finish))
+    window.synthesis.failed.connect(fail)
+    QTimer.singleShot(500, window.actions.example_maps["middle-earth"].trigger)
     return window
 
 

@@ -1,4 +1,4 @@
-"""The app's document model: plain Python, no Qt.
+"""The app's model: plain Python, no Qt.
 
 :class:`Document` holds the :class:`Sketch` (strokes, style regions and
 water, with undo history), the chosen :class:`ExampleRef` list, the styles
@@ -8,45 +8,69 @@ synthesis parameters and the last :class:`TerrainResult`;
 :class:`RecoveryStore` autosaves it; :func:`example_map_document` makes one
 of a built-in multi-style map, and :mod:`.region_maps` reads style-region
 and water-mask PNGs into its layers.
+
+A run is a :class:`SynthesisRequest` (a snapshot of the document) and the
+generators :func:`synthesis_events` / :func:`variation_events` that a worker
+drains.  Derived data: :class:`SketchGraph` and :class:`TerrainGraph`, the
+feature graphs of the sketch and of the terrain.
 """
 
-from .controls import StampSpec, StyleSpec, fitting_scale
-from .document import Document, SynthesisRequest
-from .events import Event
+from .brushes import capsule_coverage
+from .control_specs import StampSpec, StyleSpec, fitting_scale
+from .dem_features import dem_feature_layers, dem_file_feature_layers
+from .document import Document
+from .example_library import ExampleRef, builtin_refs
 from .example_maps import EXAMPLE_MAPS, example_map_document
-from .examples import ExampleRef, builtin_refs
+from .export import export_terrain
+from .feature_graphs import DerivedGraph, SketchGraph, TerrainGraph
 from .history import SketchEdit, SketchHistory
+from .observable import Observable
 from .project import PROJECT_EXTENSION, ProjectError, load_project, save_project
 from .recovery import RecoveryStore
 from .region_maps import style_layer_from_png, water_layer_from_png
 from .result import TerrainResult
-from .sketch import REGION_TOOLS, STROKE_TOOLS, TOOLS, Sketch, capsule_coverage, resize_nearest
+from .run_request import (MAX_SEED, RunInfo, RunStarted, SynthesisRequest, VariationMade, run_info, synthesis_events,
+                          variation_events)
+from .sketch_layers import REGION_TOOLS, STROKE_TOOLS, TOOLS, Sketch, resize_nearest
 
 __all__ = [
     "EXAMPLE_MAPS",
+    "MAX_SEED",
     "PROJECT_EXTENSION",
     "REGION_TOOLS",
     "STROKE_TOOLS",
     "TOOLS",
+    "DerivedGraph",
     "Document",
-    "Event",
     "ExampleRef",
+    "Observable",
     "ProjectError",
     "RecoveryStore",
+    "RunInfo",
+    "RunStarted",
     "Sketch",
     "SketchEdit",
+    "SketchGraph",
     "SketchHistory",
     "StampSpec",
     "StyleSpec",
     "SynthesisRequest",
+    "TerrainGraph",
     "TerrainResult",
+    "VariationMade",
     "builtin_refs",
     "capsule_coverage",
+    "dem_feature_layers",
+    "dem_file_feature_layers",
     "example_map_document",
+    "export_terrain",
     "fitting_scale",
     "load_project",
     "resize_nearest",
+    "run_info",
     "save_project",
     "style_layer_from_png",
+    "synthesis_events",
+    "variation_events",
     "water_layer_from_png",
 ]

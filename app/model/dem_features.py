@@ -6,6 +6,7 @@ import numpy as np
 
 from terrasynth_core.features import FeatureGraph, FeatureNode, FeaturePath, extract_features
 from terrasynth_core.heightfield import HeightField
+from terrasynth_core.io import load_dem
 
 
 def scaled_graph(graph: FeatureGraph, shape: tuple[int, int]) -> FeatureGraph:
@@ -42,3 +43,14 @@ def dem_feature_layers(field: HeightField, shape: tuple[int, int], *, width: int
     ridge = scaled_graph(maps.ridges, shape).rasterize(width)
     valley = scaled_graph(maps.valleys, shape).rasterize(width) & ~ridge
     return (ridge * np.uint8(255)).astype(np.uint8), (valley * np.uint8(255)).astype(np.uint8)
+
+
+def dem_file_feature_layers(path, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`dem_feature_layers` of the DEM file at ``path`` (slow: reads and traces it).
+
+    Raises
+    ------
+    TerraSynthError
+        When the file is not a readable DEM.
+    """
+    return dem_feature_layers(load_dem(path), shape)

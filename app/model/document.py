@@ -10,22 +10,24 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
+from terrasynth_core.controls.options import check_height_range
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.examples import DEFAULT_EXAMPLE, DEFAULT_SKETCH, resource_path
-from terrasynth_core.features import SketchMap, read_sketch
-from terrasynth_core.synthesis import Controls, Pin, Session, SynthesisParams, Water, run_variations
+from terrasynth_core.features import read_sketch
+from terrasynth_core.synthesis import Pin, SynthesisParams
 
-from .controls import STYLE_PALETTE, StampSpec, StyleSpec
-from .events import Event
-from .examples import ExampleRef
+from .control_specs import STYLE_PALETTE, StampSpec, StyleSpec
+from .example_library import ExampleRef
+from .observable import Observable
 from .result import TerrainResult
-from .sketch import MAX_STYLE_ID, Sketch, capsule_coverage
+from .run_request import SynthesisRequest
+from .brushes import capsule_coverage
+from .sketch_layers import MAX_STYLE_ID, Sketch
 
 #: Marks "keep the current value" for keyword arguments that accept None.
 _KEEP = object()
@@ -59,7 +61,7 @@ class Document:
 
     Attributes
     ----------
-    changed : Event
+    changed : Observable
         Emitted with what changed: ``"examples"``, ``"params"``,
         ``"result"``, ``"styles"``, ``"water_level"``, ``"height_range"``,
         ``"pins"``, ``"stamps"``, ``"selection"``, ``"path"`` or ``"dirty"``
@@ -80,12 +82,12 @@ class Document:
         self._path = Path(path) if path is not None else None
         self._styles = list(styles)
         self._water_level = _finite(water_level, "water level")
-        self._height_range = _checked_range(height_range)
+        self._height_range = check_height_range(height_range)
         self._pins = list(pins)
         self._stamps = list(stamps)
         self._next_style_id = int(next_style_id)
         self._selection: np.ndarray | None = None
-        self.changed = Event()
+        self.changed = Observable()
         # Every change bumps the generation; the document is dirty while it
         # differs from the generation last saved.
         self._generation = 0
@@ -267,7 +269,7 @@ class Document:
         return round(float(np.percentile(heights, 50 if water.any() else 10)), 1)
 
     def set_height_range(self, height_range: tuple[float, float] | None) -> None:
-        height_range = _checked_range(height_range)
+        height_range = check_height_range(height_range)
         if height_range != self._height_range:
             self._height_range = height_range
             self._touch("height_range")
@@ -406,7 +408,7 @@ class Document:
         return copy
 
     # -- synthesis --------------------------------------------------------------------
-    def synthesis_request(self) -> "SynthesisRequest":
+    def synthesis_request(self) -> SynthesisRequest:
         """A snapshot of what to synthesize, safe to hand to a worker thread.
 
         Raises
@@ -424,7 +426,7 @@ class Document:
             water=np.array(self.sketch.water) if self.sketch.has_water else None, water_level=self._water_level,
             height_range=self._height_range, pins=tuple(self._pins), stamps=tuple(self._stamps))
 
-    def resynthesis_request(self, seed: int) -> "SynthesisRequest":
+    def resynthesis_request(self, seed: int) -> SynthesisRequest:
         """What to synthesize to replace the selected cells of the current
         terrain with a new variant (seed ``seed``); the rest stays as it is.
 
@@ -479,126 +481,8 @@ class Document:
             self.set_selection(None)
 
 
-@dataclass(frozen=True, eq=False)
-class SynthesisRequest:
-    """Immutable inputs of one run, taken from the document on the GUI thread.
-
-    :meth:`make_session` does the slow part (reading and analysing the
-    examples) and is meant to be called on a worker thread.
-
-    Parameters
-    ----------
-    examples : tuple of ExampleRef
-    sketch_map : SketchMap or None
-    shape : (rows, cols)
-    params : SynthesisParams
-    styles : tuple of StyleSpec
-        The styles painted somewhere, in ``style_map`` index order.
-    style_map : ndarray of int16, shape (rows, cols), or None
-        Index into ``styles`` per cell, -1 for the plain examples.
-    water : ndarray of bool, shape (rows, cols), or None
-    water_level : float
-    height_range : (low, high) or None
-    pins : tuple of Pin
-    stamps : tuple of StampSpec
-    previous : ndarray of float32, shape (rows, cols), or None
-        For a re-synthesis: the terrain to keep outside ``selection``.
-    selection : ndarray of bool, shape (rows, cols), or None
-    """
-
-    examples: tuple[ExampleRef, ...]
-    sketch_map: SketchMap | None
-    shape: tuple[int, int]
-    params: SynthesisParams
-    styles: tuple[StyleSpec, ...] = ()
-    style_map: np.ndarray | None = None
-    water: np.ndarray | None = None
-    water_level: float = 0.0
-    height_range: tuple[float, float] | None = None
-    pins: tuple[Pin, ...] = ()
-    stamps: tuple[StampSpec, ...] = ()
-    previous: np.ndarray | None = None
-    selection: np.ndarray | None = None
-
-    def make_controls(self) -> Controls:
-        """The core controls, style and stamp DEMs read (slow)."""
-        return Controls(
-            styles=tuple(spec.to_core() for spec in self.styles),
-            style_map=self.style_map,
-            water=Water(self.water, self.water_level) if self.water is not None else None,
-            stamps=tuple(spec.to_core() for spec in self.stamps),
-            pins=self.pins,
-            height_range=self.height_range,
-            previous=self.previous,
-            selection=self.selection,
-        )
-
-    def make_session(self) -> Session:
-        """Load the examples and build the validated core session.
-
-        Raises
-        ------
-        TerraSynthError
-            For an unreadable example or inconsistent inputs.
-        """
-        fields = [ref.load() for ref in self.examples]
-        return Session(fields, self.sketch_map, shape=self.shape, params=self.params, controls=self.make_controls())
-
-    def source_fields(self) -> list:
-        """The height fields of the plain examples, then of the styles (slow)."""
-        return [ref.load() for ref in self.examples] + [spec.example.load() for spec in self.styles]
-
-    def cell_size(self) -> tuple[float, float] | None:
-        """Ground size of an output cell: that of the first example (or style), metres."""
-        return self.source_fields()[0].cell_size
-
-    def make_variations(self, seeds: Sequence[int], *, progress: Callable | None = None,
-                        cancel: Callable[[], bool] | None = None, workers: int | None = None) -> list[TerrainResult]:
-        """One terrain per seed, made in parallel processes.
-
-        Parameters
-        ----------
-        seeds : sequence of int
-            Distinct, non-negative.
-        progress : callable(index, TerrainResult), optional
-            Called (in this thread) as each variation finishes.
-        cancel : callable() -> bool, optional
-            Polled; True stops them all (``SynthesisCancelled`` is raised).
-        workers : int, optional
-            Processes; default one per core, at most one per seed.
-
-        Returns
-        -------
-        list of TerrainResult
-            In the order of ``seeds``.
-        """
-        fields = [ref.load() for ref in self.examples]
-        cell_size = self.cell_size()
-        terrains: dict[int, TerrainResult] = {}
-
-        def finished(index: int, result) -> None:
-            # The core reports every variation here, so the objects handed to
-            # ``progress`` are the ones returned.
-            terrains[index] = TerrainResult.from_synthesis(result, cell_size=cell_size)
-            if progress is not None:
-                progress(index, terrains[index])
-
-        results = run_variations(fields, self.sketch_map, seeds=seeds, shape=self.shape, params=self.params,
-                                 controls=self.make_controls(), workers=workers, progress=finished, cancel=cancel)
-        return [terrains[i] for i in range(len(results))]
-
-
 def _finite(value: float, what: str) -> float:
     value = float(value)
     if not math.isfinite(value):
         raise ParamsError(f"{what} must be a finite number of metres, got {value}")
     return value
-
-
-def _checked_range(height_range) -> tuple[float, float] | None:
-    if height_range is None:
-        return None
-    lo, hi = (float(v) for v in height_range)
-    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-        raise ParamsError(f"height range must be two finite heights LOW < HIGH, got {tuple(height_range)}")
-    return lo, hi

@@ -20,10 +20,10 @@ from terrasynth_core.features.labels import read_label_map, read_mask
 from terrasynth_core.presets import PRESETS
 from terrasynth_core.synthesis import Pin
 
-from .controls import StampSpec, StyleSpec
+from .control_specs import StampSpec, StyleSpec
 from .document import Document
-from .examples import ExampleRef
-from .sketch import Sketch
+from .example_library import ExampleRef
+from .sketch_layers import Sketch
 
 #: Example maps the app offers: preset key -> title for menus.
 EXAMPLE_MAPS = {"middle-earth": "Middle-earth"}

@@ -33,11 +33,11 @@ from terrasynth_core.errors import TerraSynthError
 from terrasynth_core.features import FeatureGraph, FeatureMaps
 from terrasynth_core.synthesis import Pin, SynthesisParams
 
-from .controls import StampSpec, StyleSpec
+from .control_specs import StampSpec, StyleSpec
 from .document import Document
-from .examples import ExampleRef
+from .example_library import ExampleRef
 from .result import TerrainResult
-from .sketch import Sketch
+from .sketch_layers import Sketch
 
 #: Extension of project files.
 PROJECT_EXTENSION = ".tsproj"

@@ -16,8 +16,8 @@ import numpy as np
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.features.labels import read_label_map, read_mask
 
-from .controls import StyleSpec
-from .sketch import NO_STYLE, resize_nearest
+from .control_specs import StyleSpec
+from .sketch_layers import NO_STYLE, resize_nearest
 
 
 def style_layer_from_png(path, styles: Sequence[StyleSpec], shape: tuple[int, int]) -> np.ndarray:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from PySide6.QtWidgets import QDialog, QDialogButtonBox, QFormLayout, QSpinBox, QWidget
 
-from ..model.sketch import MAX_SIDE
+from ..model.sketch_layers import MAX_SIDE
 
 
 class NewSketchDialog(QDialog):

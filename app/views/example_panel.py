@@ -12,16 +12,16 @@ from dataclasses import dataclass
 import numpy as np
 from PySide6.QtCore import QSize, Qt, Signal
 from PySide6.QtGui import QIcon, QImage, QPixmap
-from PySide6.QtWidgets import (QFileDialog, QHBoxLayout, QListWidget, QListWidgetItem, QPushButton, QVBoxLayout,
+from PySide6.QtWidgets import (QListWidget, QListWidgetItem, QPushButton, QVBoxLayout,
                                QWidget)
 
-from terrasynth_core.examples import builtin_example
 from terrasynth_core.io import READ_EXTENSIONS
 from terrasynth_core.pictures import thumbnail
 
 from ..model.document import Document
-from ..model.examples import ExampleRef, builtin_refs
+from ..model.example_library import ExampleRef, builtin_refs
 from ..workers import run_in_background
+from .panel_widgets import ask_dem_file, hbox
 
 THUMB_SIDE = 96
 _REF_ROLE = Qt.UserRole + 1
@@ -53,7 +53,7 @@ def load_info(ref: ExampleRef) -> ExampleInfo:
     """Read ``ref`` and make its library entry (runs on a pool thread)."""
     field = ref.load()
     thumb = None
-    if ref.builtin is None or not builtin_example(ref.builtin).thumbnail_path.is_file():
+    if ref.thumbnail_file is None:
         thumb = thumbnail(field.heights, cell_size=field.cell_size, side=THUMB_SIDE)
     return ExampleInfo(ref, field.shape, field.cell_size, (field.min, field.max), thumb)
 
@@ -100,9 +100,7 @@ class ExamplePanel(QWidget):
         self.remove_button = QPushButton("Remove")
         self.remove_button.setToolTip("Remove the selected file from the library")
         self.remove_button.clicked.connect(self.remove_current)
-        buttons = QHBoxLayout()
-        buttons.addWidget(self.add_button)
-        buttons.addWidget(self.remove_button)
+        buttons = hbox(self.add_button, self.remove_button)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.list, 1)
@@ -130,13 +128,9 @@ class ExamplePanel(QWidget):
         item.setData(_REF_ROLE, ref)
         item.setFlags(item.flags() | Qt.ItemIsUserCheckable)
         item.setCheckState(Qt.Checked if checked else Qt.Unchecked)
-        if ref.builtin is not None:
-            ex = builtin_example(ref.builtin)
-            item.setToolTip(f"{ex.name}\n{ex.style}\nSource: {ex.source} ({ex.licence})")
-            if ex.thumbnail_path.is_file():
-                item.setIcon(QIcon(str(ex.thumbnail_path)))
-        else:
-            item.setToolTip(ref.path)
+        item.setToolTip(ref.description)
+        if ref.thumbnail_file is not None:
+            item.setIcon(QIcon(str(ref.thumbnail_file)))
         self._syncing = True
         self.list.addItem(item)
         self._syncing = False
@@ -168,9 +162,8 @@ class ExamplePanel(QWidget):
 
     # -- user actions -----------------------------------------------------------------------------
     def choose_file(self) -> None:
-        patterns = " ".join(f"*{ext}" for ext in READ_EXTENSIONS)
-        path, _ = QFileDialog.getOpenFileName(self, "Add a DEM", "", f"DEM files ({patterns});;All files (*)")
-        if path:
+        path = ask_dem_file(self, "Add a DEM", any_file=True)
+        if path is not None:
             self.add_file(path)
 
     def add_file(self, path: str) -> None:

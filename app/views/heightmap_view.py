@@ -13,9 +13,9 @@ from PySide6.QtCore import QTimer, Signal
 from PySide6.QtGui import QColor, QPen
 from PySide6.QtWidgets import QCheckBox, QGraphicsRectItem, QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
-from terrasynth_core.features import extract_features
 from terrasynth_core.pictures import height_range, patch_colours, shaded_relief, shaded_window
 
+from ..controllers import FeatureGraphController
 from ..model.result import TerrainResult
 from ..workers import run_in_background
 from .feature_overlay import FeatureGraphOverlay, legend_text
@@ -26,6 +26,11 @@ REFRESH_MS = 40
 
 class HeightmapView(QWidget):
     """Shaded relief of the live or last synthesized terrain.
+
+    Parameters
+    ----------
+    terrain_graph : FeatureGraphController
+        Hands over the ridges and valleys of the document's terrain.
 
     Signals
     -------
@@ -41,8 +46,9 @@ class HeightmapView(QWidget):
     result_shown = Signal()
     terrain_features_ready = Signal(object)
 
-    def __init__(self, parent: QWidget | None = None) -> None:
+    def __init__(self, terrain_graph: FeatureGraphController, parent: QWidget | None = None) -> None:
         super().__init__(parent)
+        self.terrain_graph = terrain_graph
         self.heights: np.ndarray | None = None  # GUI-side buffer, NaN = not yet synthesized
         self._rgba: np.ndarray | None = None
         self._rgba_result: TerrainResult | None = None  # the finished result _rgba shows, if any
@@ -50,8 +56,8 @@ class HeightmapView(QWidget):
         self._vrange = (0.0, 1.0)
         self._result: TerrainResult | None = None
         self._dirty = False
-        # Bumped by every new result or run; late background work for an
-        # older one is dropped.
+        # Bumped by every new result or run; late images of an older one are
+        # dropped.
         self._features_generation = 0
         self.last_bbox: tuple[int, int, int, int] | None = None
         self.patches_pasted = 0
@@ -104,6 +110,8 @@ class HeightmapView(QWidget):
 
         self._timer = QTimer(self, interval=REFRESH_MS)
         self._timer.timeout.connect(self._refresh)
+        terrain_graph.ready.connect(self._terrain_features_done)
+        terrain_graph.failed.connect(self._terrain_features_failed)
 
     # -- live run ---------------------------------------------------------------------------
     def begin_run(self, shape: tuple[int, int], *, cell_size: tuple[float, float] | None,
@@ -245,15 +253,11 @@ class HeightmapView(QWidget):
             self._extract_terrain_features()
 
     def _extract_terrain_features(self) -> None:
-        generation = self._features_generation
-        heights = self._result.heights
-        run_in_background(lambda: (generation, extract_features(heights)), self._terrain_features_done,
-                          self._terrain_features_failed)
+        self.terrain_graph.request()
 
-    def _terrain_features_done(self, value) -> None:
-        generation, maps = value
-        if generation != self._features_generation:
-            return
+    def _terrain_features_done(self, maps) -> None:
+        if self._result is None or self._timer.isActive():
+            return  # a run started meanwhile; the next result asks again
         self.terrain_overlay.set_maps(maps)
         self.terrain_features_ready.emit(maps)
 

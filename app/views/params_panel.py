@@ -5,16 +5,15 @@ from __future__ import annotations
 import secrets
 
 from PySide6.QtCore import Signal
-from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QHBoxLayout, QLabel, QPushButton,
+from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QLabel, QPushButton,
                                QSpinBox, QWidget)
 
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.synthesis import SynthesisParams
 
+from ..model import MAX_SEED
 from ..model.document import Document
-
-#: Largest seed the spin box takes (Qt spin boxes are 32-bit).
-MAX_SEED = 2**31 - 1
+from .panel_widgets import error_label, hbox
 
 _TIPS = {
     "patch_size": "Side of a square patch in output cells (the paper uses 80). Larger patches copy "
@@ -60,17 +59,13 @@ class ParamsPanel(QWidget):
         self.patch_size = QSpinBox(minimum=16, maximum=512, suffix=" cells")
         self.overlap_auto = QCheckBox("auto")
         self.overlap = QSpinBox(minimum=2, maximum=256, suffix=" cells")
-        overlap_row = QHBoxLayout()
-        overlap_row.addWidget(self.overlap_auto)
-        overlap_row.addWidget(self.overlap, 1)
+        overlap_row = hbox(self.overlap_auto, (self.overlap, 1))
         self.k = QSpinBox(minimum=1, maximum=64)
         self.seed = QSpinBox(minimum=0, maximum=MAX_SEED)
         self.randomize_button = QPushButton("Randomize")
         self.randomize_button.setToolTip("Pick a new random seed")
         self.randomize_button.clicked.connect(self.randomize_seed)
-        seed_row = QHBoxLayout()
-        seed_row.addWidget(self.seed, 1)
-        seed_row.addWidget(self.randomize_button)
+        seed_row = hbox((self.seed, 1), self.randomize_button)
         self.order = QComboBox()
         self.order.addItems(["bfs", "raster"])
         self.seam = QComboBox()
@@ -82,8 +77,7 @@ class ParamsPanel(QWidget):
         self.workers = QSpinBox(minimum=0, maximum=256, specialValueText="all cores")
         self.feature_weight = QDoubleSpinBox(minimum=0.0, maximum=100.0, singleStep=0.1, decimals=2)
         self.output_label = QLabel()
-        self.error_label = QLabel(wordWrap=True)
-        self.error_label.setStyleSheet("color: #c00000")
+        self.error_label = error_label()
 
         for label, widget, name in (
             ("Patch size", self.patch_size, "patch_size"),

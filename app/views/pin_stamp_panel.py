@@ -10,16 +10,16 @@ stamp's footprint).
 from __future__ import annotations
 
 from PySide6.QtCore import Qt, Signal
-from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QDoubleSpinBox, QFileDialog, QFormLayout, QGroupBox,
+from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox,
                                QHeaderView, QLabel, QPushButton, QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget)
 
+from terrasynth_core.controls.options import STAMP_SCALE_RANGE
 from terrasynth_core.errors import TerraSynthError
-from terrasynth_core.io import READ_EXTENSIONS
 
-from ..model.controls import STAMP_SCALE_RANGE
 from ..model.document import Document
-from ..model.examples import ExampleRef, builtin_refs
+from ..model.example_library import ExampleRef, builtin_refs
 from ..workers import run_in_background
+from .panel_widgets import apply_edit, ask_dem_file, error_label
 
 #: The built-in stamp offered first: the paper's Mount Doom.
 DEFAULT_STAMP = "st-helens"
@@ -110,8 +110,7 @@ class PinStampPanel(QWidget):
         stamps_layout.addWidget(self.stamp_table, 1)
         stamps_layout.addLayout(edit_form)
         stamps_layout.addWidget(self.remove_stamp_button)
-        self.error_label = QLabel(wordWrap=True)
-        self.error_label.setStyleSheet("color: #c00000")
+        self.error_label = error_label()
 
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
@@ -158,9 +157,8 @@ class PinStampPanel(QWidget):
         if ref is not None:
             self.set_stamp_source(ref)
             return
-        patterns = " ".join(f"*{ext}" for ext in READ_EXTENSIONS)
-        path, _ = QFileDialog.getOpenFileName(self, "DEM to stamp", "", f"DEM files ({patterns})")
-        if path:
+        path = ask_dem_file(self, "DEM to stamp")
+        if path is not None:
             self.set_stamp_source(ExampleRef(path=path))
         else:
             self._show_source()
@@ -242,14 +240,8 @@ class PinStampPanel(QWidget):
 
     def _edit_stamp(self, **changes) -> None:
         index = self.current_stamp
-        if self._syncing or index is None:
-            return
-        try:
-            self.document.update_stamp(index, **changes)
-        except TerraSynthError as exc:
-            self.error_label.setText(str(exc))
-            return
-        self.error_label.clear()
+        if not self._syncing and index is not None:
+            apply_edit(self.error_label, lambda: self.document.update_stamp(index, **changes))
 
     def _stamp_selected(self) -> None:
         index = self.current_stamp

@@ -22,11 +22,10 @@ from PySide6.QtGui import QAction, QActionGroup, QColor, QKeySequence, QPen
 from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QGraphicsEllipseItem, QGraphicsRectItem,
                                QLabel, QSpinBox, QToolBar, QVBoxLayout, QWidget)
 
-from terrasynth_core.features import sketch_features
-
+from ..controllers import FeatureGraphController
+from ..model import SketchGraph
 from ..model.document import Document
-from ..model.sketch import TOOLS, Sketch
-from ..workers import run_in_background
+from ..model.sketch_layers import TOOLS, Sketch
 from .controls_overlay import ControlsOverlay
 from .feature_overlay import FeatureGraphOverlay, legend_text
 from .style_panel import swatch
@@ -67,16 +66,18 @@ class SketchCanvas(QWidget):
     stamp_requested = Signal(float, float)
     notice = Signal(str)
 
-    def __init__(self, sketch: Sketch, parent: QWidget | None = None, *, document: Document | None = None) -> None:
+    def __init__(self, sketch: Sketch, parent: QWidget | None = None, *, document: Document | None = None,
+                 graphs: FeatureGraphController | None = None) -> None:
         super().__init__(parent)
         self.sketch = sketch
         self.document = document
+        self.graphs = graphs if graphs is not None else FeatureGraphController(
+            SketchGraph(sketch), delay_ms=GRAPH_DELAY_MS, parent=self)
         self._drag: str | None = None  # tool of the drag in progress
         self._rect_start: tuple[float, float] | None = None
         self._stroking = False
         self._last_point: tuple[float, float] | None = None
         self._poly_points: list[tuple[float, float]] = []
-        self._graph_generation = 0
         self._rgb = sketch.to_rgb()
 
         self.view = pg.GraphicsView()
@@ -122,8 +123,8 @@ class SketchCanvas(QWidget):
 
         self._refresh_timer = QTimer(self, singleShot=True, interval=REFRESH_MS)
         self._refresh_timer.timeout.connect(self._refresh_image)
-        self._graph_timer = QTimer(self, singleShot=True, interval=GRAPH_DELAY_MS)
-        self._graph_timer.timeout.connect(self._update_graph)
+        self.graphs.ready.connect(self._graph_ready)
+        self.graphs.failed.connect(self._graph_failed)
 
         self.view.viewport().installEventFilter(self)
         self.view.installEventFilter(self)
@@ -429,9 +430,6 @@ class SketchCanvas(QWidget):
             self._rgb[r0:r1, c0:c1] = self.sketch.to_rgb(bbox)
             if not self._refresh_timer.isActive():
                 self._refresh_timer.start()
-        self._graph_generation += 1
-        if self.graph_check.isChecked():
-            self._graph_timer.start()
 
     def _refresh_image(self) -> None:
         self.image.setImage(self._rgb, autoLevels=False, levels=None)
@@ -444,21 +442,9 @@ class SketchCanvas(QWidget):
     def _graph_toggled(self, on: bool) -> None:
         self.overlay.set_visible(on)
         self.legend.setVisible(on)
-        if on:
-            self._update_graph()
+        self.graphs.set_wanted(on)
 
-    def _update_graph(self) -> None:
-        if self.sketch.stroking:
-            self._graph_timer.start()
-            return
-        generation = self._graph_generation
-        sketch_map = self.sketch.to_sketch_map()
-        run_in_background(lambda: (generation, sketch_features(sketch_map)), self._graph_ready, self._graph_failed)
-
-    def _graph_ready(self, value) -> None:
-        generation, maps = value
-        if generation != self._graph_generation:
-            return  # the sketch changed meanwhile; a newer computation is queued
+    def _graph_ready(self, maps) -> None:
         self.overlay.set_maps(maps)
         self.feature_graph_updated.emit(maps)
 

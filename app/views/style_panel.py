@@ -12,17 +12,15 @@ from __future__ import annotations
 import numpy as np
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtGui import QColor, QIcon, QPixmap
-from PySide6.QtWidgets import (QCheckBox, QColorDialog, QDoubleSpinBox, QFileDialog, QFormLayout, QGroupBox,
-                               QHBoxLayout, QLabel, QLineEdit, QListWidget, QListWidgetItem, QMenu, QPushButton,
+from PySide6.QtWidgets import (QCheckBox, QColorDialog, QDoubleSpinBox, QFormLayout, QGroupBox,
+                               QLabel, QLineEdit, QListWidget, QListWidgetItem, QMenu, QPushButton,
                                QToolButton, QVBoxLayout, QWidget)
 
-from terrasynth_core.errors import TerraSynthError
-from terrasynth_core.io import READ_EXTENSIONS
-
-from ..model.controls import RELIEF_SCALE_RANGE, StyleSpec
+from ..model.control_specs import RELIEF_SCALE_RANGE, StyleSpec
 from ..model.document import Document
-from ..model.examples import ExampleRef, builtin_refs
+from ..model.example_library import ExampleRef, builtin_refs
 from ..workers import run_in_background
+from .panel_widgets import apply_edit, ask_dem_file, error_label, hbox
 
 _ID_ROLE = Qt.UserRole + 1
 #: Heights the spin boxes accept, metres (below the Dead Sea shore to above Everest, with room).
@@ -83,9 +81,7 @@ class StylePanel(QWidget):
         self.remove_button = QPushButton("Remove")
         self.remove_button.setToolTip("Remove the style; its regions fall back to the plain examples")
         self.remove_button.clicked.connect(self.remove_current)
-        buttons = QHBoxLayout()
-        buttons.addWidget(self.add_button)
-        buttons.addWidget(self.remove_button)
+        buttons = hbox(self.add_button, self.remove_button)
         buttons.addStretch(1)
 
         self.name = QLineEdit()
@@ -103,9 +99,7 @@ class StylePanel(QWidget):
         self.base.setToolTip("Level the style's terrain sits at; neighbouring regions meet smoothly")
         self.base_auto.toggled.connect(self._base_edited)
         self.base.valueChanged.connect(self._base_edited)
-        base_row = QHBoxLayout()
-        base_row.addWidget(self.base_auto)
-        base_row.addWidget(self.base, 1)
+        base_row = hbox(self.base_auto, (self.base, 1))
         self.editor = QGroupBox("Selected style")
         form = QFormLayout(self.editor)
         form.addRow("Name", self.name)
@@ -124,9 +118,7 @@ class StylePanel(QWidget):
         self.clear_water = QPushButton("Clear water")
         self.clear_water.setToolTip("Erase all painted water (undoable)")
         self.clear_water.clicked.connect(self._clear_water)
-        level_row = QHBoxLayout()
-        level_row.addWidget(self.water_level, 1)
-        level_row.addWidget(self.level_from_terrain)
+        level_row = hbox((self.water_level, 1), self.level_from_terrain)
         water_box = QGroupBox("Water")
         water_form = QFormLayout(water_box)
         water_form.addRow("Level", level_row)
@@ -140,16 +132,12 @@ class StylePanel(QWidget):
         self.range_check.toggled.connect(self._range_edited)
         self.range_low.valueChanged.connect(self._range_edited)
         self.range_high.valueChanged.connect(self._range_edited)
-        range_row = QHBoxLayout()
-        range_row.addWidget(self.range_low, 1)
-        range_row.addWidget(QLabel("to"))
-        range_row.addWidget(self.range_high, 1)
+        range_row = hbox((self.range_low, 1), QLabel("to"), (self.range_high, 1))
         range_box = QGroupBox("Height range")
         range_layout = QVBoxLayout(range_box)
         range_layout.addWidget(self.range_check)
         range_layout.addLayout(range_row)
-        self.error_label = QLabel(wordWrap=True)
-        self.error_label.setStyleSheet("color: #c00000")
+        self.error_label = error_label()
 
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
@@ -175,9 +163,8 @@ class StylePanel(QWidget):
         return spec
 
     def choose_file(self) -> None:
-        patterns = " ".join(f"*{ext}" for ext in READ_EXTENSIONS)
-        path, _ = QFileDialog.getOpenFileName(self, "DEM of the new style", "", f"DEM files ({patterns})")
-        if path:
+        path = ask_dem_file(self, "DEM of the new style")
+        if path is not None:
             self.add_file(path)
 
     def add_file(self, path: str) -> None:
@@ -215,14 +202,8 @@ class StylePanel(QWidget):
     # -- widgets to document ----------------------------------------------------------------------
     def _edit(self, **changes) -> None:
         style_id = self.current_style
-        if self._syncing or style_id is None:
-            return
-        try:
-            self.document.update_style(style_id, **changes)
-        except TerraSynthError as exc:
-            self.error_label.setText(str(exc))
-            return
-        self.error_label.clear()
+        if not self._syncing and style_id is not None:
+            apply_edit(self.error_label, lambda: self.document.update_style(style_id, **changes))
 
     def _base_edited(self) -> None:
         self.base.setEnabled(not self.base_auto.isChecked())

@@ -8,6 +8,7 @@ from PySide6.QtWidgets import QDialog, QDialogButtonBox, QGridLayout, QLabel, QP
 
 from terrasynth_core.pictures import thumbnail
 
+from ..controllers import VariationsController
 from ..model.result import TerrainResult
 from .example_panel import rgba_pixmap
 
@@ -67,6 +68,23 @@ class VariationsDialog(QDialog):
         layout.addWidget(self.status)
         layout.addWidget(self.buttons)
         self._running = True
+
+    def follow(self, variations: VariationsController) -> None:
+        """Show the batch ``variations`` is making; "Use this one" and
+        closing act on it."""
+        for signal, slot in ((self.chosen, variations.use), (self.cancel_requested, variations.cancel),
+                             (variations.variation_made, self.show_result), (variations.finished, self._batch_finished),
+                             (variations.failed, self._batch_failed), (variations.cancelled, self._batch_cancelled)):
+            signal.connect(slot)
+
+    def _batch_finished(self, terrains) -> None:
+        self.finish(f"{len(terrains)} variations made: pick one")
+
+    def _batch_failed(self, message: str) -> None:
+        self.finish(f"Failed: {message}")
+
+    def _batch_cancelled(self) -> None:
+        self.finish("Cancelled")
 
     def show_result(self, index: int, result: TerrainResult) -> None:
         """Variation ``index`` arrived: show its thumbnail and let it be used."""

@@ -29,6 +29,46 @@ from ..heightfield import HeightField
 from .pins import check_pins
 from .water import Water
 
+#: Footprint scales a :class:`Stamp` may have, (lowest, highest).
+STAMP_SCALE_RANGE = (0.05, 20.0)
+
+
+def check_stamp_transform(scale: float, rotation: float, what: str = "stamp") -> None:
+    """Check a stamp's footprint scale and rotation (degrees).
+
+    Raises
+    ------
+    ParamsError
+        Naming ``what``, unless the scale is within :data:`STAMP_SCALE_RANGE`
+        and the rotation is finite.
+    """
+    lo, hi = STAMP_SCALE_RANGE
+    if not (math.isfinite(scale) and lo <= scale <= hi):
+        raise ParamsError(f"{what}: scale must be between {lo:g} and {hi:g}, got {scale}")
+    if not math.isfinite(rotation):
+        raise ParamsError(f"{what}: rotation must be a finite angle in degrees, got {rotation}")
+
+
+def check_height_range(height_range) -> tuple[float, float] | None:
+    """A final height range as two floats, or None for none.
+
+    Parameters
+    ----------
+    height_range : (lo, hi) or None
+        Metres.
+
+    Raises
+    ------
+    ParamsError
+        Unless both are finite and ``lo < hi``.
+    """
+    if height_range is None:
+        return None
+    lo, hi = (float(v) for v in height_range)
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+        raise ParamsError(f"height range must be two finite heights LO < HI, got {height_range}")
+    return lo, hi
+
 
 @dataclass(frozen=True, eq=False)
 class Style:
@@ -169,21 +209,12 @@ class Controls:
         for i, st in enumerate(self.stamps):
             if not isinstance(st, Stamp):
                 raise ParamsError(f"stamp {i + 1} must be a Stamp, got {type(st).__name__}")
-            if not (math.isfinite(st.scale) and 0.05 <= st.scale <= 20):
-                raise ParamsError(f"stamp {i + 1}: scale must be between 0.05 and 20, got {st.scale}")
-            if not math.isfinite(st.rotation):
-                raise ParamsError(f"stamp {i + 1}: rotation must be a finite angle in degrees, got {st.rotation}")
+            check_stamp_transform(st.scale, st.rotation, f"stamp {i + 1}")
             r, c = st.center
             if not (0 <= r < shape[0] and 0 <= c < shape[1]):
                 raise ParamsError(f"stamp {i + 1} centre ({r}, {c}) is outside the {shape[0]}x{shape[1]} output")
         pins = check_pins(self.pins, shape)
-        if self.height_range is not None:
-            lo, hi = (float(v) for v in self.height_range)
-            if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-                raise ParamsError(f"height range must be two finite heights LO < HI, got {self.height_range}")
-            height_range = (lo, hi)
-        else:
-            height_range = None
+        height_range = check_height_range(self.height_range)
         radius = float(patch_size if self.pin_radius is None else self.pin_radius)
         if not (math.isfinite(radius) and radius > 2):
             raise ParamsError(f"pin radius must be more than 2 cells, got {self.pin_radius}")

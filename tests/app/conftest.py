@@ -74,7 +74,7 @@ def window(qtbot, tmp_path, dialogs):
     win.show()
     qtbot.waitExposed(win)
     yield win
-    win.runner.wait()
+    win.synthesis.wait()
 
 
 def viewport_pos(canvas, row: float, col: float):
@@ -88,4 +88,20 @@ def viewport_pos(canvas, row: float, col: float):
 @pytest.fixture
 def cell_pos():
     return viewport_pos
+
+
+@pytest.fixture
+def drag(qtbot):
+    """``drag(canvas, cells, modifier)``: press on the first cell, move
+    through the others, release on the last."""
+    from PySide6.QtCore import Qt
+
+    def drag(canvas, cells, modifier=Qt.NoModifier):
+        viewport = canvas.view.viewport()
+        qtbot.mousePress(viewport, Qt.LeftButton, modifier, viewport_pos(canvas, *cells[0]))
+        for cell in cells[1:]:
+            qtbot.mouseMove(viewport, viewport_pos(canvas, *cell))
+        qtbot.mouseRelease(viewport, Qt.LeftButton, modifier, viewport_pos(canvas, *cells[-1]))
+
+    return drag
 

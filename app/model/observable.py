@@ -1,14 +1,14 @@
-"""A minimal callback event, so the model can notify views without Qt."""
+"""A minimal observable: how the model notifies views and controllers without Qt."""
 
 from __future__ import annotations
 
 from typing import Callable
 
 
-class Event:
+class Observable:
     """A list of callbacks called, in connection order, by :meth:`emit`.
 
-    The model owns its events and views connect to them; a callback must not
+    The model owns its observables and views connect to them; a callback must not
     raise (an exception propagates to whoever changed the model).
     """
 

@@ -13,14 +13,6 @@ RUN_TIMEOUT_MS = 90_000
 GABON = ExampleRef(builtin="gabon-plateau", crop=(0, 300, 0, 300))
 
 
-def _drag(qtbot, canvas, cell_pos, cells, modifier=Qt.NoModifier):
-    viewport = canvas.view.viewport()
-    qtbot.mousePress(viewport, Qt.LeftButton, modifier, cell_pos(canvas, *cells[0]))
-    for cell in cells[1:]:
-        qtbot.mouseMove(viewport, cell_pos(canvas, *cell))
-    qtbot.mouseRelease(viewport, Qt.LeftButton, modifier, cell_pos(canvas, *cells[-1]))
-
-
 def _click(qtbot, canvas, cell_pos, cell):
     qtbot.mouseClick(canvas.view.viewport(), Qt.LeftButton, pos=cell_pos(canvas, *cell))
 
@@ -34,21 +26,21 @@ def _ramp_result(shape=(160, 160)):
     return TerrainResult(heights, np.zeros(shape, np.int32), np.zeros(shape, bool), cell_size=(30.0, 30.0))
 
 
-def test_region_brushes_paint_styles_and_water_and_undo(qtbot, window, cell_pos):
+def test_region_brushes_paint_styles_and_water_and_undo(qtbot, window, cell_pos, drag):
     canvas, doc = window.canvas, window.document
     _show_all(window)
     canvas.size_spin.setValue(9)
     canvas.set_tool("style")
     with qtbot.waitSignal(canvas.notice) as blocker:  # no style yet: nothing painted, the user is told
-        _drag(qtbot, canvas, cell_pos, [(50, 50), (50, 60)])
+        drag(canvas, [(50, 50), (50, 60)])
     assert "Regions panel" in blocker.args[0] and (doc.sketch.style == -1).all()
     spec = window.styles.add_style(GABON)
     assert canvas.current_style == spec.id and canvas.style_combo.currentText() == spec.name
     ridge = doc.sketch.ridge.copy()
-    _drag(qtbot, canvas, cell_pos, [(40, 20), (40, 80), (40, 140)])
+    drag(canvas, [(40, 20), (40, 80), (40, 140)])
     assert (doc.sketch.style[40, 22:138] == spec.id).all() and (doc.sketch.style[100:] == -1).all()
     canvas.set_tool("water")
-    _drag(qtbot, canvas, cell_pos, [(130, 20), (130, 140)])
+    drag(canvas, [(130, 20), (130, 140)])
     assert doc.sketch.water[130, 22:138].all() and not doc.sketch.water[:100].any()
     np.testing.assert_array_equal(doc.sketch.ridge, ridge)  # the strokes are untouched
     overlay = canvas.controls_overlay
@@ -56,7 +48,7 @@ def test_region_brushes_paint_styles_and_water_and_undo(qtbot, window, cell_pos)
     assert overlay.regions.image[40, 80, :3].tolist() == list(spec.rgb)
     assert overlay.regions.image[80, 80, 3] == 0
     canvas.set_tool("water_erase")
-    _drag(qtbot, canvas, cell_pos, [(130, 70), (130, 150)])
+    drag(canvas, [(130, 70), (130, 150)])
     assert doc.sketch.water[130, 22:60].all() and not doc.sketch.water[130, 80:].any()
     canvas.undo_action.trigger()
     assert doc.sketch.water[130, 22:138].all()
@@ -65,7 +57,7 @@ def test_region_brushes_paint_styles_and_water_and_undo(qtbot, window, cell_pos)
     assert not doc.sketch.has_water and (doc.sketch.style == -1).all()
 
 
-def test_polylines_paint_regions_and_the_clear_buttons_empty_them(qtbot, window, cell_pos):
+def test_polylines_paint_regions_and_the_clear_buttons_empty_them(qtbot, window, cell_pos, drag):
     canvas, doc = window.canvas, window.document
     _show_all(window)
     spec = window.styles.add_style(GABON)
@@ -84,7 +76,7 @@ def test_polylines_paint_regions_and_the_clear_buttons_empty_them(qtbot, window,
     assert doc.sketch.water[100, 22:138].all()
     canvas.polyline_action.setChecked(False)
     canvas.set_tool("select")
-    _drag(qtbot, canvas, cell_pos, [(10, 10), (30, 30)])
+    drag(canvas, [(10, 10), (30, 30)])
     assert doc.selection.sum() == 21 * 21
     canvas.clear_selection_action.trigger()
     assert doc.selection is None
@@ -185,8 +177,8 @@ def test_a_styled_run_with_water_pins_and_a_stamp(qtbot, window, tmp_path):
     doc.set_water_level(350)
     doc.add_pin(60, 40, 900)
     qtbot.waitUntil(lambda: panel.stamp_source is not None, timeout=10_000)
-    window.place_stamp(100.0, 100.0)
-    with qtbot.waitSignals([window.runner.synthesis_finished, window.heightmap.result_shown], order="strict",
+    window.pin_stamp_requests.place_stamp(100.0, 100.0)
+    with qtbot.waitSignals([window.synthesis.finished, window.heightmap.result_shown], order="strict",
                            timeout=RUN_TIMEOUT_MS):
         window.synthesize()
     result = doc.result
@@ -199,35 +191,35 @@ def test_a_styled_run_with_water_pins_and_a_stamp(qtbot, window, tmp_path):
     assert "% of the terrain's height range" in panel.pin_summary.text()
     # Everything survives a save and reopen through the window.
     path = tmp_path / "styled.tsproj"
-    assert window.save_to(path)
-    window.new_project()
+    assert window.file_controller.save_to(path)
+    window.files.new_project()
     assert doc.styles == [] and window.styles.list.count() == 0
-    assert window.open_project(str(path))
+    assert window.files.open_project(str(path))
     assert [s.id for s in doc.styles] == [style.id] and window.styles.list.count() == 1
     assert panel.pin_table.rowCount() == 1 and panel.pin_table.item(0, 3).text() == f"{error.error:+.2f}"
     assert len(doc.stamps) == 1 and doc.sketch.has_water and doc.water_level == 350
     assert window.canvas.style_combo.count() == 1
 
 
-def test_resynthesis_changes_only_the_selection(qtbot, window, cell_pos, dialogs):
+def test_resynthesis_changes_only_the_selection(qtbot, window, cell_pos, dialogs, drag):
     doc = window.document
     _show_all(window)
-    window.resynthesize_action.trigger()  # nothing to change yet
+    window.actions.resynthesize.trigger()  # nothing to change yet
     assert "synthesize one first" in dialogs.messages("critical")[-1]
-    with qtbot.waitSignals([window.runner.synthesis_finished, window.heightmap.result_shown], order="strict",
+    with qtbot.waitSignals([window.synthesis.finished, window.heightmap.result_shown], order="strict",
                            timeout=RUN_TIMEOUT_MS):
         window.synthesize()
     before = doc.result
-    window.resynthesize_action.trigger()
+    window.actions.resynthesize.trigger()
     assert "nothing is selected" in dialogs.messages("critical")[-1]
 
     window.canvas.set_tool("select")
-    _drag(qtbot, window.canvas, cell_pos, [(40, 50), (70, 80), (100, 110)])
+    drag(window.canvas, [(40, 50), (70, 80), (100, 110)])
     selection = doc.selection.copy()
     assert selection.sum() == 61 * 61 and selection[40, 50] and selection[100, 110] and not selection[39, 50]
     window.canvas.set_tool("select_brush")
     window.canvas.size_spin.setValue(5)
-    _drag(qtbot, window.canvas, cell_pos, [(130, 20), (130, 40)])
+    drag(window.canvas, [(130, 20), (130, 40)])
     selection = doc.selection.copy()
     assert selection[130, 20:41].all() and selection.sum() > 61 * 61
     overlay = window.canvas.controls_overlay
@@ -235,10 +227,10 @@ def test_resynthesis_changes_only_the_selection(qtbot, window, cell_pos, dialogs
                     timeout=2000)
 
     finished = []
-    window.runner.synthesis_finished.connect(finished.append)
-    with qtbot.waitSignals([window.runner.synthesis_finished, window.heightmap.result_shown], order="strict",
+    window.synthesis.finished.connect(finished.append)
+    with qtbot.waitSignals([window.synthesis.finished, window.heightmap.result_shown], order="strict",
                            timeout=RUN_TIMEOUT_MS):
-        window.resynthesize_action.trigger()
+        window.actions.resynthesize.trigger()
     after = doc.result
     assert after is not before
     np.testing.assert_array_equal(finished[0].selection, selection)
@@ -250,13 +242,13 @@ def test_resynthesis_changes_only_the_selection(qtbot, window, cell_pos, dialogs
     assert "Re-synthesized" in window.statusBar().currentMessage()
 
     # Cancelled half-way, the terrain stays as it was.
-    with qtbot.waitSignal(window.runner.session_ready, timeout=RUN_TIMEOUT_MS):
-        window.resynthesize_action.trigger()
-    with qtbot.waitSignal(window.runner.synthesis_cancelled, timeout=RUN_TIMEOUT_MS):
+    with qtbot.waitSignal(window.synthesis.run_started, timeout=RUN_TIMEOUT_MS):
+        window.actions.resynthesize.trigger()
+    with qtbot.waitSignal(window.synthesis.cancelled, timeout=RUN_TIMEOUT_MS):
         window.cancel_synthesis()
     assert doc.result is after
     np.testing.assert_array_equal(window.heightmap.heights, after.heights)
-    qtbot.waitUntil(lambda: not window.runner.running, timeout=5000)
+    qtbot.waitUntil(lambda: not window.synthesis.running, timeout=5000)
 
 
 def test_variations_run_off_the_gui_thread_and_one_can_be_used(qtbot, window, monkeypatch, record_property):
@@ -267,9 +259,9 @@ def test_variations_run_off_the_gui_thread_and_one_can_be_used(qtbot, window, mo
     timer.timeout.connect(lambda: ticks.append(time.perf_counter()))
     timer.start()
     arrived = []
-    window.variations_runner.variation_finished.connect(lambda i, terrain: arrived.append(i))
-    with qtbot.waitSignal(window.variations_runner.variations_finished, timeout=RUN_TIMEOUT_MS) as blocker:
-        window.variations_action.trigger()
+    window.variations.variation_made.connect(lambda i, terrain: arrived.append(i))
+    with qtbot.waitSignal(window.variations.finished, timeout=RUN_TIMEOUT_MS) as blocker:
+        window.actions.variations.trigger()
     timer.stop()
     max_gap_ms = float(np.diff(ticks).max() * 1000)
     record_property("variations_max_event_loop_gap_ms", round(max_gap_ms, 1))
@@ -287,7 +279,7 @@ def test_variations_run_off_the_gui_thread_and_one_can_be_used(qtbot, window, mo
     assert doc.result is terrains[1] and doc.params.seed == dialog.seeds[1]
     assert not dialog.isVisible()
     # The seed reproduces the variation.
-    with qtbot.waitSignals([window.runner.synthesis_finished, window.heightmap.result_shown], order="strict",
+    with qtbot.waitSignals([window.synthesis.finished, window.heightmap.result_shown], order="strict",
                            timeout=RUN_TIMEOUT_MS):
         window.synthesize()
     np.testing.assert_array_equal(doc.result.heights, terrains[1].heights)
@@ -295,12 +287,12 @@ def test_variations_run_off_the_gui_thread_and_one_can_be_used(qtbot, window, mo
 
 def test_closing_the_variations_dialog_cancels_the_batch(qtbot, window):
     before = window.document.result
-    with qtbot.waitSignal(window.variations_runner.variations_cancelled, timeout=RUN_TIMEOUT_MS):
+    with qtbot.waitSignal(window.variations.cancelled, timeout=RUN_TIMEOUT_MS):
         window.make_variations(2)
         window.variations_dialog.reject()
-    qtbot.waitUntil(lambda: not window.variations_runner.running, timeout=30_000)
+    qtbot.waitUntil(lambda: not window.variations.running, timeout=30_000)
     assert window.document.result is before and window.variations_dialog.status.text() == "Cancelled"
-    assert window.variations_action.text() == "Make variations…"
+    assert window.actions.variations.text() == "Make variations…"
 
 
 def test_a_stamp_dem_from_a_file_and_an_unreadable_one(qtbot, window, dialogs, tmp_path):
@@ -324,5 +316,5 @@ def test_a_stamp_dem_from_a_file_and_an_unreadable_one(qtbot, window, dialogs, t
         panel.set_stamp_source(ExampleRef(path=str(good)))
     assert panel.stamp_source == (ExampleRef(path=str(good)), (60, 90))
     assert panel.source_label.text() == "60 x 90 cells"
-    window.place_stamp(50.0, 60.0)
+    window.pin_stamp_requests.place_stamp(50.0, 60.0)
     assert window.document.stamps[0].example.path == str(good) and window.document.stamps[0].scale == 0.71

@@ -5,24 +5,32 @@ import time
 import numpy as np
 from PySide6.QtCore import QTimer
 
-from terrasynth_app.model import ExampleRef
+from terrasynth_core.synthesis import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
+from terrasynth_app.model import ExampleRef, RunStarted
 
 RUN_TIMEOUT_MS = 90_000
 
 
+#: The name each event of a run is logged under.
+_KINDS = {RunStarted: "run_started", StageStarted: "stage_started", PatchPlaced: "patch_placed",
+          StageFinished: "stage_finished", SynthesisFinished: "synthesis_finished"}
+
+
 def _record(runner):
+    """Every event of the runner's current run, as (kind, stage or event)."""
     log = []
-    runner.session_ready.connect(lambda info: log.append(("session_ready", info)))
-    runner.stage_started.connect(lambda stage, total: log.append(("stage_started", stage)))
-    runner.patch_placed.connect(lambda event: log.append(("patch_placed", event)))
-    runner.stage_finished.connect(lambda stage, seconds: log.append(("stage_finished", stage)))
-    runner.synthesis_finished.connect(lambda result: log.append(("synthesis_finished", result)))
+
+    def record(event):
+        kind = _KINDS[type(event)]
+        log.append((kind, event.stage if kind in ("stage_started", "stage_finished") else event))
+
+    runner.yielded.connect(record)
     return log
 
 
 def test_a_run_updates_the_views_patch_by_patch_then_shows_the_result(qtbot, window):
-    runner, view = window.runner, window.heightmap
-    log = _record(runner)
+    synthesis, view = window.synthesis, window.heightmap
+    log = _record(synthesis.runner)
     mismatches = []
 
     def check_view(event):
@@ -31,13 +39,13 @@ def test_a_run_updates_the_views_patch_by_patch_then_shows_the_result(qtbot, win
         if view.last_bbox != event.bbox or not np.array_equal(view.heights[r0:r1, c0:c1], event.heights):
             mismatches.append(event.index)
 
-    runner.patch_placed.connect(check_view)
+    synthesis.patch_placed.connect(check_view)
     sketch_before = window.document.sketch.ridge.copy()
-    with qtbot.waitSignals([runner.synthesis_finished, view.result_shown], order="strict",
+    with qtbot.waitSignals([synthesis.finished, view.result_shown], order="strict",
                            timeout=RUN_TIMEOUT_MS):
         window.synthesize()
     kinds = [k for k, _ in log]
-    assert kinds[0] == "session_ready" and kinds[-1] == "synthesis_finished"
+    assert kinds[0] == "run_started" and kinds[-1] == "synthesis_finished"
     stages = [arg for k, arg in log if k == "stage_started"]
     assert stages == ["analyse", "features", "fill", "finish"]
     patches = [arg for k, arg in log if k == "patch_placed"]
@@ -52,9 +60,9 @@ def test_a_run_updates_the_views_patch_by_patch_then_shows_the_result(qtbot, win
     assert result is not None and result.shape == (160, 160)
     assert np.isfinite(result.heights).all()
     np.testing.assert_array_equal(view.heights, result.heights)
-    assert window.document.dirty and not runner.running
-    assert not window.cancel_action.isEnabled()
-    assert window.progress.value() == window.progress.maximum()
+    assert window.document.dirty and not synthesis.running
+    assert not window.actions.cancel.isEnabled()
+    assert window.run_status.progress.value() == window.run_status.progress.maximum()
     np.testing.assert_array_equal(window.document.sketch.ridge, sketch_before)
 
     view.set_overlay("patch_ids", True)
@@ -67,31 +75,31 @@ def test_a_run_updates_the_views_patch_by_patch_then_shows_the_result(qtbot, win
 
 
 def test_cancel_mid_run_keeps_the_previous_result(qtbot, window):
-    runner = window.runner
-    with qtbot.waitSignal(runner.synthesis_finished, timeout=RUN_TIMEOUT_MS):
+    synthesis = window.synthesis
+    with qtbot.waitSignal(synthesis.finished, timeout=RUN_TIMEOUT_MS):
         window.synthesize()
     first = window.document.result
     window.document.sketch.draw_polyline([(100, 10), (100, 150)], "valley", radius=2)
     finished = []
-    runner.synthesis_finished.connect(finished.append)
-    with qtbot.waitSignal(runner.patch_placed, timeout=RUN_TIMEOUT_MS):
+    synthesis.finished.connect(finished.append)
+    with qtbot.waitSignal(synthesis.patch_placed, timeout=RUN_TIMEOUT_MS):
         window.synthesize()
-    with qtbot.waitSignal(runner.synthesis_cancelled, timeout=RUN_TIMEOUT_MS):
+    with qtbot.waitSignal(synthesis.cancelled, timeout=RUN_TIMEOUT_MS):
         window.cancel_synthesis()
     assert finished == [] and window.document.result is first
     np.testing.assert_array_equal(window.heightmap.heights, first.heights)
-    assert window.stage_label.text() == "Cancelled"
-    qtbot.waitUntil(lambda: not runner.running, timeout=5000)
+    assert window.run_status.stage_label.text() == "Cancelled"
+    qtbot.waitUntil(lambda: not synthesis.running, timeout=5000)
 
 
 def test_a_new_run_cancels_the_old_one(qtbot, window):
-    runner = window.runner
+    synthesis = window.synthesis
     indices = []
-    runner.patch_placed.connect(lambda event: indices.append(event.index))
-    with qtbot.waitSignal(runner.patch_placed, timeout=RUN_TIMEOUT_MS):
+    synthesis.patch_placed.connect(lambda event: indices.append(event.index))
+    with qtbot.waitSignal(synthesis.patch_placed, timeout=RUN_TIMEOUT_MS):
         window.synthesize()
     restart = len(indices)
-    with qtbot.waitSignal(runner.synthesis_finished, timeout=RUN_TIMEOUT_MS):
+    with qtbot.waitSignal(synthesis.finished, timeout=RUN_TIMEOUT_MS):
         window.synthesize()
     second = indices[restart:]
     # Only the new run's patches arrive after the restart: one run, from 0.
@@ -100,14 +108,14 @@ def test_a_new_run_cancels_the_old_one(qtbot, window):
 
 
 def test_a_corrupt_example_gives_an_error_dialog_and_loses_nothing(qtbot, window, dialogs, tmp_path):
-    with qtbot.waitSignal(window.runner.synthesis_finished, timeout=RUN_TIMEOUT_MS):
+    with qtbot.waitSignal(window.synthesis.finished, timeout=RUN_TIMEOUT_MS):
         window.synthesize()
     good = window.document.result
     bad = tmp_path / "broken.hgt"
     bad.write_bytes(b"\x00\x01" * 1000)  # not 1201x1201 or 3601x3601 samples
     window.document.set_examples([ExampleRef(path=str(bad))])
     sketch = window.document.sketch.ridge.copy()
-    with qtbot.waitSignal(window.runner.synthesis_failed, timeout=RUN_TIMEOUT_MS) as blocker:
+    with qtbot.waitSignal(window.synthesis.failed, timeout=RUN_TIMEOUT_MS) as blocker:
         window.synthesize()
     assert "broken.hgt" in blocker.args[0]
     assert len(dialogs.messages("critical")) == 1 and "broken.hgt" in dialogs.messages("critical")[0]
@@ -122,7 +130,7 @@ def test_the_event_loop_never_stalls_during_a_run(qtbot, window, record_property
     timer = QTimer(interval=10)
     timer.timeout.connect(lambda: ticks.append(time.perf_counter()))
     timer.start()
-    with qtbot.waitSignals([window.runner.synthesis_finished, window.heightmap.result_shown], order="strict",
+    with qtbot.waitSignals([window.synthesis.finished, window.heightmap.result_shown], order="strict",
                            timeout=RUN_TIMEOUT_MS):
         window.synthesize()
     # A few more ticks: showing the result follows the last signal.

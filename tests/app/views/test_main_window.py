@@ -24,8 +24,8 @@ def test_starts_ready_with_the_default_example_and_sketch(qtbot, tmp_path, dialo
     win.show()
     assert win.windowTitle().startswith("TerraSynth")
     assert win.document.examples == [ExampleRef(builtin="white-mountains")]
-    assert win.document.sketch.has_strokes and win.synthesize_action.isEnabled()
-    assert not win.cancel_action.isEnabled()
+    assert win.document.sketch.has_strokes and win.actions.synthesize.isEnabled()
+    assert not win.actions.cancel.isEnabled()
     panel = win.examples
     assert [ref.builtin for ref in panel.refs()] == [ex.key for ex in BUILTIN_EXAMPLES]
     qtbot.waitUntil(lambda: len(panel.infos) == len(BUILTIN_EXAMPLES), timeout=30_000)
@@ -43,7 +43,7 @@ def test_params_panel_edits_the_document(qtbot, window):
     old_seed = doc.params.seed
     seeds = {old_seed}
     for _ in range(3):
-        window.randomize_action.trigger()
+        window.actions.randomize.trigger()
         seeds.add(doc.params.seed)
     assert len(seeds) > 1
     panel.overlap_auto.setChecked(False)  # the automatic third of the patch, made explicit
@@ -92,23 +92,23 @@ def test_adding_a_good_dem_file(qtbot, window, tmp_path):
 
 def test_save_and_reopen_a_project_unchanged(qtbot, window, tmp_path):
     doc = window.document
-    with qtbot.waitSignal(window.runner.synthesis_finished, timeout=90_000):
+    with qtbot.waitSignal(window.synthesis.finished, timeout=90_000):
         window.synthesize()
     doc.sketch.draw_polyline([(150, 10), (150, 150)], "valley", radius=2)
     path = tmp_path / "mine.tsproj"
-    assert window.save_to(path)
+    assert window.file_controller.save_to(path)
     assert not doc.dirty and window.windowTitle() == "TerraSynth - mine.tsproj[*]"
     saved = (doc.sketch.ridge.copy(), doc.sketch.valley.copy(), doc.result.heights.copy(), doc.params,
              doc.examples)
-    window.new_project()  # nothing unsaved: no question
+    window.files.new_project()  # nothing unsaved: no question
     assert doc.result is None and doc.sketch.shape != (160, 160)
-    assert window.open_project(str(path))
+    assert window.files.open_project(str(path))
     np.testing.assert_array_equal(doc.sketch.ridge, saved[0])
     np.testing.assert_array_equal(doc.sketch.valley, saved[1])
     np.testing.assert_array_equal(doc.result.heights, saved[2])
     assert (doc.params, doc.examples) == saved[3:] and not doc.dirty
     np.testing.assert_array_equal(window.heightmap.heights, saved[2])
-    assert window.recent_files()[0] == str(path.resolve())
+    assert window.file_controller.recent_files()[0] == str(path.resolve())
 
 
 def test_unsaved_changes_prompt_on_close(qtbot, window, dialogs):
@@ -125,7 +125,7 @@ def test_opening_a_bad_project_reports_it(qtbot, window, dialogs, tmp_path):
     bad = tmp_path / "bad.tsproj"
     bad.write_text("no zip")
     ridge = window.document.sketch.ridge.copy()
-    assert not window.open_project(str(bad))
+    assert not window.files.open_project(str(bad))
     assert "bad.tsproj" in dialogs.messages("critical")[0]
     np.testing.assert_array_equal(window.document.sketch.ridge, ridge)
 
@@ -134,13 +134,13 @@ def test_autosave_and_recovery_on_the_next_start(qtbot, window, dialogs, tmp_pat
     doc = window.document
     doc.sketch.draw_polyline([(5, 5), (5, 150)], "valley", radius=2)
     doc.set_result(_fake_result(doc.sketch.shape))
-    store = window.recovery
-    qtbot.waitUntil(lambda: (window.autosave() or True) and store.exists(), timeout=10_000)
+    store = window.autosave.recovery
+    qtbot.waitUntil(lambda: (window.autosave.autosave() or True) and store.exists(), timeout=10_000)
     recovered_window = MainWindow(settings=QSettings(str(tmp_path / "s2.ini"), QSettings.IniFormat),
                                   recovery=RecoveryStore(store.directory))
     qtbot.addWidget(recovered_window)
     dialogs.answers = [QMessageBox.Yes]
-    assert recovered_window.offer_recovery()
+    assert recovered_window.files.offer_recovery()
     got = recovered_window.document
     np.testing.assert_array_equal(got.sketch.valley, doc.sketch.valley)
     np.testing.assert_array_equal(got.result.heights, doc.result.heights)
@@ -208,7 +208,7 @@ def test_sketch_png_round_trip_and_new_sketch(qtbot, window, tmp_path, monkeypat
 
     sketch = window.document.sketch
     path = tmp_path / "s.png"
-    window.save_sketch(str(path))
+    window.files.save_sketch(str(path))
     before = sketch.to_sketch_map()
 
     def choose_size(dialog):
@@ -217,10 +217,10 @@ def test_sketch_png_round_trip_and_new_sketch(qtbot, window, tmp_path, monkeypat
         return True
 
     monkeypatch.setattr(NewSketchDialog, "exec", choose_size)
-    window.new_sketch()
+    window.files.new_sketch()
     assert sketch.shape == (64, 96) and not sketch.has_strokes
     assert window.params.output_label.text().startswith("64 x 96")
-    window.open_sketch(str(path))
+    window.files.open_sketch(str(path))
     np.testing.assert_array_equal(sketch.to_sketch_map().ridge_mask, before.ridge_mask)
     sketch.undo()  # opening is one undo step
     assert sketch.shape == (64, 96)
@@ -233,7 +233,7 @@ def test_import_dem_features_as_sketch(qtbot, window):
     sketch.clear()
     changes = []
     sketch.changed.connect(changes.append)
-    window.import_dem_features(str(builtin_example("st-helens").path))
+    window.files.import_dem_features(str(builtin_example("st-helens").path))
     qtbot.waitUntil(lambda: None in changes, timeout=60_000)
     assert sketch.shape == (160, 160) and sketch.has_strokes
     assert sketch.to_sketch_map().valley_mask.any()

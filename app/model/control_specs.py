@@ -13,19 +13,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from terrasynth_core.controls.options import STAMP_SCALE_RANGE, check_stamp_transform
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.features.labels import parse_colour
 from terrasynth_core.synthesis import Stamp, Style
 
-from .examples import ExampleRef
+from .example_library import ExampleRef
 
 #: Colours given to new styles in turn: distinct, and none of them the
 #: sketch's red, blue or white, nor the water's blue.
 STYLE_PALETTE = ("#e6a10f", "#3aa655", "#b05ad6", "#d9534f", "#17a2b8", "#8c6d46", "#e377c2", "#7f7f7f")
 #: Relief scales a style may have.
 RELIEF_SCALE_RANGE = (0.05, 10.0)
-#: Footprint scales a stamp may have (the core's limits).
-STAMP_SCALE_RANGE = (0.05, 20.0)
 
 
 @dataclass(frozen=True)
@@ -121,11 +120,7 @@ class StampSpec:
             raise ParamsError(f"stamp centre {self.center} must be finite")
         if rows < 1 or cols < 1:
             raise ParamsError(f"stamp source shape {self.source_shape} must be positive")
-        lo, hi = STAMP_SCALE_RANGE
-        if not (math.isfinite(self.scale) and lo <= self.scale <= hi):
-            raise ParamsError(f"stamp scale {self.scale}: expected {lo} to {hi}")
-        if not math.isfinite(self.rotation):
-            raise ParamsError(f"stamp rotation {self.rotation} must be a finite angle in degrees")
+        check_stamp_transform(self.scale, self.rotation)
         object.__setattr__(self, "center", (r, c))
         object.__setattr__(self, "source_shape", (rows, cols))
         object.__setattr__(self, "rotation", float(self.rotation))

@@ -7,14 +7,6 @@ from terrasynth_app.model import Sketch
 from terrasynth_app.views.sketch_canvas import SketchCanvas
 
 
-def _drag(qtbot, canvas, cell_pos, cells, modifier=Qt.NoModifier):
-    viewport = canvas.view.viewport()
-    qtbot.mousePress(viewport, Qt.LeftButton, modifier, cell_pos(canvas, *cells[0]))
-    for cell in cells[1:]:
-        qtbot.mouseMove(viewport, cell_pos(canvas, *cell))
-    qtbot.mouseRelease(viewport, Qt.LeftButton, modifier, cell_pos(canvas, *cells[-1]))
-
-
 def _canvas(qtbot, shape=(100, 100)):
     canvas = SketchCanvas(Sketch.blank(shape))
     canvas.resize(600, 600)
@@ -25,16 +17,16 @@ def _canvas(qtbot, shape=(100, 100)):
     return canvas
 
 
-def test_mouse_strokes_paint_and_undo_redo_one_stroke_at_a_time(qtbot, cell_pos):
+def test_mouse_strokes_paint_and_undo_redo_one_stroke_at_a_time(qtbot, cell_pos, drag):
     canvas = _canvas(qtbot)
     sketch = canvas.sketch
     canvas.size_spin.setValue(5)
-    _drag(qtbot, canvas, cell_pos, [(20, 10), (20, 40), (20, 80)])
+    drag(canvas, [(20, 10), (20, 40), (20, 80)])
     ridge_after_first = sketch.ridge.copy()
     assert ridge_after_first[20, 12:78].min() >= 200  # a continuous stroke along row 20
     assert ridge_after_first[50:].max() == 0
     canvas.set_tool("valley")
-    _drag(qtbot, canvas, cell_pos, [(60, 50), (90, 50)])
+    drag(canvas, [(60, 50), (90, 50)])
     assert sketch.valley[62:88, 50].min() >= 200
     assert canvas.undo_action.isEnabled() and not canvas.redo_action.isEnabled()
 
@@ -48,9 +40,9 @@ def test_mouse_strokes_paint_and_undo_redo_one_stroke_at_a_time(qtbot, cell_pos)
     assert canvas.redo_action.isEnabled()
 
 
-def test_keyboard_shortcuts_undo_and_redo(qtbot, cell_pos):
+def test_keyboard_shortcuts_undo_and_redo(qtbot, cell_pos, drag):
     canvas = _canvas(qtbot)
-    _drag(qtbot, canvas, cell_pos, [(50, 10), (50, 90)])
+    drag(canvas, [(50, 10), (50, 90)])
     painted = canvas.sketch.ridge.copy()
     with qtbot.waitActive(canvas):
         canvas.activateWindow()
@@ -61,17 +53,17 @@ def test_keyboard_shortcuts_undo_and_redo(qtbot, cell_pos):
     np.testing.assert_array_equal(canvas.sketch.ridge, painted)
 
 
-def test_the_image_on_screen_follows_the_strokes(qtbot, cell_pos):
+def test_the_image_on_screen_follows_the_strokes(qtbot, cell_pos, drag):
     canvas = _canvas(qtbot)
-    _drag(qtbot, canvas, cell_pos, [(30, 30), (30, 60)])
+    drag(canvas, [(30, 30), (30, 60)])
     qtbot.waitUntil(lambda: canvas.image.image[30, 45].tolist() == [255, 0, 0], timeout=2000)
     assert canvas.image.image[80, 80].tolist() == [255, 255, 255]
 
 
-def test_eraser_and_shift_click_straight_line(qtbot, cell_pos):
+def test_eraser_and_shift_click_straight_line(qtbot, cell_pos, drag):
     canvas = _canvas(qtbot)
     canvas.size_spin.setValue(3)
-    _drag(qtbot, canvas, cell_pos, [(10, 10), (10, 11)])
+    drag(canvas, [(10, 10), (10, 11)])
     # Shift+click: a straight line from the end of the last stroke.
     viewport = canvas.view.viewport()
     qtbot.mouseClick(viewport, Qt.LeftButton, Qt.ShiftModifier, cell_pos(canvas, 90, 90))
@@ -79,7 +71,7 @@ def test_eraser_and_shift_click_straight_line(qtbot, cell_pos):
     assert diag.min() >= 200
     canvas.set_tool("erase")
     canvas.size_spin.setValue(30)
-    _drag(qtbot, canvas, cell_pos, [(50, 50), (50, 51)])
+    drag(canvas, [(50, 50), (50, 51)])
     assert canvas.sketch.ridge[45:55, 45:55].max() == 0
     assert canvas.sketch.ridge[85, 85] >= 200
 

@@ -127,10 +127,10 @@ def test_opening_the_example_map_asks_about_changes_then_loads_it(qtbot, window,
     doc.sketch.draw_polyline([(10, 10), (10, 100)], "ridge")
     assert doc.dirty
     dialogs.answers.append(QMessageBox.Cancel)
-    window.example_map_actions["middle-earth"].trigger()
+    window.actions.example_maps["middle-earth"].trigger()
     assert dialogs.messages("question") and doc.output_shape == (160, 160)  # cancelled: nothing started
     with qtbot.waitSignal(window.example_map_opened, timeout=20_000) as blocker:
-        window.example_map_actions["middle-earth"].trigger()  # Discard this time
+        window.actions.example_maps["middle-earth"].trigger()  # Discard this time
     assert blocker.args == ["middle-earth"]
     assert doc.output_shape == (768, 1024) and not doc.dirty and not doc.sketch.can_undo
     assert len(doc.styles) == 4 and doc.sketch.has_water and doc.water_level == 60.0
@@ -149,9 +149,9 @@ def test_importing_region_pngs_is_undoable(qtbot, window, tmp_path):
     rgb = np.zeros((80, 80, 3), np.uint8)
     rgb[:, :40] = first.rgb
     rgb[:, 40:] = second.rgb
-    window.import_style_regions(str(_write_rgb(tmp_path / "regions.png", rgb)))
+    window.files.import_style_regions(str(_write_rgb(tmp_path / "regions.png", rgb)))
     assert (doc.sketch.style[:, :80] == first.id).all() and (doc.sketch.style[:, 80:] == second.id).all()
-    window.import_water_mask(str(_water_png(tmp_path / "water.png")))
+    window.files.import_water_mask(str(_water_png(tmp_path / "water.png")))
     assert doc.sketch.water[120:].all() and not doc.sketch.water[:120].any()
     overlay = window.canvas.controls_overlay
     qtbot.waitUntil(lambda: overlay.regions.image[150, 10, 3] == 150, timeout=2000)  # water drawn
@@ -166,13 +166,13 @@ def test_importing_region_pngs_is_undoable(qtbot, window, tmp_path):
 def test_bad_region_pngs_are_reported_and_change_nothing(qtbot, window, dialogs, tmp_path):
     doc = window.document
     regions = _region_png(tmp_path / "regions.png")
-    window.import_style_regions(str(regions))  # no styles yet
+    window.files.import_style_regions(str(regions))  # no styles yet
     assert "no styles" in dialogs.messages("critical")[-1]
     bad = tmp_path / "broken.png"
     bad.write_bytes(b"not a png")
-    window.import_water_mask(str(bad))
+    window.files.import_water_mask(str(bad))
     assert "broken.png" in dialogs.messages("critical")[-1]
     window.styles.add_style(GABON)
-    window.import_style_regions(str(bad))
+    window.files.import_style_regions(str(bad))
     assert "broken.png" in dialogs.messages("critical")[-1] and len(dialogs.messages("critical")) == 3
     assert (doc.sketch.style == -1).all() and not doc.sketch.has_water and not doc.sketch.can_undo

@@ -154,7 +154,7 @@ def test_water_level_and_height_range_are_checked():
     doc = _document()
     with pytest.raises(ParamsError, match="water level"):
         doc.set_water_level(float("nan"))
-    with pytest.raises(ParamsError, match="LOW < HIGH"):
+    with pytest.raises(ParamsError, match="LO < HI"):
         doc.set_height_range((500, 100))
     assert doc.suggested_water_level() is None  # no terrain yet
     heights = np.add.outer(np.arange(96.0), np.zeros(96)).astype(np.float32)

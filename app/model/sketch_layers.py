@@ -21,7 +21,8 @@ import numpy as np
 from terrasynth_core.errors import SketchError
 from terrasynth_core.features import SketchMap
 
-from .events import Event
+from .observable import Observable
+from .brushes import capsule_coverage
 from .history import BBox, SketchEdit, SketchHistory
 
 Tool = Literal["ridge", "valley", "erase", "style", "style_erase", "water", "water_erase"]
@@ -48,6 +49,27 @@ WATER_RGBA = (30, 110, 230, 150)
 STYLE_ALPHA = 110
 
 
+def _read_only(layer: np.ndarray) -> np.ndarray:
+    view = layer.view()
+    view.flags.writeable = False
+    return view
+
+
+class _Layer:
+    """A sketch layer as a read-only attribute (``sketch.ridge``...): a
+    view callers cannot write through, so every edit goes through the
+    sketch and its history."""
+
+    def __init__(self, doc: str) -> None:
+        self.__doc__ = doc
+
+    def __set_name__(self, owner, name: str) -> None:
+        self.name = name
+
+    def __get__(self, sketch, owner=None):
+        return self if sketch is None else _read_only(sketch._layers[self.name])
+
+
 class Sketch:
     """Ridge and valley strokes, style regions and water, with
     one-stroke-per-step undo.
@@ -63,10 +85,10 @@ class Sketch:
 
     Attributes
     ----------
-    changed : Event
+    changed : Observable
         Emitted with the window ``(r0, r1, c0, c1)`` that changed, or
         ``None`` when whole layers (maybe their shape) changed.
-    history_changed : Event
+    history_changed : Observable
         Emitted with no argument when undo/redo availability may have changed.
     """
 
@@ -78,8 +100,8 @@ class Sketch:
         self._layers = {"ridge": ridge.astype(np.uint8, copy=True), "valley": valley.astype(np.uint8, copy=True)}
         self._layers.update(_region_layers(ridge.shape, style, water))
         self.history = SketchHistory()
-        self.changed = Event()
-        self.history_changed = Event()
+        self.changed = Observable()
+        self.history_changed = Observable()
         self._stroke: _Stroke | None = None
 
     # -- construction -----------------------------------------------------------
@@ -102,25 +124,10 @@ class Sketch:
     def shape(self) -> tuple[int, int]:
         return self._layers["ridge"].shape
 
-    @property
-    def ridge(self) -> np.ndarray:
-        """Ridge intensities, uint8 (rows, cols); a read-only view."""
-        return _read_only(self._layers["ridge"])
-
-    @property
-    def valley(self) -> np.ndarray:
-        """Valley intensities, uint8 (rows, cols); a read-only view."""
-        return _read_only(self._layers["valley"])
-
-    @property
-    def style(self) -> np.ndarray:
-        """Style id per cell (-1 none), int16 (rows, cols); a read-only view."""
-        return _read_only(self._layers["style"])
-
-    @property
-    def water(self) -> np.ndarray:
-        """Water cells, bool (rows, cols); a read-only view."""
-        return _read_only(self._layers["water"])
+    ridge = _Layer("Ridge intensities, uint8 (rows, cols); a read-only view.")
+    valley = _Layer("Valley intensities, uint8 (rows, cols); a read-only view.")
+    style = _Layer("Style id per cell (-1 none), int16 (rows, cols); a read-only view.")
+    water = _Layer("Water cells, bool (rows, cols); a read-only view.")
 
     @property
     def has_strokes(self) -> bool:
@@ -327,21 +334,19 @@ class Sketch:
 
     def undo(self) -> bool:
         """Revert the last step; False when there was none."""
-        self.end_stroke()
-        edit = self.history.undo()
-        if edit is None:
-            return False
-        self._apply(edit.bbox, edit.old)
-        self.history_changed.emit()
-        return True
+        return self._replay(self.history.undo, "old")
 
     def redo(self) -> bool:
         """Apply the last undone step again; False when there was none."""
+        return self._replay(self.history.redo, "new")
+
+    def _replay(self, step, side: str) -> bool:
+        """Put back the ``side`` (``"old"`` or ``"new"``) layers of the edit ``step()`` returns."""
         self.end_stroke()
-        edit = self.history.redo()
+        edit = step()
         if edit is None:
             return False
-        self._apply(edit.bbox, edit.new)
+        self._apply(edit.bbox, getattr(edit, side))
         self.history_changed.emit()
         return True
 
@@ -420,58 +425,6 @@ class _Stroke:
             self.bbox = (min(a[0], bbox[0]), max(a[1], bbox[1]), min(a[2], bbox[2]), max(a[3], bbox[3]))
 
 
-def capsule_coverage(shape: tuple[int, int], p0: tuple[float, float], p1: tuple[float, float],
-                     radius: float, hardness: float) -> tuple[BBox | None, np.ndarray]:
-    """Brush intensity of a round brush dragged from ``p0`` to ``p1``.
-
-    Parameters
-    ----------
-    shape : (rows, cols)
-        Grid the brush paints on.
-    p0, p1 : (row, col)
-        Segment ends in cell units.
-    radius : float
-        Brush radius in cells.
-    hardness : float in [0, 1]
-        Width of the linear fall-off is ``(1 - hardness) * radius`` cells
-        (at least one); intensity is one half at the radius.
-
-    Returns
-    -------
-    bbox : (r0, r1, c0, c1) or None
-        Window of cells the brush reaches inside the grid (None if none).
-    coverage : ndarray of uint8, shape of ``bbox``
-        Intensity 0-255 of the brush on each cell of the window.
-    """
-    rows, cols = shape
-    (ra, ca), (rb, cb) = p0, p1
-    # Intensity falls linearly over ``falloff`` cells centred on the radius,
-    # so the stroked cells (at least half intensity) are those within the
-    # radius for any hardness.  At least one cell of fall-off even for a hard
-    # brush: an anti-aliased edge.
-    falloff = max((1.0 - hardness) * radius, 1.0)
-    reach = radius + 0.5 * falloff
-    r0 = max(int(np.floor(min(ra, rb) - reach)), 0)
-    r1 = min(int(np.ceil(max(ra, rb) + reach)) + 1, rows)
-    c0 = max(int(np.floor(min(ca, cb) - reach)), 0)
-    c1 = min(int(np.ceil(max(ca, cb) + reach)) + 1, cols)
-    if r0 >= r1 or c0 >= c1:
-        return None, np.zeros((0, 0), np.uint8)
-    rr, cc = np.ogrid[r0:r1, c0:c1]
-    dr, dc = rb - ra, cb - ca
-    length2 = dr * dr + dc * dc
-    if length2 > 0:
-        t = np.clip(((rr - ra) * dr + (cc - ca) * dc) / length2, 0.0, 1.0)
-    else:
-        t = 0.0
-    dist = np.hypot(rr - (ra + t * dr), cc - (ca + t * dc))
-    coverage = np.clip((radius - dist) / falloff + 0.5, 0.0, 1.0)
-    coverage = np.rint(coverage * 255).astype(np.uint8)
-    if not coverage.any():
-        return None, np.zeros((0, 0), np.uint8)
-    return (r0, r1, c0, c1), coverage
-
-
 def _check_layers(ridge: np.ndarray, valley: np.ndarray) -> None:
     if ridge.ndim != 2 or ridge.shape != valley.shape or min(ridge.shape) < 2:
         raise SketchError(
@@ -514,12 +467,6 @@ def resize_nearest(layer: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     rows = np.minimum(((np.arange(shape[0]) + 0.5) * layer.shape[0] / shape[0]).astype(int), layer.shape[0] - 1)
     cols = np.minimum(((np.arange(shape[1]) + 0.5) * layer.shape[1] / shape[1]).astype(int), layer.shape[1] - 1)
     return layer[np.ix_(rows, cols)]
-
-
-def _read_only(layer: np.ndarray) -> np.ndarray:
-    view = layer.view()
-    view.flags.writeable = False
-    return view
 
 
 def _layers_of(sketch_map: SketchMap) -> tuple[np.ndarray, np.ndarray]:

@@ -62,6 +62,23 @@ class ExampleRef:
             return builtin_example(self.builtin).name
         return Path(self.path).name
 
+    @property
+    def description(self) -> str:
+        """Where the example comes from: a built-in's name, style, source and
+        licence, or the file's path."""
+        if self.builtin is None:
+            return self.path
+        ex = builtin_example(self.builtin)
+        return f"{ex.name}\n{ex.style}\nSource: {ex.source} ({ex.licence})"
+
+    @property
+    def thumbnail_file(self) -> Path | None:
+        """The built-in example's pre-rendered thumbnail; None for a file or when it is missing."""
+        if self.builtin is None:
+            return None
+        path = builtin_example(self.builtin).thumbnail_path
+        return path if path.is_file() else None
+
     def load(self) -> HeightField:
         """The example's height field (cropped), memoised.
 

@@ -1,0 +1,249 @@
+"""A run request and the events of running it: what the controllers hand a worker.
+
+:class:`SynthesisRequest` is an immutable snapshot of the document taken on
+the GUI thread; :func:`synthesis_events` and :func:`variation_events` are
+generators that do the slow work (reading examples, synthesizing) when a
+worker drains them, yielding the core's progress events and the app's own
+(:class:`RunStarted`, :class:`VariationMade`).  Nothing here knows about Qt.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+from dataclasses import dataclass
+from typing import Callable, Iterator, Sequence
+
+import numpy as np
+
+from terrasynth_core.features import SketchMap
+from terrasynth_core.pictures import height_range
+from terrasynth_core.synthesis import Controls, Pin, Session, SynthesisParams, Water, run_variations
+
+from .control_specs import StampSpec, StyleSpec
+from .example_library import ExampleRef
+from .result import TerrainResult
+
+#: Largest seed the app hands out or shows (its seed box holds a 32-bit int).
+MAX_SEED = 2**31 - 1
+
+
+@dataclass(frozen=True, eq=False)
+class SynthesisRequest:
+    """Immutable inputs of one run, taken from the document on the GUI thread.
+
+    :meth:`make_session` does the slow part (reading and analysing the
+    examples) and is meant to be called on a worker thread.
+
+    Parameters
+    ----------
+    examples : tuple of ExampleRef
+    sketch_map : SketchMap or None
+    shape : (rows, cols)
+    params : SynthesisParams
+    styles : tuple of StyleSpec
+        The styles painted somewhere, in ``style_map`` index order.
+    style_map : ndarray of int16, shape (rows, cols), or None
+        Index into ``styles`` per cell, -1 for the plain examples.
+    water : ndarray of bool, shape (rows, cols), or None
+    water_level : float
+    height_range : (low, high) or None
+    pins : tuple of Pin
+    stamps : tuple of StampSpec
+    previous : ndarray of float32, shape (rows, cols), or None
+        For a re-synthesis: the terrain to keep outside ``selection``.
+    selection : ndarray of bool, shape (rows, cols), or None
+    """
+
+    examples: tuple[ExampleRef, ...]
+    sketch_map: SketchMap | None
+    shape: tuple[int, int]
+    params: SynthesisParams
+    styles: tuple[StyleSpec, ...] = ()
+    style_map: np.ndarray | None = None
+    water: np.ndarray | None = None
+    water_level: float = 0.0
+    height_range: tuple[float, float] | None = None
+    pins: tuple[Pin, ...] = ()
+    stamps: tuple[StampSpec, ...] = ()
+    previous: np.ndarray | None = None
+    selection: np.ndarray | None = None
+
+    def make_controls(self) -> Controls:
+        """The core controls, style and stamp DEMs read (slow)."""
+        return Controls(
+            styles=tuple(spec.to_core() for spec in self.styles),
+            style_map=self.style_map,
+            water=Water(self.water, self.water_level) if self.water is not None else None,
+            stamps=tuple(spec.to_core() for spec in self.stamps),
+            pins=self.pins,
+            height_range=self.height_range,
+            previous=self.previous,
+            selection=self.selection,
+        )
+
+    def make_session(self) -> Session:
+        """Load the examples and build the validated core session.
+
+        Raises
+        ------
+        TerraSynthError
+            For an unreadable example or inconsistent inputs.
+        """
+        fields = [ref.load() for ref in self.examples]
+        return Session(fields, self.sketch_map, shape=self.shape, params=self.params, controls=self.make_controls())
+
+    def source_fields(self) -> list:
+        """The height fields of the plain examples, then of the styles (slow)."""
+        return [ref.load() for ref in self.examples] + [spec.example.load() for spec in self.styles]
+
+    def cell_size(self) -> tuple[float, float] | None:
+        """Ground size of an output cell: that of the first example (or style), metres."""
+        return self.source_fields()[0].cell_size
+
+    def make_variations(self, seeds: Sequence[int], *, progress: Callable | None = None,
+                        cancel: Callable[[], bool] | None = None, workers: int | None = None) -> list[TerrainResult]:
+        """One terrain per seed, made in parallel processes.
+
+        Parameters
+        ----------
+        seeds : sequence of int
+            Distinct, non-negative.
+        progress : callable(index, TerrainResult), optional
+            Called (in this thread) as each variation finishes.
+        cancel : callable() -> bool, optional
+            Polled; True stops them all (``SynthesisCancelled`` is raised).
+        workers : int, optional
+            Processes; default one per core, at most one per seed.
+
+        Returns
+        -------
+        list of TerrainResult
+            In the order of ``seeds``.
+        """
+        fields = [ref.load() for ref in self.examples]
+        cell_size = self.cell_size()
+        terrains: dict[int, TerrainResult] = {}
+
+        def finished(index: int, result) -> None:
+            # The core reports every variation here, so the objects handed to
+            # ``progress`` are the ones returned.
+            terrains[index] = TerrainResult.from_synthesis(result, cell_size=cell_size)
+            if progress is not None:
+                progress(index, terrains[index])
+
+        results = run_variations(fields, self.sketch_map, seeds=seeds, shape=self.shape, params=self.params,
+                                 controls=self.make_controls(), workers=workers, progress=finished, cancel=cancel)
+        return [terrains[i] for i in range(len(results))]
+
+
+@dataclass(frozen=True, eq=False)
+class RunInfo:
+    """What the views need before the first patch arrives.
+
+    Parameters
+    ----------
+    shape : (rows, cols)
+    cell_size : (dy, dx) or None
+        Ground size of an output cell, metres.
+    vrange : (low, high)
+        Heights the run's colours span, metres.
+    base : ndarray of float32, shape (rows, cols), or None
+        The terrain a re-synthesis starts from.
+    """
+
+    shape: tuple[int, int]
+    cell_size: tuple[float, float] | None
+    vrange: tuple[float, float]
+    base: np.ndarray | None = None
+
+
+def run_info(request: SynthesisRequest) -> RunInfo:
+    """Cell size of the first example and the colour range of the run: the
+    terrain being re-synthesized, or the examples' and styles' joint height
+    range (slow: reads the examples)."""
+    fields = request.source_fields()
+    if request.previous is not None:
+        return RunInfo(request.shape, fields[0].cell_size, height_range(request.previous), request.previous)
+    bases = [s.base for s in request.styles if s.base is not None]
+    low = min([f.min for f in fields] + bases)
+    high = max([f.max for f in fields] + bases)
+    # Patches are shifted to match their neighbours, so the output may leave
+    # the examples' range a little; a margin keeps its tints from clipping.
+    margin = 0.1 * (high - low)
+    return RunInfo(request.shape, fields[0].cell_size, (low - margin, high + margin))
+
+
+@dataclass(frozen=True, eq=False)
+class RunStarted:
+    """The session is valid and the run starts: the first event of :func:`synthesis_events`."""
+
+    info: RunInfo
+
+
+@dataclass(frozen=True, eq=False)
+class VariationMade:
+    """Variation ``index`` (into the batch's seeds) is done."""
+
+    index: int
+    terrain: TerrainResult
+
+
+def synthesis_events(request: SynthesisRequest) -> Iterator:
+    """Run ``request``: :class:`RunStarted`, then the core's events
+    (``StageStarted``, ``PatchPlaced``, ``StageFinished``, ``SynthesisFinished``).
+
+    Everything happens when the generator is drained, on the caller's
+    thread; closing it stops the run at the next patch.
+    """
+    session = request.make_session()
+    yield RunStarted(run_info(request))
+    yield from session.iter_run()
+
+
+def variation_events(request: SynthesisRequest, seeds: Sequence[int], *,
+                     poll_seconds: float = 0.1) -> Iterator[VariationMade | None]:
+    """Make one variation per seed: a :class:`VariationMade` as each finishes.
+
+    The core makes variations in worker processes and reports them by
+    callback, so the batch runs on a helper thread; while waiting this
+    yields None every ``poll_seconds`` (a cancel checkpoint for the
+    consumer).  Closing the generator stops the batch.
+
+    Returns
+    -------
+    list of TerrainResult
+        In the order of ``seeds`` (the generator's return value).
+    """
+    made: queue.SimpleQueue = queue.SimpleQueue()
+    stop = threading.Event()
+    outcome: dict = {}
+    done = object()
+
+    def batch() -> None:
+        try:
+            outcome["terrains"] = request.make_variations(
+                seeds, progress=lambda index, terrain: made.put(VariationMade(index, terrain)), cancel=stop.is_set)
+        except BaseException as exc:  # handed to the consumer below
+            outcome["error"] = exc
+        finally:
+            made.put(done)
+
+    thread = threading.Thread(target=batch, name="variations", daemon=True)
+    thread.start()
+    try:
+        while True:
+            try:
+                item = made.get(timeout=poll_seconds)
+            except queue.Empty:
+                yield None
+                continue
+            if item is done:
+                break
+            yield item
+    finally:
+        stop.set()
+        thread.join()
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["terrains"]
