@@ -19,7 +19,7 @@ from typing import Iterable, Literal, Mapping
 import numpy as np
 
 from terrasynth_core.errors import SketchError
-from terrasynth_core.features import SketchMap
+from terrasynth_core.features import SketchMap, resize_nearest
 
 from .observable import Observable
 from .brushes import capsule_coverage
@@ -456,17 +456,6 @@ def _region_layers(shape: tuple[int, int], style: np.ndarray | None,
             raise SketchError(f"water layer is {water.shape} but the sketch is {shape[0]}x{shape[1]}")
         water_layer = water.astype(bool, copy=True)
     return {"style": style_layer, "water": water_layer}
-
-
-def resize_nearest(layer: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """``layer`` resampled to ``shape`` (rows, cols) by nearest cell, so
-    labels and masks stay labels and masks; a new array, or ``layer``
-    itself when it already has ``shape``."""
-    if layer.shape == tuple(shape):
-        return layer
-    rows = np.minimum(((np.arange(shape[0]) + 0.5) * layer.shape[0] / shape[0]).astype(int), layer.shape[0] - 1)
-    cols = np.minimum(((np.arange(shape[1]) + 0.5) * layer.shape[1] / shape[1]).astype(int), layer.shape[1] - 1)
-    return layer[np.ix_(rows, cols)]
 
 
 def _layers_of(sketch_map: SketchMap) -> tuple[np.ndarray, np.ndarray]:

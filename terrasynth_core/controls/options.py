@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParamsError
+from ..features.sketch import resize_nearest
 from ..heightfield import HeightField
 from .pins import check_pins
 from .water import Water
@@ -249,6 +250,4 @@ def _fit_map(name: str, arr: np.ndarray, shape: tuple[int, int], *, order: int) 
     if abs(ratio - 1) > 0.02:
         raise ParamsError(f"{name} is {arr.shape[0]}x{arr.shape[1]} but the output is {shape[0]}x{shape[1]} "
                           "(another aspect ratio): paint it on the output grid")
-    rr = np.minimum((np.arange(shape[0]) + 0.5) * arr.shape[0] / shape[0], arr.shape[0] - 1).astype(int)
-    cc = np.minimum((np.arange(shape[1]) + 0.5) * arr.shape[1] / shape[1], arr.shape[1] - 1).astype(int)
-    return arr[np.ix_(rr, cc)]
+    return resize_nearest(arr, shape)
