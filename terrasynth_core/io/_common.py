@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 from PIL import Image
+from rasterio.errors import RasterioError
 
 from ..errors import DEMFormatError, TerraSynthError
 from ..heightfield import GeoReference, HeightField, geographic_cell_size
@@ -46,6 +47,7 @@ LIBRARY_ERRORS = (
     struct.error,
     zlib.error,
     Image.DecompressionBombError,
+    RasterioError,  # GDAL's errors come as RasterioIOError (an OSError) or these
 )
 
 
@@ -169,8 +171,9 @@ def _georef_json(georef: GeoReference | None) -> dict | None:
     """Plain JSON values of a georeference (numpy scalars are not JSON)."""
     if georef is None:
         return None
-    content = {key: float(value) for key, value in asdict(georef).items() if key != "epsg"}
+    content = {key: float(value) for key, value in asdict(georef).items() if key not in ("epsg", "crs_wkt")}
     content["epsg"] = int(georef.epsg) if georef.epsg is not None else None
+    content["crs_wkt"] = georef.crs_wkt
     return content
 
 
@@ -305,7 +308,3 @@ def looks_geographic(x: float, y: float, step: float) -> bool:
     """
     return abs(x) <= 180 and abs(y) <= 90 and step < 0.1
 
-
-def is_geographic_epsg(epsg: int) -> bool:
-    """Whether an EPSG code names a geographic 2-D CRS (the 4000-4999 block)."""
-    return 4000 <= epsg < 5000
