@@ -56,7 +56,9 @@ class GeoReference:
     Notes
     -----
     Two georeferences are equal when their origin and steps are, and their
-    CRS: the EPSG code when either has one, else the WKT.
+    CRS: the EPSG code when either has one, else the WKT text (the same CRS
+    read back from a file may be worded differently; compare
+    ``rasterio.crs.CRS.from_wkt`` objects to tell).
     """
 
     x_origin: float

@@ -106,14 +106,15 @@ def read_gdal(path: Path, *, band: int | None = None, fmt: str = "gdal") -> Heig
             transform, crs, tags = ds.transform, ds.crs, ds.tags()
             driver, count = ds.driver, ds.count
 
-    heights = data.astype(np.float64).filled(np.nan)
-    heights[~np.isfinite(heights)] = np.nan  # NaN or infinite nodata
-    if scale != 1 or offset != 0:
+    scaled = scale != 1 or offset != 0
+    # float64 only when scale and offset need it: a large DEM takes half the memory.
+    heights = data.astype(np.float64 if scaled else np.float32).filled(np.nan)
+    if scaled:
         heights = heights * scale + offset
     metadata = {"driver": driver, "dtype": str(dtype), "band": index, "bands": count}
     if nodata is not None:
         metadata["nodata_value"] = float(nodata)
-    if scale != 1 or offset != 0:
+    if scaled:
         metadata["scale"], metadata["offset"] = float(scale), float(offset)
 
     crs_wkt = crs.to_wkt() if crs is not None else None
@@ -130,7 +131,7 @@ def read_gdal(path: Path, *, band: int | None = None, fmt: str = "gdal") -> Heig
     georef, cell_size, flip = _placement(path, transform, crs, heights.shape, tags)
     if flip:
         heights = heights[::-1]
-    return read_field(path, fmt, heights.astype(np.float32), cell_size=cell_size, georef=georef,
+    return read_field(path, fmt, heights.astype(np.float32, copy=False), cell_size=cell_size, georef=georef,
                       metadata=metadata)
 
 
