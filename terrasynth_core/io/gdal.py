@@ -93,6 +93,12 @@ def read_gdal(path: Path, *, band: int | None = None, fmt: str = "gdal") -> Heig
         # A raster without georeference is fine: we return georef=None.
         warnings.simplefilter("ignore", NotGeoreferencedWarning)
         with _open(path) as ds:
+            if ds.count == 0 and ds.subdatasets:
+                names = ", ".join(sub.rsplit(":", 1)[-1] for sub in ds.subdatasets)
+                raise DEMFormatError(
+                    f"{path}: holds {len(ds.subdatasets)} grids ({names}), not one; extract the elevation "
+                    f"grid into a GeoTIFF first (gdal_translate {ds.subdatasets[0]} dem.tif)"
+                )
             index = _band_index(path, ds.count, band)
             dtype = np.dtype(ds.dtypes[index - 1])
             if dtype.kind not in "iuf":

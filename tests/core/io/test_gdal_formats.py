@@ -328,3 +328,10 @@ def test_esri_ascii_with_prj_gets_its_crs(tmp_path, crop_float):
     (tmp_path / "dem.prj").write_text("not a CRS")
     with pytest.raises(DEMFormatError, match="dem.prj"):
         load_dem(tmp_path / "dem.asc")
+
+
+def test_netcdf_with_several_variables_is_refused_by_name(tmp_path, crop):
+    source = _write(tmp_path / "two.tif", np.stack([crop, crop]))
+    gdal_copy(source, tmp_path / "two.nc", driver="netCDF")
+    with pytest.raises(DEMFormatError, match=r"two.nc: holds 2 grids \(Band1, Band2\)"):
+        load_dem(tmp_path / "two.nc")
