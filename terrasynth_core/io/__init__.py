@@ -29,9 +29,14 @@ Extension          Name            Read   Write  Notes
 .flt               gridfloat       GDAL   no     ESRI GridFloat, needs .hdr
 .grd               grd             GDAL   no     Surfer, GMT or R raster grid
 .sdat              saga            GDAL   no     SAGA grid, needs .sgrd
-.ers .rst .bt      (see below)     GDAL   no     ER Mapper, Idrisi, VTP terrain
-.hf2 .gpkg .jp2    (see below)     GDAL   no     HF2/HFZ, GeoPackage, JPEG 2000
-.mrf .bag .gtx     (see below)     GDAL   no     MRF, BAG bathymetry, GTX grid
+.ers               er-mapper       GDAL   no     ER Mapper raster
+.rst               idrisi          GDAL   no     Idrisi raster
+.bt                vtp-bt          GDAL   no     VTP Binary Terrain
+.hf2               hf2             GDAL   no     HF2/HFZ heightfield
+.gpkg              geopackage      GDAL   no     GeoPackage raster tiles
+.jp2               jpeg2000        GDAL   no     JPEG 2000 (lossless if so made)
+.bag               bag             GDAL   no     BAG bathymetry: band=1 elevation
+.gtx               gtx             GDAL   no     NOAA GTX grid
 .png               png             own    yes    8/16-bit gray; metres via sidecar
 .npy               npy             own    yes    written as float32, NaN nodata
 .ter               terragen        own    yes    int16 with scale; no nodata
@@ -95,7 +100,6 @@ _FORMAT_NAMES = {
     ".hf2": "hf2",
     ".gpkg": "geopackage",
     ".jp2": "jpeg2000",
-    ".mrf": "mrf",
     ".bag": "bag",
     ".gtx": "gtx",
     ".png": "png",

@@ -133,6 +133,11 @@ OTHER_FORMATS = [
     ("GS7BG", ".grd", {}, False, False, 1e-5),
     ("ERS", ".ers", {}, True, True, 1e-9),
     ("RST", ".rst", {}, True, False, 1e-5),
+    ("BT", ".bt", {}, True, True, 1e-9),
+    # HF2 stores heights quantised (0.01 by default): GDAL's values, not the source's.
+    ("HF2", ".hf2", {}, False, True, 1e-9),
+    ("GTX", ".gtx", {}, True, True, 1e-9),
+    ("GPKG", ".gpkg", {}, True, True, 1e-9),
 ]
 
 
@@ -143,7 +148,8 @@ def test_other_gdal_formats(tmp_path, crop_float, driver, ext, options, exact, h
         if driver not in env.drivers():
             pytest.skip(f"GDAL in this rasterio wheel has no {driver} driver")
     # CreateCopy from a GeoTIFF: some drivers (netCDF) cannot be opened in "w" mode.
-    source = _write(tmp_path / "source.tif", crop_float, nodata=NODATA)
+    data = np.nan_to_num(crop_float, nan=NODATA) if driver == "HF2" else crop_float  # HF2 refuses NaN
+    source = _write(tmp_path / "source.tif", data, nodata=NODATA)
     gdal_copy(source, tmp_path / f"dem{ext}", driver=driver, **options)
     _check(tmp_path / f"dem{ext}", _expected(crop_float) if exact else None,
            epsg=4326 if has_epsg else None, rel=rel)
@@ -335,3 +341,23 @@ def test_netcdf_with_several_variables_is_refused_by_name(tmp_path, crop):
     gdal_copy(source, tmp_path / "two.nc", driver="netCDF")
     with pytest.raises(DEMFormatError, match=r"two.nc: holds 2 grids \(Band1, Band2\)"):
         load_dem(tmp_path / "two.nc")
+
+
+def test_lossless_jpeg2000(tmp_path, crop):
+    with rasterio.Env() as env:
+        if "JP2OpenJPEG" not in env.drivers():
+            pytest.skip("GDAL in this rasterio wheel has no JP2OpenJPEG driver")
+    source = _write(tmp_path / "source.tif", crop)
+    gdal_copy(source, tmp_path / "dem.jp2", driver="JP2OpenJPEG", reversible="YES", quality=100)
+    _check(tmp_path / "dem.jp2", crop.astype(np.float32))
+
+
+def test_bag_elevation_is_band_1(tmp_path, crop_float):
+    # BAG bathymetry holds elevation and uncertainty: the band must be chosen.
+    source = _write(tmp_path / "source.tif", crop_float, nodata=NODATA)
+    gdal_copy(source, tmp_path / "survey.bag", driver="BAG")
+    with pytest.raises(DEMFormatError, match="survey.bag: 2 bands"):
+        load_dem(tmp_path / "survey.bag")
+    dem = load_dem(tmp_path / "survey.bag", band=1)
+    np.testing.assert_array_equal(dem.heights, _gdal_read(tmp_path / "survey.bag")[0])
+    np.testing.assert_array_equal(dem.heights, _expected(crop_float))
