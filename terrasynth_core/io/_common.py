@@ -19,11 +19,12 @@ import struct
 import zlib
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
+from rasterio.crs import CRS
 from rasterio.errors import RasterioError
 
 from ..errors import DEMFormatError, TerraSynthError
@@ -124,7 +125,12 @@ def read_field(path: Path, fmt: str, heights: np.ndarray, *, cell_size=None, geo
     georef : GeoReference or None
     metadata : dict or None
         What the format tells beyond heights and placement.
+
+    A georeference with an EPSG code but no WKT gets the code's WKT, so
+    every field with a known CRS carries it as WKT too.
     """
+    if georef is not None and georef.epsg is not None and not georef.crs_wkt:
+        georef = replace(georef, crs_wkt=CRS.from_epsg(georef.epsg).to_wkt())
     return HeightField(heights, cell_size=cell_size, georef=georef, source=str(path), format=fmt,
                        metadata=metadata or {})
 

@@ -12,7 +12,7 @@ from rasterio.shutil import copy as gdal_copy
 from rasterio.transform import Affine
 
 from terrasynth_core.errors import DEMFormatError
-from terrasynth_core.heightfield import geographic_cell_size
+from terrasynth_core.heightfield import HeightField, geographic_cell_size
 from terrasynth_core.io import format_name, load_dem, save_dem
 from terrasynth_core.io.resample import to_square_cells
 
@@ -361,3 +361,23 @@ def test_bag_elevation_is_band_1(tmp_path, crop_float):
     dem = load_dem(tmp_path / "survey.bag", band=1)
     np.testing.assert_array_equal(dem.heights, _gdal_read(tmp_path / "survey.bag")[0])
     np.testing.assert_array_equal(dem.heights, _expected(crop_float))
+
+
+def test_local_projection_survives_sidecar_and_geotiff_round_trips(tmp_path, dems_dir):
+    field = to_square_cells(load_dem(dems_dir / "N00E010.hgt"), 200.0)
+    save_dem(field, tmp_path / "h.npy")
+    back = load_dem(tmp_path / "h.npy")
+    assert back.georef == field.georef and back.georef.crs_wkt == field.georef.crs_wkt
+    for cog in (False, True):
+        save_dem(field, tmp_path / "h.tif", cog=cog)
+        with rasterio.open(tmp_path / "h.tif") as ds:
+            assert ds.crs == CRS.from_wkt(field.georef.crs_wkt) and ds.crs.is_projected
+
+
+@pytest.mark.parametrize("cog", [False, True])
+def test_geotiff_without_georeference_keeps_its_cell_size(tmp_path, cog):
+    field = HeightField(np.arange(12, dtype=np.float32).reshape(3, 4), cell_size=(10.0, 12.5))
+    save_dem(field, tmp_path / "g.tif", cog=cog)
+    back = load_dem(tmp_path / "g.tif")
+    assert back.cell_size == (10.0, 12.5) and back.georef is None
+    np.testing.assert_array_equal(back.heights, field.heights)
