@@ -18,7 +18,7 @@ from rasterio.crs import CRS
 from rasterio.errors import CRSError
 
 from ..errors import DEMFormatError
-from ..heightfield import GeoReference, HeightField
+from ..heightfield import HeightField
 from ._common import read_field
 from .gdal import grid_placement
 

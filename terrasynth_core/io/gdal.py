@@ -3,13 +3,13 @@ carry GDAL).
 
 Reading covers every raster format the GDAL in the wheel reads: GeoTIFF
 with any compression and predictor (LZW, DEFLATE, ZSTD, LERC...), COG and
-BigTIFF, ERDAS Imagine ``.img``, GDAL ``.vrt`` mosaics, NetCDF, DTED, ENVI,
-ESRI ASCII and more.  Writing is GeoTIFF, plain or Cloud-Optimized.
+BigTIFF, ERDAS Imagine ``.img``, GDAL ``.vrt`` mosaics, NetCDF, DTED, ENVI
+and more.  Writing is GeoTIFF, plain or Cloud-Optimized.  The package's
+``__init__`` decides which extensions come here.
 """
 
 from __future__ import annotations
 
-import math
 import re
 import warnings
 from pathlib import Path

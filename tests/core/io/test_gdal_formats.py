@@ -296,6 +296,9 @@ def test_cog_output_is_a_valid_cog(tmp_path, dems_dir):
         assert ds.compression.name == "deflate" and np.isnan(ds.nodata)
         assert ds.crs == CRS.from_wkt(field.georef.crs_wkt)
         np.testing.assert_array_equal(ds.read(1), field.heights)
+    # GDAL's COG ghost header: the IFDs come before the data, as readers over HTTP expect.
+    head = (tmp_path / "out.tif").read_bytes()[:400]
+    assert b"GDAL_STRUCTURAL_METADATA_SIZE" in head and b"LAYOUT=IFDS_BEFORE_DATA" in head
     back = load_dem(tmp_path / "out.tif")
     np.testing.assert_array_equal(back.heights, field.heights)
     # GDAL's GeoTIFF keys give back the same CRS in other WKT words.
