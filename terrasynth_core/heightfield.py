@@ -47,6 +47,18 @@ class GeoReference:
     epsg : int or None
         EPSG code of the coordinate reference system when known
         (4326 for SRTM tiles, 326zz for WGS 84 / UTM zone zz North).
+    crs_wkt : str or None
+        The coordinate reference system as WKT, when known.  It is what
+        names a CRS without an EPSG code (a local Transverse Mercator, a
+        compound CRS with a vertical datum); beside an EPSG code it only
+        describes it.
+
+    Notes
+    -----
+    Two georeferences are equal when their origin and steps are, and their
+    CRS: the EPSG code when either has one, else the WKT text (the same CRS
+    read back from a file may be worded differently; compare
+    ``rasterio.crs.CRS.from_wkt`` objects to tell).
     """
 
     x_origin: float
@@ -54,6 +66,19 @@ class GeoReference:
     x_step: float
     y_step: float
     epsg: int | None = None
+    crs_wkt: str | None = field(default=None, repr=False)
+
+    def _crs_key(self):
+        return ("epsg", self.epsg) if self.epsg is not None else ("wkt", self.crs_wkt)
+
+    def __eq__(self, other):
+        if not isinstance(other, GeoReference):
+            return NotImplemented
+        return (self.x_origin, self.y_origin, self.x_step, self.y_step, self._crs_key()) == (
+            other.x_origin, other.y_origin, other.x_step, other.y_step, other._crs_key())
+
+    def __hash__(self):
+        return hash((self.x_origin, self.y_origin, self.x_step, self.y_step, self._crs_key()))
 
 
 def geographic_cell_size(lat_deg: float, step_deg: float) -> tuple[float, float]:

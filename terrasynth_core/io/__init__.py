@@ -7,20 +7,42 @@ file holds.
 
 Formats
 -------
-=================  ==========  =====  =====  =====================================
-Extension          Name        Read   Write  Notes
-=================  ==========  =====  =====  =====================================
-.hgt               hgt         yes    no     SRTM tile; place from the file name
-.tif .tiff         geotiff     yes    yes    single band; written as float32
-.bil .bsq .bip     envi        yes    no     single band, needs the .hdr
-.dem               usgs-dem    yes    no     USGS ASCII DEM (1024-byte records)
-.asc               esri-ascii  yes    yes    ESRI ASCII grid
-.png               png         yes    yes    8/16-bit gray; metres via sidecar
-.npy               npy         yes    yes    written as float32, NaN nodata
-.ter               terragen    yes    yes    int16 with scale; no nodata
-.r16               r16         yes    yes    LE uint16 levels; metres via sidecar
-.r32               r32         yes    yes    LE float32 metres
-=================  ==========  =====  =====  =====================================
+GDAL (through rasterio) reads every raster format it knows; the project's
+own readers remain where they add something (SRTM placement from the tile
+name, the USGS DEM profiles without GDAL's padding rows, ESRI ASCII grids
+that GDAL misreads silently when a header line is indented, Terragen, the
+heightmap sidecars).
+
+=================  ==============  =====  =====  ===============================
+Extension          Name            Read   Write  Notes
+=================  ==============  =====  =====  ===============================
+.hgt               hgt             own    no     SRTM tile; place from the name
+.tif .tiff         geotiff         GDAL   yes    any compression, COG, BigTIFF;
+                                                 written float32, or COG
+.bil .bsq .bip     envi            GDAL   no     ENVI or ESRI BIL, needs .hdr
+.dem               usgs-dem        own    no     USGS ASCII DEM (1024-byte records)
+.asc               esri-ascii      own    yes    ESRI ASCII grid (+ .prj CRS)
+.img               erdas-imagine   GDAL   no     ERDAS Imagine (HFA)
+.vrt               gdal-vrt        GDAL   no     GDAL virtual raster (mosaics)
+.nc                netcdf          GDAL   no     NetCDF (CF)
+.dt0 .dt1 .dt2     dted            GDAL   no     DTED level 0/1/2
+.flt               gridfloat       GDAL   no     ESRI GridFloat, needs .hdr
+.grd               grd             GDAL   no     Surfer, GMT or R raster grid
+.sdat              saga            GDAL   no     SAGA grid, needs .sgrd
+.ers               er-mapper       GDAL   no     ER Mapper raster
+.rst               idrisi          GDAL   no     Idrisi raster
+.bt                vtp-bt          GDAL   no     VTP Binary Terrain
+.hf2               hf2             GDAL   no     HF2/HFZ heightfield
+.gpkg              geopackage      GDAL   no     GeoPackage raster tiles
+.jp2               jpeg2000        GDAL   no     JPEG 2000 (lossless if so made)
+.bag               bag             GDAL   no     BAG bathymetry: band=1 elevation
+.gtx               gtx             GDAL   no     NOAA GTX grid
+.png               png             own    yes    8/16-bit gray; metres via sidecar
+.npy               npy             own    yes    written as float32, NaN nodata
+.ter               terragen        own    yes    int16 with scale; no nodata
+.r16               r16             own    yes    LE uint16 levels; metres via sidecar
+.r32               r32             own    yes    LE float32 metres
+=================  ==============  =====  =====  ===============================
 
 PNG, ``.r16``, ``.r32`` and ``.npy`` files are written with a JSON sidecar
 ``<same stem>.json`` holding the height range, cell size, georeference and
@@ -40,7 +62,7 @@ from pathlib import Path
 
 from ..errors import DEMFormatError
 from ..heightfield import HeightField
-from . import envi, esri_ascii, geotiff, hgt, mesh, npy, png, raw, terragen, usgs_dem
+from . import esri_ascii, gdal, hgt, mesh, npy, png, raw, terragen, usgs_dem
 from ._common import atomic_outputs, open_new, sidecar_path, wrap_errors, write_sidecar
 
 __all__ = [
@@ -63,6 +85,23 @@ _FORMAT_NAMES = {
     ".bip": "envi",
     ".dem": "usgs-dem",
     ".asc": "esri-ascii",
+    ".img": "erdas-imagine",
+    ".vrt": "gdal-vrt",
+    ".nc": "netcdf",
+    ".dt0": "dted",
+    ".dt1": "dted",
+    ".dt2": "dted",
+    ".flt": "gridfloat",
+    ".grd": "grd",
+    ".sdat": "saga",
+    ".ers": "er-mapper",
+    ".rst": "idrisi",
+    ".bt": "vtp-bt",
+    ".hf2": "hf2",
+    ".gpkg": "geopackage",
+    ".jp2": "jpeg2000",
+    ".bag": "bag",
+    ".gtx": "gtx",
     ".png": "png",
     ".npy": "npy",
     ".ter": "terragen",
@@ -70,10 +109,9 @@ _FORMAT_NAMES = {
     ".r32": "r32",
 }
 
+#: The project's own readers; every other format is read through GDAL.
 _READERS: dict[str, Callable[[Path], HeightField]] = {
     "hgt": hgt.read_hgt,
-    "geotiff": geotiff.read_geotiff,
-    "envi": envi.read_envi,
     "usgs-dem": usgs_dem.read_usgs_dem,
     "esri-ascii": esri_ascii.read_esri_ascii,
     "png": png.read_png,
@@ -87,7 +125,6 @@ _RAW_READERS = {"r16": raw.read_r16, "r32": raw.read_r32}
 #: Writers by format name, called as ``writer(field, binary_file)``; those of
 #: :data:`_SIDECAR_FORMATS` return the sidecar content.
 _WRITERS = {
-    "geotiff": geotiff.write_geotiff,
     "esri-ascii": esri_ascii.write_esri_ascii,
     "png": png.write_png,
     "npy": npy.write_npy,
@@ -95,6 +132,9 @@ _WRITERS = {
     "r16": raw.write_r16,
     "r32": raw.write_r32,
 }
+
+#: Writers given the (temporary) path instead of an open file.
+_PATH_WRITERS = {"geotiff": gdal.write_geotiff}
 
 #: Formats written with a JSON sidecar (see :func:`._common.make_sidecar`).
 _SIDECAR_FORMATS = {"png", "npy", "r16", "r32"}
@@ -104,7 +144,9 @@ _MESH_WRITERS = {".obj": mesh.write_obj, ".stl": mesh.write_stl, ".ply": mesh.wr
 #: Extensions :func:`load_dem` reads.
 READ_EXTENSIONS: tuple[str, ...] = tuple(_FORMAT_NAMES)
 #: Extensions :func:`save_dem` writes.
-WRITE_EXTENSIONS: tuple[str, ...] = tuple(ext for ext, name in _FORMAT_NAMES.items() if name in _WRITERS)
+WRITE_EXTENSIONS: tuple[str, ...] = tuple(
+    ext for ext, name in _FORMAT_NAMES.items() if name in _WRITERS or name in _PATH_WRITERS
+)
 #: Extensions :func:`save_mesh` writes.
 MESH_EXTENSIONS: tuple[str, ...] = tuple(_MESH_WRITERS)
 
@@ -119,8 +161,8 @@ def format_name(path: str | PathLike) -> str:
     Returns
     -------
     str
-        ``"hgt"``, ``"geotiff"``, ``"envi"``, ``"usgs-dem"``, ``"esri-ascii"``,
-        ``"png"``, ``"npy"``, ``"terragen"``, ``"r16"`` or ``"r32"``.
+        The name in the module's format table, e.g. ``"hgt"``,
+        ``"geotiff"``, ``"erdas-imagine"`` or ``"r32"``.
 
     Raises
     ------
@@ -137,7 +179,9 @@ def format_name(path: str | PathLike) -> str:
     return name
 
 
-def load_dem(path: str | PathLike, *, size: tuple[int, int] | None = None) -> HeightField:
+def load_dem(
+    path: str | PathLike, *, size: tuple[int, int] | None = None, band: int | None = None
+) -> HeightField:
     """Read a DEM file, choosing the reader from the extension.
 
     Parameters
@@ -148,13 +192,18 @@ def load_dem(path: str | PathLike, *, size: tuple[int, int] | None = None) -> He
         Grid shape of a headerless ``.r16``/``.r32`` file.  Without it the
         shape comes from the sidecar, else the grid must be square.  Ignored
         by the other formats, whose files say their own shape.
+    band : int, optional
+        1-based band of a multi-band raster read through GDAL; without it
+        such a file is refused.  The project's own formats have one band
+        (``band=1`` is accepted, others refused).
 
     Returns
     -------
     HeightField
         North-up float32 heights in metres with NaN for nodata;
         ``format`` is the short name of :func:`format_name`, ``source`` the
-        path.
+        path.  See :func:`terrasynth_core.io.gdal.read_gdal` for what GDAL
+        reads give (scale and offset, height units, ``metadata``).
 
     Raises
     ------
@@ -167,12 +216,16 @@ def load_dem(path: str | PathLike, *, size: tuple[int, int] | None = None) -> He
     if not path.is_file():
         raise DEMFormatError(f"{path}: no such file" if not path.exists() else f"{path}: not a file")
     with wrap_errors(path, "read"):
-        if name in _RAW_READERS:
-            return _RAW_READERS[name](path, size=size)
-        return _READERS[name](path)
+        if name in _READERS or name in _RAW_READERS:
+            if band not in (None, 1):
+                raise DEMFormatError(f"{path}: band {band!r} does not exist; {name} files have one band")
+            if name in _RAW_READERS:
+                return _RAW_READERS[name](path, size=size)
+            return _READERS[name](path)
+        return gdal.read_gdal(path, band=band, fmt=name)
 
 
-def save_dem(field: HeightField, path: str | PathLike) -> None:
+def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False) -> None:
     """Write ``field`` in the format given by the extension of ``path``.
 
     Parameters
@@ -181,13 +234,17 @@ def save_dem(field: HeightField, path: str | PathLike) -> None:
     path : str or path-like
         One of :data:`WRITE_EXTENSIONS` (any case).  PNG, ``.r16``, ``.r32``
         and ``.npy`` also get the sidecar ``<same stem>.json``.
+    cog : bool, default False
+        For ``.tif``/``.tiff``: write a Cloud-Optimized GeoTIFF (tiled,
+        with overviews, readable over HTTP range requests).
 
     Notes
     -----
     What each format keeps:
 
-    * ``.tif``: float32 heights exactly, NaN nodata, georeference and EPSG.
-    * ``.asc``: float32 heights exactly, nodata, georeference (no EPSG).
+    * ``.tif``: float32 heights exactly, NaN nodata, georeference and CRS
+      (EPSG code, else WKT); DEFLATE with the floating-point predictor.
+    * ``.asc``: float32 heights exactly, nodata, georeference (no CRS).
     * ``.npy``, ``.r32``: float32 heights exactly, NaN nodata; placement
       in the sidecar.
     * ``.png``, ``.r16``: 16-bit levels between min and max (error at most
@@ -199,18 +256,25 @@ def save_dem(field: HeightField, path: str | PathLike) -> None:
     Raises
     ------
     DEMFormatError
-        Unsupported extension, unwritable destination, or a field the
-        format cannot hold; the message names the file.
+        Unsupported extension (or ``cog`` with another extension than
+        ``.tif``/``.tiff``), unwritable destination, or a field the format
+        cannot hold; the message names the file.
     """
     path = Path(path)
     name = _FORMAT_NAMES.get(path.suffix.lower())
-    if name not in _WRITERS:
+    if name not in _WRITERS and name not in _PATH_WRITERS:
         raise DEMFormatError(
             f"cannot write {path}: unsupported extension {path.suffix!r}; "
             f"supported: {', '.join(WRITE_EXTENSIONS)}"
         )
+    if cog and name != "geotiff":
+        raise DEMFormatError(f"cannot write {path}: a Cloud-Optimized GeoTIFF needs a .tif or .tiff name")
     if not isinstance(field, HeightField):
         raise TypeError(f"save_dem expects a HeightField, got {type(field).__name__}")
+    if name in _PATH_WRITERS:
+        with wrap_errors(path, "write"), atomic_outputs(path) as (temp,):
+            _PATH_WRITERS[name](field, temp, cog=cog)
+        return
     targets = (path, sidecar_path(path)) if name in _SIDECAR_FORMATS else (path,)
     with wrap_errors(path, "write"), atomic_outputs(*targets) as temps:
         with open_new(temps[0]) as fh:

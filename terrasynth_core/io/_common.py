@@ -19,11 +19,13 @@ import struct
 import zlib
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
+from rasterio.crs import CRS
+from rasterio.errors import RasterioError
 
 from ..errors import DEMFormatError, TerraSynthError
 from ..heightfield import GeoReference, HeightField, geographic_cell_size
@@ -46,6 +48,7 @@ LIBRARY_ERRORS = (
     struct.error,
     zlib.error,
     Image.DecompressionBombError,
+    RasterioError,  # GDAL's errors come as RasterioIOError (an OSError) or these
 )
 
 
@@ -122,7 +125,12 @@ def read_field(path: Path, fmt: str, heights: np.ndarray, *, cell_size=None, geo
     georef : GeoReference or None
     metadata : dict or None
         What the format tells beyond heights and placement.
+
+    A georeference with an EPSG code but no WKT gets the code's WKT, so
+    every field with a known CRS carries it as WKT too.
     """
+    if georef is not None and georef.epsg is not None and not georef.crs_wkt:
+        georef = replace(georef, crs_wkt=CRS.from_epsg(georef.epsg).to_wkt())
     return HeightField(heights, cell_size=cell_size, georef=georef, source=str(path), format=fmt,
                        metadata=metadata or {})
 
@@ -169,8 +177,9 @@ def _georef_json(georef: GeoReference | None) -> dict | None:
     """Plain JSON values of a georeference (numpy scalars are not JSON)."""
     if georef is None:
         return None
-    content = {key: float(value) for key, value in asdict(georef).items() if key != "epsg"}
+    content = {key: float(value) for key, value in asdict(georef).items() if key not in ("epsg", "crs_wkt")}
     content["epsg"] = int(georef.epsg) if georef.epsg is not None else None
+    content["crs_wkt"] = georef.crs_wkt
     return content
 
 
@@ -305,7 +314,3 @@ def looks_geographic(x: float, y: float, step: float) -> bool:
     """
     return abs(x) <= 180 and abs(y) <= 90 and step < 0.1
 
-
-def is_geographic_epsg(epsg: int) -> bool:
-    """Whether an EPSG code names a geographic 2-D CRS (the 4000-4999 block)."""
-    return 4000 <= epsg < 5000

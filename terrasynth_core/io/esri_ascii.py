@@ -1,5 +1,10 @@
 """ESRI ASCII grids (``.asc``): a short ``key value`` header, then the rows
-of the grid from north to south as whitespace-separated numbers.
+of the grid from north to south as whitespace-separated numbers; the CRS,
+if any, in ``<same stem>.prj``.
+
+Read here rather than through GDAL, whose AAIGrid driver silently shifts
+the values when a header line is indented, and pads a short grid or an
+unparsable value with zeros; this reader refuses both.
 """
 
 from __future__ import annotations
@@ -9,10 +14,13 @@ from pathlib import Path
 from typing import BinaryIO
 
 import numpy as np
+from rasterio.crs import CRS
+from rasterio.errors import CRSError
 
 from ..errors import DEMFormatError
-from ..heightfield import GeoReference, HeightField
-from ._common import geographic_cell, looks_geographic, read_field
+from ..heightfield import HeightField
+from ._common import read_field
+from .gdal import grid_placement
 
 HEADER_KEYS = (
     "ncols",
@@ -80,10 +88,11 @@ def read_esri_ascii(path: Path) -> HeightField:
     -------
     HeightField
         Heights with ``NODATA_value`` (and any ``nan``) as NaN; ``georef``
-        from the lower-left corner or centre, without EPSG (the format has
-        none).  ``cell_size`` is the cell size in metres, except for
-        coordinates that look geographic (|x| <= 180, |y| <= 90 and a step
-        under 0.1), where it is the ground size at the centre latitude.
+        from the lower-left corner or centre, with the CRS of the ``.prj``
+        beside the file when there is one.  ``cell_size`` as for GDAL reads
+        (:func:`.gdal.grid_placement`): without a ``.prj``, metres, except
+        for coordinates that look geographic (|x| <= 180, |y| <= 90 and a
+        step under 0.1), where it is the ground size at the centre latitude.
 
     Raises
     ------
@@ -120,13 +129,21 @@ def read_esri_ascii(path: Path) -> HeightField:
         metadata["nodata_value"] = header["nodata_value"]
 
     y_origin = y_bottom + rows * y_step
-    georef = GeoReference(x_origin, y_origin, x_step, y_step)
-    if looks_geographic(x_origin, y_bottom, y_step):
-        cell_size = geographic_cell(y_origin - rows * y_step / 2, y_step, x_step)
-    else:
-        cell_size = (y_step, x_step)
+    georef, cell_size = grid_placement(x_origin, y_origin, x_step, y_step, rows, _prj_crs(path))
     return read_field(path, "esri-ascii", values.astype(np.float32), cell_size=cell_size, georef=georef,
                       metadata=metadata)
+
+
+def _prj_crs(path: Path) -> CRS | None:
+    """The CRS of the ``.prj`` beside ``path`` (ESRI or OGC WKT), if there is one."""
+    for prj in (path.with_suffix(".prj"), path.with_suffix(".PRJ")):
+        if prj.is_file():
+            text = prj.read_text(encoding="latin-1").strip()
+            try:
+                return CRS.from_wkt(text)
+            except CRSError as exc:
+                raise DEMFormatError(f"{prj}: not a CRS GDAL understands ({exc})") from exc
+    return None
 
 
 def write_esri_ascii(field: HeightField, fh: BinaryIO) -> None:
