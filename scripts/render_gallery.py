@@ -29,13 +29,15 @@ import time
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont
+from PIL import Image
 from scipy import ndimage
 
 from terrasynth_app.views.render_3d import render_terrain
 from terrasynth_core.examples import builtin_example
 from terrasynth_core.features import read_sketch
-from terrasynth_core.pictures import grey_hillshade, save_png, shaded_relief, terrain_colours
+from terrasynth_core.pictures import compose, grey_hillshade, save_png, shaded_relief, terrain_colours
+from terrasynth_core.pictures import fit_panel as _fit
+from terrasynth_core.pictures.sheet import MARGIN
 from terrasynth_core.synthesis import Session, SynthesisParams
 
 REPO = Path(__file__).resolve().parents[1]
@@ -61,46 +63,12 @@ ZOOM = 3
 
 MAX_WIDTH = 1200
 MAX_BYTES = 700_000
-MARGIN = 12
 PANEL = (MAX_WIDTH - 4 * MARGIN) // 3
 EXAGGERATION = 2.0
 #: Camera direction: degrees from south towards east (negative = west) and
 #: above the horizon.
 VIEW_AZIMUTH = -30.0
 VIEW_ELEVATION = 35.0
-
-
-# -- composing ----------------------------------------------------------------
-def _font(size: int):
-    return ImageFont.load_default(size=size)
-
-
-def _fit(rgb: np.ndarray, side: int) -> Image.Image:
-    """The image scaled so its longer side is ``side`` pixels."""
-    img = Image.fromarray(rgb)
-    f = side / max(img.size)
-    return img.resize((max(1, round(img.size[0] * f)), max(1, round(img.size[1] * f))), Image.LANCZOS)
-
-
-def compose(panels: list[Image.Image], labels: list[str], title: str, *, columns: int) -> Image.Image:
-    """Panels in a grid with a label over each and a title on top."""
-    title_font, label_font = _font(20), _font(16)
-    cell_w = max(p.size[0] for p in panels)
-    cell_h = max(p.size[1] for p in panels)
-    label_h, title_h = 26, 34
-    grid_rows = -(-len(panels) // columns)
-    width = columns * cell_w + (columns + 1) * MARGIN
-    height = title_h + grid_rows * (label_h + cell_h) + (grid_rows + 1) * MARGIN // 2 + MARGIN // 2
-    canvas = Image.new("RGB", (width, height), "white")
-    draw = ImageDraw.Draw(canvas)
-    draw.text((MARGIN, 8), title, fill=(20, 20, 20), font=title_font)
-    for i, (panel, label) in enumerate(zip(panels, labels)):
-        r, c = divmod(i, columns)
-        x = MARGIN + c * (cell_w + MARGIN)
-        y = title_h + MARGIN // 2 + r * (label_h + cell_h + MARGIN // 2)
-        draw.text((x, y + 2), label, fill=(40, 40, 40), font=label_font)
-        canvas.paste(panel, (x + (cell_w - panel.size[0]) // 2, y + label_h))
-    return canvas
 
 
 # -- products -----------------------------------------------------------------

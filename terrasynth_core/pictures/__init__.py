@@ -7,7 +7,8 @@
 * :mod:`.overlay`: ridges and valleys over a hillshade;
 * :mod:`.terrain_3d`: arrays and camera for 3D views (the renderer itself
   lives outside the core, in ``terrasynth_app.views.render_3d``);
-* :mod:`.files`: :func:`save_png`.
+* :mod:`.files`: :func:`save_png`;
+* :mod:`.sheet`: :func:`compose` (labelled panels in a grid) and :func:`fit_panel`.
 
 The pictures only read the engine's results; no synthesis stage imports them.
 """
@@ -24,6 +25,7 @@ from .colours import (
 from .files import save_png
 from .overlay import RIDGE_COLOUR, VALLEY_COLOUR, render_overlay
 from .shading import grey_hillshade, hillshade, lit
+from .sheet import compose, fit_panel
 from .terrain_3d import camera_direction, surface_grid, trim_background
 
 __all__ = [
@@ -31,6 +33,8 @@ __all__ = [
     "TERRAIN_LUT",
     "VALLEY_COLOUR",
     "camera_direction",
+    "compose",
+    "fit_panel",
     "grey_hillshade",
     "height_range",
     "hillshade",

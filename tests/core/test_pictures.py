@@ -175,3 +175,15 @@ def test_camera_direction_and_trim():
     shot = np.full((100, 100, 3), 255, np.uint8)
     shot[40:50, 20:30] = 0
     assert trim_background(shot, pad=2).shape == (14, 14, 3)
+
+
+def test_compose_lays_panels_out_in_a_labelled_grid():
+    from terrasynth_core.pictures import compose, fit_panel
+
+    panels = [fit_panel(np.full((50, 100, 3), v, np.uint8), 40) for v in (0, 100, 200)]
+    assert panels[0].size == (40, 20)
+    sheet = compose(panels, ["a", "b", "c"], "title", columns=2, margin=10)
+    assert sheet.size == (2 * 40 + 3 * 10, 34 + 2 * (26 + 20) + 3 * 5 + 5)
+    rgb = np.asarray(sheet)
+    assert (rgb[34 + 5 + 26 + 10, 10 + 20] == 0).all()  # first panel, first row
+    assert (rgb[34 + 5 + 26 + 20 + 5 + 26 + 10, 10 + 20] == 200).all()  # third panel, second row
