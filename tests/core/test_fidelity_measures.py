@@ -1,0 +1,88 @@
+"""The fidelity measures of benchmarks/fidelity_measures.py on terrain with a known answer."""
+
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+import fidelity_measures as fm  # noqa: E402
+
+from terrasynth_core.measures import topographic_position_index  # noqa: E402
+
+
+def _cone(n=101):
+    r, c = np.mgrid[0:n, 0:n]
+    return 100.0 - np.hypot(r - n // 2, c - n // 2)
+
+
+def test_cone_tpi_sign_and_percentile():
+    cone = _cone()
+    tpi = topographic_position_index(cone, radius=10)
+    assert tpi[50, 50] > 0
+    assert topographic_position_index(-cone, radius=10)[50, 50] < 0
+    top = np.zeros(cone.shape, bool)
+    top[50, 50] = True
+    assert fm.height_percentile(cone, top) > 0.999
+    assert fm.height_percentile(-cone, top) < 0.001
+    assert np.isnan(fm.height_percentile(cone, np.zeros_like(top)))
+
+
+def test_height_percentile_of_a_plane_row():
+    plane = np.repeat(np.arange(100.0)[:, None], 10, axis=1)
+    row = np.zeros(plane.shape, bool)
+    row[25] = True
+    assert fm.height_percentile(plane, row) == pytest.approx(0.255)
+
+
+def test_tilted_plane_drains_along_its_fall_line():
+    pytest.importorskip("richdem")
+    r, c = np.mgrid[0:200, 0:200]
+    valley = 0.5 * r + 2.0 * np.abs(c - 100)  # falls to row 0, a V trough down column 100
+    acc = fm.d8_accumulation(valley)
+    assert acc[0, 100] >= 0.5 * valley.size  # nearly all water leaves at the trough's outlet
+    streams = fm.d8_streams(valley, area_share=1 / 20)
+    assert streams[:150, 100].all()  # the fall line drains the plane
+    assert not streams[:, np.abs(np.arange(200) - 100) > 2].any()
+    ridge = 0.5 * r - 2.0 * np.abs(c - 100)  # a crest down column 100: water leaves it
+    assert not fm.d8_streams(ridge, area_share=1 / 2000)[:, 100].any()
+    # a pit in the trough is filled, not a sink
+    valley[100, 100] -= 50
+    assert fm.d8_streams(valley, area_share=1 / 20)[:100, 100].all()
+
+
+def _record(source, example=0, feature="ridge", kind="path"):
+    return SimpleNamespace(kind=kind, feature=feature, example=example, source=source)
+
+
+def test_source_reuse():
+    same = [_record((50.0, 60.0)) for _ in range(5)]
+    assert fm.source_reuse(same) == 1.0
+    apart = [_record((100.0 * i, 0.0)) for i in range(4)]
+    assert fm.source_reuse(apart) == 0.25
+    mixed = apart + [_record((5.0, 5.0)), _record((0.0, 0.0), example=1), _record((0.0, 0.0), kind="fill")]
+    assert fm.source_reuse(mixed) == pytest.approx(2 / 6)
+    assert np.isnan(fm.source_reuse([_record((0.0, 0.0), feature=None, kind="fill")]))
+
+
+def test_sinusoid_power_in_its_octave():
+    r, c = np.mgrid[0:512, 0:512]
+    wave = 10.0 * np.sin(2 * np.pi * c / 24.0)  # 24 cells per cycle: the 16-32 octave
+    powers = fm.band_powers(wave)
+    assert np.argmax(powers) == 1
+    assert powers[1] > 100 * max(powers[0], powers[2], powers[3])
+    wavelength, power = fm.welch_spectrum(wave)
+    assert wavelength[np.argmax(power)] == pytest.approx(256 / 11, rel=0.1)
+    assert fm.band_power_ratios(2 * wave, wave)[1] == pytest.approx(4.0)
+    with pytest.raises(ValueError):
+        fm.welch_spectrum(wave[:100])
+
+
+def test_relief_and_range():
+    h = np.arange(1000.0).reshape(10, 100)
+    assert fm.relief(h, tail=0.0) == 999.0
+    assert fm.relief(h) == pytest.approx(np.percentile(h, 99.5) - np.percentile(h, 0.5))
+    assert fm.share_out_of_range(h, h[:5]) == 0.5
+    assert fm.share_out_of_range(h, h) == 0.0
