@@ -1,0 +1,338 @@
+"""Measure sketch fidelity on every built-in example against issue 10's targets.
+
+Usage::
+
+    python benchmarks/eval_fidelity.py [--quick] [--size N] [--examples A,B] [--sketches F,G]
+                                       [--seeds N] [--orders bfs,raster] [--json OUT] [--sheets DIR | --no-sheets]
+
+Every built-in example (white-mountains, gabon-plateau, big-tujunga,
+himalaya, st-helens) is synthesized under each shared sketch
+(``y_junction_512.png``, ``ring_cross_512.png``, ``s_valley_1000.png``), all
+scaled to ``--size`` x ``--size`` (default 512) by ``Session(shape=...)``,
+with seeds 0..N-1 (default 3) in breadth-first and raster order.
+``--quick`` is one seed, two examples (white-mountains, gabon-plateau),
+breadth-first only.  A run that raises ``ParamsError`` with the default
+80-cell patch is repeated with 48-cell patches (``48*``), as in
+``eval_synthesis.py``.
+
+Per case (the measures are in ``fidelity_measures.py``; r/v = sketch ridges
+/ valleys, ``-`` = the sketch has none):
+
+* ``TPI loc`` and ``TPI land``: mean topographic position index over the
+  sketch's stroke centre lines in standard deviations of the output's TPI
+  (``terrasynth_core.measures.feature_tpi_score``) at a local radius
+  (size/40 cells) and a landform radius (size/10).  Target >= 1.2 / <= -1.2
+  (local) and >= 1.0 / <= -1.0 (landform).
+* ``pct``: mean height percentile of the ridge / valley stroke cells in the
+  output (0 = lowest).  Target >= 0.75 / <= 0.25.
+* ``drain``: share of valley stroke cells within 5 cells of a D8 stream
+  (accumulation >= area/2000) on the depression-filled output (RichDEM);
+  target >= 0.85.  ``chance`` is the share of *all* cells within 5 cells of
+  a stream, the figure a stroke drawn anywhere would get.  ``cross``: share
+  of ridge stroke cells within 2 cells of a stream; target <= 0.03.
+* ``reuse``: the largest share of the run's feature patches whose sources
+  lie within 20 cells of one another in the same example (one example
+  window); ``n`` the number of feature patches.  Target <= 0.10.
+* ``relief``: (p99.5 - p0.5) of the output heights over the same of the
+  example's (percentiles, not max-min, so a few cells do not decide it);
+  target 0.8-1.25.  ``out%``: percentage of output cells outside the
+  example's min-max; target <= 0.5 %.
+* ``HF``: ``eval_synthesis.high_frequency`` (p99.9 |Laplacian| / std slope)
+  of the output over the example's; target 0.85-1.15.
+* ``bands``: power of the output's radially averaged power spectrum over
+  the example's in the octaves 8-16, 16-32, 32-64 and 64-128 cells (Welch:
+  mean periodogram of Hann-windowed 256x256 tiles, 50 % overlap, each tile
+  less its mean); each target 0.75-1.33.
+* ``sec``: wall time of the session and run.
+
+The summary gives, per target, the mean and the worst case over all runs,
+how many runs meet it (overall and per example) and PASS only when every
+run does (the issue asks it for every seed); then the paired differences
+breadth-first minus raster order (same sketch, example, seed) as mean +-
+standard error.
+
+Contact sheets: for every example, ``fidelity_<example>.png`` (in
+``--sheets``, default ``docs/images``): a row per sketch, seed 0, first
+order: the sketch | the output | a crop of the example the size of the
+output (same cells per pixel), both shaded over the example's height range.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from eval_synthesis import SKETCH_DIR, SKETCHES, _json_ready, _share_within, high_frequency, synthesize
+from fidelity_measures import (
+    OCTAVES,
+    band_powers,
+    d8_streams,
+    height_percentile,
+    relief,
+    share_out_of_range,
+    source_reuse,
+)
+from terrasynth_core.examples import builtin_example
+from terrasynth_core.features import read_sketch
+from terrasynth_core.features.network import graph_mask
+from terrasynth_core.measures import feature_tpi_score
+from terrasynth_core.pictures import compose, fit_panel, height_range, save_png, shaded_relief
+from terrasynth_core.synthesis import SynthesisParams
+
+REPO = Path(__file__).resolve().parents[1]
+EXAMPLES = ("white-mountains", "gabon-plateau", "big-tujunga", "himalaya", "st-helens")
+QUICK_EXAMPLES = ("white-mountains", "gabon-plateau")
+ORDERS = ("bfs", "raster")
+#: Valley cells this close to a stream count as drained; ridge cells this close as crossed.
+DRAIN_DISTANCE, CROSS_DISTANCE = 5, 2
+#: Sources of feature patches this close count as one example window.
+REUSE_RADIUS = 20.0
+#: Contact sheets: pixels per panel and the file budget.
+PANEL, SHEET_BYTES = 256, 400_000
+
+#: Issue 10's targets: key, title, (low, high) (None = open).
+TARGETS = (
+    ("tpi_local_ridge", "local TPI z ridge", (1.2, None)),
+    ("tpi_local_valley", "local TPI z valley", (None, -1.2)),
+    ("tpi_land_ridge", "landform TPI z ridge", (1.0, None)),
+    ("tpi_land_valley", "landform TPI z valley", (None, -1.0)),
+    ("pct_ridge", "height pct ridge", (0.75, None)),
+    ("pct_valley", "height pct valley", (None, 0.25)),
+    ("drainage", "valley drainage", (0.85, None)),
+    ("crossing", "ridge crossings", (None, 0.03)),
+    ("reuse", "source reuse", (None, 0.10)),
+    ("relief_ratio", "relief ratio", (0.8, 1.25)),
+    ("out_of_range", "cells out of range", (None, 0.005)),
+    ("hf_ratio", "seam HF ratio", (0.85, 1.15)),
+) + tuple((f"band_{i}", f"power {lo}-{hi} cells", (0.75, 1.33)) for i, (lo, hi) in enumerate(OCTAVES))
+
+
+def meets(value: float, band) -> bool | None:
+    """Whether ``value`` lies in ``band`` (None when the value is NaN)."""
+    if value is None or np.isnan(value):
+        return None
+    lo, hi = band
+    return (lo is None or value >= lo) and (hi is None or value <= hi)
+
+
+# -- one case ---------------------------------------------------------------------
+def example_figures(heights: np.ndarray) -> dict:
+    """What every case is compared with: relief, HF and band powers of the example."""
+    return {"relief": relief(heights), "hf": high_frequency(heights), "bands": band_powers(heights)}
+
+
+def measure(heights: np.ndarray, sketch_maps, example: np.ndarray, ex: dict, patches) -> dict:
+    """Every figure of one output (see the module docstring)."""
+    size = max(heights.shape)
+    out = {}
+    cells = {}
+    for kind, graph in (("ridge", sketch_maps.ridges), ("valley", sketch_maps.valleys)):
+        cells[kind] = graph_mask(graph) if graph.paths else np.zeros(heights.shape, bool)
+        out[f"tpi_local_{kind}"] = feature_tpi_score(heights, graph, radius=size / 40)
+        out[f"tpi_land_{kind}"] = feature_tpi_score(heights, graph, radius=size / 10)
+        out[f"pct_{kind}"] = height_percentile(heights, cells[kind])
+    streams = d8_streams(heights)
+    out["drainage"] = _share_within(cells["valley"], streams, DRAIN_DISTANCE)
+    out["drain_chance"] = _share_within(np.ones(heights.shape, bool), streams, DRAIN_DISTANCE)
+    out["crossing"] = _share_within(cells["ridge"], streams, CROSS_DISTANCE)
+    out["reuse"] = source_reuse(patches, radius=REUSE_RADIUS)
+    out["feature_patches"] = sum(1 for p in patches if p.feature is not None and p.kind not in ("fill", "stamp"))
+    out["relief_ratio"] = relief(heights) / ex["relief"]
+    out["out_of_range"] = share_out_of_range(heights, example)
+    out["hf_ratio"] = high_frequency(heights) / ex["hf"]
+    for i, (a, b) in enumerate(zip(band_powers(heights), ex["bands"])):
+        out[f"band_{i}"] = a / b if b > 0 else float("nan")
+    out["fails"] = sum(meets(out[key], band) is False for key, _, band in TARGETS)
+    return out
+
+
+# -- pictures ---------------------------------------------------------------------
+def example_crop(heights: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """The centre of ``heights``, at most ``shape``."""
+    rows, cols = min(shape[0], heights.shape[0]), min(shape[1], heights.shape[1])
+    r0, c0 = (heights.shape[0] - rows) // 2, (heights.shape[1] - cols) // 2
+    return heights[r0:r0 + rows, c0:c0 + cols]
+
+
+def write_sheet(path: Path, key: str, example, rows: list[tuple[str, object, np.ndarray, dict]], order: str) -> int:
+    """One contact sheet: per row the sketch, the output and the example crop."""
+    ex_h = np.asarray(example.heights, dtype=np.float32)
+    vrange = height_range(ex_h, tail=0.5)
+    cell = example.cell_size or (1.0, 1.0)
+    panels, labels = [], []
+    for sketch_file, sketch, heights, fig in rows:
+        crop = example_crop(ex_h, heights.shape)
+
+        def z(a, b):
+            return "/".join("-" if np.isnan(v) else f"{v:+.1f}" for v in (a, b))
+
+        panels += [fit_panel(sketch.resized(heights.shape).to_rgb(), PANEL),
+                   fit_panel(shaded_relief(heights, cell_size=cell, vrange=vrange)[..., :3], PANEL),
+                   fit_panel(shaded_relief(crop, cell_size=cell, vrange=vrange)[..., :3], PANEL)]
+        labels += [sketch_file.removesuffix(".png"),
+                   f"output, TPI z r/v {z(fig['tpi_local_ridge'], fig['tpi_local_valley'])}",
+                   f"example, centre {crop.shape[0]}x{crop.shape[1]}"]
+    size = rows[0][2].shape
+    title = f"{key}: sketch | output ({size[0]}x{size[1]}, seed 0, {order}) | example; same colours"
+    save_png(compose(panels, labels, title, columns=3), path, max_bytes=SHEET_BYTES)
+    return path.stat().st_size
+
+
+# -- table ------------------------------------------------------------------------
+def _f(v, fmt):
+    return "-" if v is None or np.isnan(v) else format(v, fmt)
+
+
+def _header() -> str:
+    h = (f"{'sketch':<18} {'example':<15} {'seed':>4} {'order':<6} {'patch':>5} {'sec':>5} "
+         f"{'TPI loc r/v':>11} {'TPI land r/v':>12} {'pct r/v':>9} {'drain':>5} {'chance':>6} {'cross':>5} "
+         f"{'reuse (n)':>9} {'relief':>6} {'out%':>5} {'HF':>5} {'bands 8-16/16-32/32-64/64-128':>29} {'fails':>5}")
+    return h + "\n" + "-" * len(h)
+
+
+def _line(row: dict) -> str:
+    patch = f"{row['patch_size']}{'*' if row['fallback'] else ''}"
+    bands = "/".join(_f(row[f"band_{i}"], ".2f") for i in range(len(OCTAVES)))
+    return (
+        f"{row['sketch']:<18} {row['example']:<15} {row['seed']:>4} {row['order']:<6} {patch:>5} "
+        f"{row['seconds']:>5.1f} "
+        f"{_f(row['tpi_local_ridge'], '+.2f') + '/' + _f(row['tpi_local_valley'], '+.2f'):>11} "
+        f"{_f(row['tpi_land_ridge'], '+.2f') + '/' + _f(row['tpi_land_valley'], '+.2f'):>12} "
+        f"{_f(row['pct_ridge'], '.2f') + '/' + _f(row['pct_valley'], '.2f'):>9} "
+        f"{_f(row['drainage'], '.2f'):>5} {_f(row['drain_chance'], '.2f'):>6} {_f(row['crossing'], '.2f'):>5} "
+        f"{_f(row['reuse'], '.2f') + ' (' + str(row['feature_patches']) + ')':>9} {row['relief_ratio']:>6.2f} "
+        f"{100 * row['out_of_range']:>5.1f} {row['hf_ratio']:>5.2f} {bands:>29} {row['fails']:>5}"
+    )
+
+
+def summary(rows: list[dict], examples: list[str]) -> str:
+    """Per target: mean, worst, runs meeting it overall and per example, PASS/FAIL."""
+    short = [e.split("-")[0][:8] for e in examples]
+    h = (f"{'target':<24} {'wanted':>11} {'mean':>7} {'worst':>7} {'met':>7} "
+         + " ".join(f"{s:>8}" for s in short) + "  verdict")
+    lines = [h, "-" * len(h)]
+    for key, title, band in TARGETS:
+        lo, hi = band
+        wanted = f">= {lo:g}" if hi is None else f"<= {hi:g}" if lo is None else f"{lo:g}-{hi:g}"
+        vals = [(r["example"], r[key]) for r in rows if r[key] is not None and not np.isnan(r[key])]
+        if not vals:
+            continue
+        values = np.array([v for _, v in vals])
+        if lo is None:
+            worst = values.max()
+        elif hi is None:
+            worst = values.min()
+        else:  # farthest from the band, on a log scale for ratios
+            worst = values[np.argmax(np.abs(np.log(values / np.sqrt(lo * hi))))]
+        ok = [meets(v, band) for _, v in vals]
+        per = []
+        for ex in examples:
+            sel = [meets(v, band) for e, v in vals if e == ex]
+            per.append(f"{sum(sel)}/{len(sel)}" if sel else "-")
+        verdict = "PASS" if all(ok) else "FAIL"
+        lines.append(f"{title:<24} {wanted:>11} {values.mean():>7.3f} {worst:>7.3f} {sum(ok):>3}/{len(ok):<3} "
+                     + " ".join(f"{p:>8}" for p in per) + f"  {verdict}")
+    return "\n".join(lines)
+
+
+def order_differences(rows: list[dict]) -> str:
+    """Paired breadth-first minus raster figures, mean +- standard error."""
+    by = {(r["sketch"], r["example"], r["seed"], r["order"]): r for r in rows}
+    lines = ["Paired BFS - raster (same sketch, example, seed): mean +- standard error (pairs)"]
+    for key, title, _ in TARGETS:
+        d = [b[key] - by[(s, e, seed, "raster")][key] for (s, e, seed, o), b in by.items()
+             if o == "bfs" and (s, e, seed, "raster") in by]
+        d = [v for v in d if v is not None and not np.isnan(v)]
+        if len(d) > 1:
+            lines.append(f"  {title:<24} {np.mean(d):>+8.3f} +- {np.std(d, ddof=1) / np.sqrt(len(d)):.3f} ({len(d)})")
+    return "\n".join(lines) if len(lines) > 1 else ""
+
+
+# -- main -------------------------------------------------------------------------
+def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=print) -> list[dict]:
+    rows = []
+    shape = (size, size)
+    loaded = {f: read_sketch(SKETCH_DIR / f) for f in sketches}
+    log(_header())
+    for key in examples:
+        example = builtin_example(key).load()
+        ex_h = np.asarray(example.heights, dtype=np.float32)
+        ex = example_figures(ex_h)
+        sheet_rows = []
+        for sketch_file in sketches:
+            for seed in seeds:
+                for order in orders:
+                    params = SynthesisParams(seed=seed, order=order)
+                    result, seconds, fallback = synthesize(example, loaded[sketch_file], shape, params)
+                    fig = measure(result.heights, result.sketch_features, ex_h, ex, result.patches)
+                    row = {"sketch": sketch_file, "example": key, "seed": seed, "order": order,
+                           "shape": list(shape), "patch_size": result.params.patch_size, "fallback": fallback,
+                           "seconds": seconds, "warnings": list(result.warnings), **fig}
+                    rows.append(row)
+                    log(_line(row))
+                    if sheets is not None and seed == seeds[0] and order == orders[0]:
+                        sheet_rows.append((sketch_file, loaded[sketch_file], result.heights, fig))
+        if sheet_rows:
+            sheets.mkdir(parents=True, exist_ok=True)
+            path = sheets / f"fidelity_{key}.png"
+            log(f"  wrote {path.relative_to(REPO) if path.is_relative_to(REPO) else path} "
+                f"({write_sheet(path, key, example, sheet_rows, orders[0]) // 1000} kB)")
+    return rows
+
+
+def _names(text: str) -> list[str]:
+    return [t.strip() for t in text.split(",") if t.strip()]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="one seed, white-mountains and gabon-plateau, bfs only")
+    parser.add_argument("--size", type=int, default=512, help="output side in cells (default 512)")
+    parser.add_argument("--examples", type=_names, default=None, help="comma-separated built-in keys")
+    parser.add_argument("--sketches", type=_names, default=None, help="comma-separated files in resources/sketches")
+    parser.add_argument("--seeds", type=int, default=None, metavar="N", help="seeds 0..N-1 (default 3)")
+    parser.add_argument("--orders", type=_names, default=None, help="bfs,raster (default both)")
+    parser.add_argument("--json", type=Path, default=None, metavar="OUT", help="also write every figure as JSON")
+    parser.add_argument("--sheets", type=Path, default=REPO / "docs" / "images", metavar="DIR",
+                        help="folder of the contact sheets (default docs/images)")
+    parser.add_argument("--no-sheets", action="store_true", help="write no contact sheets")
+    args = parser.parse_args(argv)
+    examples = args.examples or list(QUICK_EXAMPLES if args.quick else EXAMPLES)
+    sketches = args.sketches or list(SKETCHES)
+    seeds = list(range(args.seeds if args.seeds is not None else 1 if args.quick else 3))
+    orders = args.orders or (["bfs"] if args.quick else list(ORDERS))
+    if bad := [o for o in orders if o not in ORDERS]:
+        parser.error(f"unknown order {bad[0]!r}: choose from {', '.join(ORDERS)}")
+
+    def log(line: str) -> None:
+        print(line, flush=True)
+
+    log(f"Fidelity at {args.size}x{args.size}: examples {', '.join(examples)}; seeds 0..{seeds[-1]}; "
+        f"orders {', '.join(orders)}; TPI radii {args.size / 40:g} (local) and {args.size / 10:g} (landform) cells")
+    start = time.perf_counter()
+    rows = evaluate(examples, sketches, seeds, orders, args.size, None if args.no_sheets else args.sheets, log=log)
+    wall = time.perf_counter() - start
+    log(f"\nSummary against issue 10's targets over {len(rows)} runs "
+        f"(met = runs meeting the target; PASS only if every run does)")
+    log(summary(rows, examples))
+    if len(orders) > 1:
+        log("\n" + order_differences(rows))
+    secs = [r["seconds"] for r in rows]
+    log(f"\nTime per case: mean {np.mean(secs):.1f} s, max {np.max(secs):.1f} s; whole evaluation {wall / 60:.1f} min")
+    notes = sorted({f"{r['example']}: {w}" for r in rows for w in r["warnings"]})
+    if any(r["fallback"] for r in rows):
+        notes.insert(0, "48* = the 80-cell patch raised ParamsError; run with 48-cell patches")
+    if notes:
+        log("\nNotes and run warnings:\n" + "\n".join(f"  {n}" for n in notes))
+    if args.json is not None:
+        args.json.write_text(json.dumps(_json_ready({"rows": rows, "wall_seconds": wall}), indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
