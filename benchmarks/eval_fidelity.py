@@ -42,7 +42,9 @@ Per case (the measures are in ``fidelity_measures.py``; r/v = sketch ridges
 * ``bands``: power of the output's radially averaged power spectrum over
   the example's in the octaves 8-16, 16-32, 32-64 and 64-128 cells (Welch:
   mean periodogram of Hann-windowed 256x256 tiles, 50 % overlap, each tile
-  less its mean); each target 0.75-1.33.
+  less its mean; smaller tiles, the same for output and example, where the
+  example is smaller: himalaya's valid crop is 415x252); each target
+  0.75-1.33.
 * ``sec``: wall time of the session and run.
 
 The summary gives, per target, the mean and the worst case over all runs,
@@ -92,6 +94,8 @@ ORDERS = ("bfs", "raster")
 DRAIN_DISTANCE, CROSS_DISTANCE = 5, 2
 #: Sources of feature patches this close count as one example window.
 REUSE_RADIUS = 20.0
+#: Side of the Welch tiles (cells), unless the example is smaller.
+SPECTRUM_TILE = 256
 #: Contact sheets: pixels per panel and the file budget.
 PANEL, SHEET_BYTES = 256, 400_000
 
@@ -121,9 +125,16 @@ def meets(value: float, band) -> bool | None:
 
 
 # -- one case ---------------------------------------------------------------------
-def example_figures(heights: np.ndarray) -> dict:
+def spectrum_tile(example_shape, output_shape) -> int:
+    """Welch tile side: ``SPECTRUM_TILE``, or less where the example or the
+    output is smaller (the same tile for both, so their bands compare)."""
+    return int(min(SPECTRUM_TILE, *example_shape, *output_shape))
+
+
+def example_figures(heights: np.ndarray, tile: int) -> dict:
     """What every case is compared with: relief, HF and band powers of the example."""
-    return {"relief": relief(heights), "hf": high_frequency(heights), "bands": band_powers(heights)}
+    return {"relief": relief(heights), "hf": high_frequency(heights), "bands": band_powers(heights, tile=tile),
+            "tile": tile}
 
 
 def measure(heights: np.ndarray, sketch_maps, example: np.ndarray, ex: dict, patches) -> dict:
@@ -145,7 +156,7 @@ def measure(heights: np.ndarray, sketch_maps, example: np.ndarray, ex: dict, pat
     out["relief_ratio"] = relief(heights) / ex["relief"]
     out["out_of_range"] = share_out_of_range(heights, example)
     out["hf_ratio"] = high_frequency(heights) / ex["hf"]
-    for i, (a, b) in enumerate(zip(band_powers(heights), ex["bands"])):
+    for i, (a, b) in enumerate(zip(band_powers(heights, tile=ex["tile"]), ex["bands"])):
         out[f"band_{i}"] = a / b if b > 0 else float("nan")
     out["fails"] = sum(meets(out[key], band) is False for key, _, band in TARGETS)
     return out
@@ -262,7 +273,7 @@ def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=p
     for key in examples:
         example = builtin_example(key).load()
         ex_h = np.asarray(example.heights, dtype=np.float32)
-        ex = example_figures(ex_h)
+        ex = example_figures(ex_h, spectrum_tile(ex_h.shape, shape))
         sheet_rows = []
         for sketch_file in sketches:
             for seed in seeds:
