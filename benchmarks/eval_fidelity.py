@@ -45,7 +45,8 @@ Per case (the measures are in ``fidelity_measures.py``; r/v = sketch ridges
   less its mean; smaller tiles, the same for output and example, where the
   example is smaller: himalaya's valid crop is 415x252); each target
   0.75-1.33.
-* ``sec``: wall time of the session and run.
+* ``sec``: wall time of the session and run; ``fails``: how many of the
+  targets the case misses.
 
 The summary gives, per target, the mean and the worst case over all runs,
 how many runs meet it (overall and per example) and PASS only when every
