@@ -1,7 +1,8 @@
 """An on-disk cache of example analyses, so that a second run on the same
 example (the CLI, a restarted app) starts placing patches at once.
 
-One ``.npz`` file per (heights, patch size, version), in
+One ``.npz`` file per (heights, patch size, version), and one per example
+resampled to a run's cell size (:mod:`.ground`), in
 ``$TERRASYNTH_CACHE_DIR`` or ``$XDG_CACHE_HOME/terrasynth`` (default
 ``~/.cache/terrasynth``).  Files are written atomically and read with
 ``allow_pickle=False``; an unreadable or stale file is ignored and rewritten,
@@ -67,12 +68,36 @@ def save(key: str, features: FeatureMaps, samples: dict, strong: np.ndarray, rel
         arrays.update(_graph_arrays(graph))
     for kind in _KINDS:
         arrays.update(_sample_arrays(kind, samples[kind]))
+    _write(path, arrays)
+
+
+def _write(path: Path, arrays: dict) -> None:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
             np.savez(f, **arrays)
     except OSError:
         pass
+
+
+def load_array(key: str) -> np.ndarray | None:
+    """A cached float32 grid (an example resampled to a cell size) or None."""
+    path = _path(key)
+    if path is None or not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            heights = z["heights"]
+        return heights if heights.ndim == 2 and heights.dtype == np.float32 else None
+    except Exception:  # a damaged or foreign file: recompute
+        return None
+
+
+def save_array(key: str, heights: np.ndarray) -> None:
+    """Store a float32 grid; failures are ignored, as for analyses."""
+    path = _path(key)
+    if path is not None:
+        _write(path, {"heights": np.ascontiguousarray(heights, dtype=np.float32)})
 
 
 def _graph_arrays(graph: FeatureGraph) -> dict:
