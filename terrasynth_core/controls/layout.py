@@ -113,9 +113,8 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
                      "cell size is unknown")
     for i, ex in enumerate(fields):
         name = str(getattr(ex, "source", None) or f"example {i + 1}")
-        ex, warning = on_ground(ex, cell, name=name)
-        if warning:
-            notes.append(warning)
+        ex, said = on_ground(ex, cell, name=name)
+        notes.extend(said)
         analysis = prepare_example(ex, patch_size, name=name)
         if analysis.note:
             notes.append(analysis.note)

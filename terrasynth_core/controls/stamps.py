@@ -46,7 +46,7 @@ def render_stamp(stamp: Stamp, shape: tuple[int, int], patch_size: int, *, cell_
         The run's cell size in metres: the window is first resampled to it
         (None: used cell for cell).
     notes : list of str, optional
-        Gets the up-sampling warning, if any.
+        Gets the resampling notes (up-sampling, nodata cropped).
 
     Raises
     ------
@@ -66,9 +66,9 @@ def render_stamp(stamp: Stamp, shape: tuple[int, int], patch_size: int, *, cell_
             raise ParamsError(f"stamp window {stamp.window} is outside {name} ({H}x{W} cells): "
                               "give (r0, r1, c0, c1) with 0 <= r0 < r1 <= rows and 0 <= c0 < c1 <= cols")
         fieldobj = fieldobj.window(r0, r1, c0, c1)
-    fieldobj, warning = on_ground(fieldobj, cell_size, name=f"stamp {name}")
-    if warning and notes is not None:
-        notes.append(warning)
+    fieldobj, said = on_ground(fieldobj, cell_size, name=f"stamp {name}")
+    if notes is not None:
+        notes.extend(said)
     sub = HeightField(np.ascontiguousarray(fieldobj.heights, dtype=np.float32), source=name)
     if sub.nodata_count:
         sub = sub.crop_valid()

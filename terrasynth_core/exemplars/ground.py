@@ -58,7 +58,7 @@ def run_cell_size(cell_size: float | None, fields) -> float | None:
 
 
 def on_ground(field: HeightField | np.ndarray, cell_size: float | None, *,
-              name: str) -> tuple[HeightField | np.ndarray, str | None]:
+              name: str) -> tuple[HeightField | np.ndarray, list[str]]:
     """``field`` at square cells of ``cell_size`` metres, NaN edges cropped.
 
     Parameters
@@ -77,9 +77,9 @@ def on_ground(field: HeightField | np.ndarray, cell_size: float | None, *,
     field : HeightField or ndarray
         Resampled (a new HeightField with ``cell_size == (c, c)``) or
         ``field`` itself.
-    warning : str or None
-        When the example was up-sampled by more than
-        :data:`UPSAMPLE_WARNING` times.
+    notes : list of str
+        For the run's warnings: the example was up-sampled by more than
+        :data:`UPSAMPLE_WARNING` times; its nodata was cropped away.
 
     Raises
     ------
@@ -87,17 +87,17 @@ def on_ground(field: HeightField | np.ndarray, cell_size: float | None, *,
         The resampled example has no valid cell.
     """
     if cell_size is None or not isinstance(field, HeightField) or field.cell_size is None:
-        return field, None
+        return field, []
     dy, dx = field.cell_size
     if math.isclose(dy, cell_size, rel_tol=1e-9) and math.isclose(dx, cell_size, rel_tol=1e-9):
         square = to_square_cells(field, cell_size)
         if square is field:  # projected or plain grid: nothing to warp
-            return field, None
-    warning = None
+            return field, []
+    notes = []
     factor = max(dy, dx) / cell_size
     if factor > UPSAMPLE_WARNING:
-        warning = (f"{name}: {dy:.4g} x {dx:.4g} m cells up-sampled {factor:.1f}x to {cell_size:g} m: its detail "
-                   "will be soft; a finer example or --cell-size N would help")
+        notes.append(f"{name}: {dy:.4g} x {dx:.4g} m cells up-sampled {factor:.1f}x to {cell_size:g} m: its "
+                     "detail will be soft; a finer example or --cell-size N would help")
     key = _key(field, cell_size)
     with _MEMO_LOCK:
         heights = _MEMO.get(key)
@@ -113,9 +113,12 @@ def on_ground(field: HeightField | np.ndarray, cell_size: float | None, *,
             _MEMO[key] = heights
             while len(_MEMO) > _MEMO_SIZE:
                 _MEMO.popitem(last=False)
+    if field.nodata_count:
+        notes.append(f"{name}: cropped to its largest valid rectangle {heights.shape[0]}x{heights.shape[1]} at "
+                     f"{cell_size:g} m (nodata)")
     out = HeightField(heights, cell_size=(cell_size, cell_size), source=field.source, format=field.format,
                       metadata={**field.metadata, "resampled_from": (dy, dx)})
-    return out, warning
+    return out, notes
 
 
 def _key(field: HeightField, cell_size: float) -> str:
