@@ -119,7 +119,7 @@ class ParamsPanel(QWidget):
             check.toggled.connect(self._apply)
 
         self._show(document.params)
-        self._show_output()
+        self.show_output()
         document.changed.connect(self._document_changed)
         document.sketch.changed.connect(self._sketch_changed)
 
@@ -128,7 +128,7 @@ class ParamsPanel(QWidget):
         if what == "params":
             self._show(self.document.params)
         if what in ("params", "examples", "styles", "stamps"):
-            self._show_output()
+            self.show_output()
 
     def _show(self, params: SynthesisParams) -> None:
         self._updating = True
@@ -153,9 +153,9 @@ class ParamsPanel(QWidget):
 
     def _sketch_changed(self, bbox) -> None:
         if bbox is None:  # the whole sketch was replaced, maybe resized
-            self._show_output()
+            self.show_output()
 
-    def _show_output(self) -> None:
+    def show_output(self) -> None:
         rows, cols = self.document.output_shape
         cell = self.document.cell_size()
         cells = "cells" if cell is None else f"cells of {cell:.3g} m"

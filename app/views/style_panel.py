@@ -248,7 +248,7 @@ class StylePanel(QWidget):
         if what == "styles":
             self._show_styles()
         elif what in ("examples", "params", "stamps"):
-            self._show_style_texts()
+            self.show_style_texts()
         elif what == "water_level":
             self._show_water_level()
         elif what == "height_range":
@@ -276,14 +276,16 @@ class StylePanel(QWidget):
             self.list.setCurrentRow(self.list.count() - 1)
         self._show_editor()
 
-    def _show_style_texts(self) -> None:
+    def show_style_texts(self) -> None:
         """The items' descriptions again: the run's cell size may have changed."""
         square = self.document.cell_size()
+        specs = {spec.id: spec for spec in self.document.styles}
         self._syncing = True
         for i in range(self.list.count()):
             item = self.list.item(i)
-            spec = self.document.style(item.data(_ID_ROLE))
-            item.setText(f"{spec.name}\n{describe_style(spec, square)}")
+            spec = specs.get(item.data(_ID_ROLE))
+            if spec is not None:  # (a stale item: the styles' own event rebuilds the list)
+                item.setText(f"{spec.name}\n{describe_style(spec, square)}")
         self._syncing = False
 
     def _show_editor(self) -> None:

@@ -60,7 +60,7 @@ def test_params_panel_edits_the_document(qtbot, window):
 def test_cell_size_auto_or_chosen_is_shown_with_the_examples(qtbot, window):
     panel, doc, library = window.params, window.document, window.examples
     assert panel.cell_size.text() == "auto (finest example)" and doc.params.cell_size is None
-    white = ExampleRef(builtin="white-mountains")
+    white = doc.examples[0]  # a crop of the White Mountains
     qtbot.waitUntil(lambda: white in library.infos, timeout=30_000)
     # The White Mountains' 93 x 66 m cells, squared at the finer side.
     assert "92.7 x 66.1 m, square at 66.1 m" in library.item_for(white).text()
