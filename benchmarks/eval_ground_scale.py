@@ -13,7 +13,10 @@ and once at 60 m: each region's interior (eroded by half a patch) against
 its own example.  Target: within 20 %.  A DEM's slope depends on the cell
 it is measured at (a coarser grid averages the steepest cells away), so the
 example's slope at the run's cell size (resampled as the engine sees it) is
-shown as well: that is what synthesis can reproduce at best.
+shown as well: that is what synthesis can reproduce at best.  ``alone``
+is the same example synthesized alone at the same cell size (same sketch,
+seed and interior): the difference to it is what the neighbouring style
+does to a region.
 
 Usage::
 
@@ -91,8 +94,8 @@ def two_styles(pictures: Path | None) -> list[float]:
     sketch = read_sketch(resource_path("sketches") / "y_junction_512.png")
     print()
     print(f"{'cell size':<10} {'region':<16} {'example m/m':>11} {'at run cell':>11} {'region m/m':>10} "
-          f"{'ratio':>6} {'ratio at run cell':>17}")
-    print("-" * 88)
+          f"{'ratio':>6} {'ratio at run cell':>17} {'alone':>6}")
+    print("-" * 95)
     ratios = []
     for cell_size in (None, 60.0):
         controls = Controls(styles=(Style(tujunga, name="big-tujunga"), Style(white, name="white-mountains")),
@@ -104,12 +107,14 @@ def two_styles(pictures: Path | None) -> list[float]:
         for label, (name, field) in enumerate((("big-tujunga", tujunga), ("white-mountains", white))):
             inside = ndimage.binary_erosion(labels == label, iterations=params.patch_size // 2, border_value=1)
             out = float(np.tan(np.radians(np.nanmedian(per_cell[inside]))))
+            solo = Session([field], sketch, shape=SHAPE, params=params).run()
+            alone = float(np.tan(np.radians(np.nanmedian(slope(solo.heights, cell_size=(cell, cell))[inside]))))
             own = median_slope(field.heights, field.cell_size)
             seen = median_slope(to_square_cells(field, cell).crop_valid().heights, (cell, cell))
             ratios.append(out / own)
             asked = "auto" if cell_size is None else f"{cell_size:g}"
             print(f"{asked + f' ({cell:g})':<10} {name:<16} {own:>11.3f} {seen:>11.3f} {out:>10.3f} "
-                  f"{out / own:>6.2f} {out / seen:>17.2f}")
+                  f"{out / own:>6.2f} {out / seen:>17.2f} {alone / own:>6.2f}")
         _picture(pictures, f"ground_styles_{cell:g}m", result.heights, cell)
     return ratios
 
