@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -107,7 +108,7 @@ def two_styles(pictures: Path | None) -> list[float]:
         for label, (name, field) in enumerate((("big-tujunga", tujunga), ("white-mountains", white))):
             inside = ndimage.binary_erosion(labels == label, iterations=params.patch_size // 2, border_value=1)
             out = float(np.tan(np.radians(np.nanmedian(per_cell[inside]))))
-            solo = Session([field], sketch, shape=SHAPE, params=params).run()
+            solo = Session([field], sketch, shape=SHAPE, params=replace(params, cell_size=cell)).run()
             alone = float(np.tan(np.radians(np.nanmedian(slope(solo.heights, cell_size=(cell, cell))[inside]))))
             own = median_slope(field.heights, field.cell_size)
             seen = median_slope(to_square_cells(field, cell).crop_valid().heights, (cell, cell))
