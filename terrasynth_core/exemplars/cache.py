@@ -13,7 +13,10 @@ cache off.
 from __future__ import annotations
 
 import os
+import threading
+from collections import OrderedDict
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -39,6 +42,34 @@ def cache_dir() -> Path | None:
 def _path(key: str) -> Path | None:
     folder = cache_dir()
     return None if folder is None else folder / f"example-v{CACHE_VERSION}-{key}.npz"
+
+
+class Memo(OrderedDict):
+    """The last ``size`` values in memory, backed by this disk cache.
+
+    ``get(key, compute)`` looks in memory, then on disk (``load``), and
+    only then computes (and saves) the value; thread-safe for lookups
+    (two threads may compute the same value once each).
+    """
+
+    def __init__(self, size: int, load: Callable[[str], object], save: Callable[[str, object], None]):
+        super().__init__()
+        self.size, self._load, self._save = size, load, save
+        self._lock = threading.Lock()
+
+    def get(self, key: str, compute: Callable[[], object]):
+        with self._lock:
+            value = super().get(key)
+        if value is None:
+            value = self._load(key)
+            if value is None:
+                value = compute()
+                self._save(key, value)
+            with self._lock:
+                self[key] = value
+                while len(self) > self.size:
+                    self.popitem(last=False)
+        return value
 
 
 def load(key: str):

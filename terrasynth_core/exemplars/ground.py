@@ -14,8 +14,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import threading
-from collections import OrderedDict
 
 import numpy as np
 
@@ -29,9 +27,7 @@ __all__ = ["UPSAMPLE_WARNING", "on_ground", "run_cell_size"]
 #: Up-sampling factor above which an example is named in the warnings.
 UPSAMPLE_WARNING = 2.0
 
-_MEMO: OrderedDict = OrderedDict()
-_MEMO_LOCK = threading.Lock()
-_MEMO_SIZE = 16
+_MEMO = cache.Memo(16, cache.load_array, cache.save_array)
 
 
 def run_cell_size(cell_size: float | None, fields) -> float | None:
@@ -98,27 +94,22 @@ def on_ground(field: HeightField | np.ndarray, cell_size: float | None, *,
     if factor > UPSAMPLE_WARNING:
         notes.append(f"{name}: {dy:.4g} x {dx:.4g} m cells up-sampled {factor:.1f}x to {cell_size:g} m: its "
                      "detail will be soft; a finer example or --cell-size N would help")
-    key = _key(field, cell_size)
-    with _MEMO_LOCK:
-        heights = _MEMO.get(key)
-    if heights is None:
-        heights = cache.load_array(key)
-        if heights is None:
-            resampled = to_square_cells(field, cell_size)
-            heights = resampled.crop_valid().heights if resampled.nodata_count else resampled.heights
-            if np.isnan(heights).all():
-                raise ParamsError(f"{name}: no valid cell left after resampling to {cell_size:g} m cells")
-            cache.save_array(key, heights)
-        with _MEMO_LOCK:
-            _MEMO[key] = heights
-            while len(_MEMO) > _MEMO_SIZE:
-                _MEMO.popitem(last=False)
+    heights = _MEMO.get(_key(field, cell_size), lambda: _resampled(field, cell_size, name))
     if field.nodata_count:
         notes.append(f"{name}: cropped to its largest valid rectangle {heights.shape[0]}x{heights.shape[1]} at "
                      f"{cell_size:g} m (nodata)")
     out = HeightField(heights, cell_size=(cell_size, cell_size), source=field.source, format=field.format,
                       metadata={**field.metadata, "resampled_from": (dy, dx)})
     return out, notes
+
+
+def _resampled(field: HeightField, cell_size: float, name: str) -> np.ndarray:
+    """The heights at square cells, the warp's NaN edges cropped."""
+    resampled = to_square_cells(field, cell_size)
+    heights = resampled.crop_valid().heights if resampled.nodata_count else resampled.heights
+    if np.isnan(heights).all():
+        raise ParamsError(f"{name}: no valid cell left after resampling to {cell_size:g} m cells")
+    return heights
 
 
 def _key(field: HeightField, cell_size: float) -> str:
