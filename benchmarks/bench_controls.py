@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
 
     preset = load_preset("middle-earth")
-    params = SynthesisParams(seed=0)
+    params = SynthesisParams(seed=0, cell_size=preset.cell_size)
     rows = []
 
     def session(controls, p=params):

@@ -52,14 +52,15 @@ def _single(sketch: str, example: str, shape=None, **params):
 def _middle_earth(resynthesis: bool):
     def run():
         preset = load_preset("middle-earth")
-        params = SynthesisParams(seed=0)
+        params = SynthesisParams(seed=0, cell_size=preset.cell_size)
         result = Session([], preset.sketch, shape=preset.shape, params=params, controls=preset.controls).run()
         if not resynthesis:
             return result
         box = np.zeros(preset.shape, dtype=bool)
         box[300:460, 200:400] = True
         redo = dataclasses.replace(preset.controls, previous=result.heights, selection=box)
-        return Session([], preset.sketch, shape=preset.shape, params=SynthesisParams(seed=1), controls=redo).run()
+        again = SynthesisParams(seed=1, cell_size=preset.cell_size)
+        return Session([], preset.sketch, shape=preset.shape, params=again, controls=redo).run()
     return run
 
 

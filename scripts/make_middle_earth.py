@@ -46,9 +46,12 @@ together, all deterministic (fixed seed, no anti-aliasing):
       (10 % of the example below 56 m) under a plateau (median 413 m).  A
       level at that 10th percentile puts the sea on the coastal plain
       without drowning the plateau;
-    * ``stamp``: ``builtin:st-helens`` (the whole valid DEM, 460x317 cells)
-      centred at **(640, 870)**, rotation 0, scale **0.45** (a footprint
-      of about 207x143 cells), inside the volcanic region (Mount Doom);
+    * ``cell_size``: **90 m**, the run's square cells (every style and the
+      stamp are resampled to it);
+    * ``stamp``: ``builtin:st-helens`` (the whole valid DEM, 460x317 cells
+      of 30 m, 153x106 at 90 m) centred at **(640, 870)**, rotation 0,
+      scale **1.35** (a footprint of about 207x143 cells, 19 x 13 km),
+      inside the volcanic region (Mount Doom);
     * ``pins`` (row, col, metres): a summit of the high range at
       **(215, 585) = 4000 m** (Caradhras; about the Himalayan example's
       97th percentile), a hill in the northern upland at **(130, 330) =
@@ -63,7 +66,7 @@ middle-earth``, which reads the JSON)::
         --style "#8a6a55=builtin:himalaya" --style "#8fbf5f=builtin:white-mountains" \\
         --style "#e6d98c=builtin:gabon-plateau" --style "#3c2323=builtin:big-tujunga" \\
         --water resources/sketches/middle_earth_water.png --water-level 60 \\
-        --stamp builtin:st-helens@640,870,0,0.45 \\
+        --stamp builtin:st-helens@640,870,0,1.35 --cell-size 90 \\
         --pin 215,585,4000 --pin 130,330,900 --pin 380,300,250
 
 :func:`load_demo` reads them through the core's ``middle-earth`` preset
@@ -102,7 +105,10 @@ STYLES = (
 )
 MOUNTAINS, HILLS, LOWLAND, VOLCANIC = range(4)
 WATER_LEVEL = 60.0
-STAMP = {"dem": "builtin:st-helens", "center": [640, 870], "rotation": 0.0, "scale": 0.45}
+STAMP = {"dem": "builtin:st-helens", "center": [640, 870], "rotation": 0.0, "scale": 1.35}
+#: The map was designed at about 90 m cells (the Himalayan example's); left
+#: automatic, Big Tujunga's 30 m would make the whole map three times smaller.
+CELL_SIZE = 90
 PINS = (
     {"name": "summit of the high range", "row": 215, "col": 585, "height": 4000.0},
     {"name": "hill in the northern upland", "row": 130, "col": 330, "height": 900.0},
@@ -285,6 +291,7 @@ def write_maps(out: Path, maps: dict) -> list[Path]:
     Image.fromarray(sketch).save(paths[2], optimize=True)
     spec = {
         "shape": list(maps["labels"].shape),
+        "cell_size": CELL_SIZE,
         "style_map": paths[0].name,
         "styles": {colour: dem for _, colour, dem in STYLES},
         "style_names": {colour: name for name, colour, _ in STYLES},

@@ -138,14 +138,16 @@ def builtin_sketches() -> list[Path]:
                   if not p.stem.endswith(("_styles", "_water")))
 
 
-def resolve_dem(spec: str | Path, *, size: tuple[int, int] | None = None) -> HeightField:
+def resolve_dem(spec: str | Path, *, size: tuple[int, int] | None = None, band: int | None = None) -> HeightField:
     """Load a DEM named by a path or by ``builtin:KEY``.
 
-    Built-in examples come cropped to their valid area; files come as read.
+    Built-in examples come cropped to their valid area; files come as read
+    (``size`` and ``band`` as in :func:`~terrasynth_core.io.load_dem`;
+    built-ins have one band).
     """
     text = str(spec)
     if text.startswith(BUILTIN_PREFIX):
         return builtin_example(text[len(BUILTIN_PREFIX):]).load()
     from .io import load_dem
 
-    return load_dem(text, size=size)
+    return load_dem(text, size=size, band=band)

@@ -35,6 +35,9 @@ class MapPreset:
     controls : Controls
     style_names : dict of str -> str
         Example key -> what the region stands for (for captions).
+    cell_size : float or None
+        The cell size in metres the map was designed at, for
+        ``SynthesisParams(cell_size=...)`` (None: the finest style's).
     """
 
     name: str
@@ -42,6 +45,7 @@ class MapPreset:
     sketch: SketchMap
     controls: Controls
     style_names: dict
+    cell_size: float | None = None
 
 
 def load_preset(name: str) -> MapPreset:
@@ -72,4 +76,5 @@ def load_preset(name: str) -> MapPreset:
     controls = Controls(styles=styles, style_map=style_map, water=water, stamps=tuple(stamps), pins=pins)
     sketch = read_sketch(resource_path("sketches", spec["sketch"]))
     names = {spec["styles"][c]: spec.get("style_names", {}).get(c, spec["styles"][c]) for c in colours}
-    return MapPreset(name, tuple(spec["shape"]), sketch, controls, names)
+    cell_size = float(spec["cell_size"]) if spec.get("cell_size") is not None else None
+    return MapPreset(name, tuple(spec["shape"]), sketch, controls, names, cell_size)

@@ -201,6 +201,8 @@ class SynthesisController(_RunController):
         warnings = "; ".join(result.warnings)
         what = (f"Re-synthesized {int(result.selection.sum())} cells (seed {result.params.seed})"
                 if result.selection is not None else f"Synthesized {terrain.shape[0]} x {terrain.shape[1]}")
+        if terrain.cell_size is not None:
+            what += f" cells of {terrain.cell_size[0]:g} m"
         self.status.emit(f"{what} in {result.total_seconds:.1f} s" + (f" - {warnings}" if warnings else ""), 20_000)
 
     def _failed(self, message: str) -> None:

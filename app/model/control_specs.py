@@ -130,8 +130,15 @@ class StampSpec:
         """The core stamp, its DEM read (slow: call off the GUI thread)."""
         return Stamp(self.example.load(), self.center, rotation=self.rotation, scale=self.scale)
 
-    def footprint(self) -> np.ndarray:
+    def footprint(self, cell_size: float | None = None) -> np.ndarray:
         """Corners of the rotated, scaled window on the output grid.
+
+        Parameters
+        ----------
+        cell_size : float or None
+            The run's square cell size in metres: the window is drawn at
+            its true size on it (when its DEM is loaded and knows its cell
+            size), times ``scale``, as the core places it.
 
         Returns
         -------
@@ -140,8 +147,10 @@ class StampSpec:
             closed outline).  Uses the core's convention: counter-clockwise
             on screen, rows pointing down.
         """
-        half_h = 0.5 * self.source_shape[0] * self.scale
-        half_w = 0.5 * self.source_shape[1] * self.scale
+        dy, dx = self.example.loaded_cell_size() or (cell_size, cell_size)
+        true_h, true_w = (1.0, 1.0) if cell_size is None or dy is None else (dy / cell_size, dx / cell_size)
+        half_h = 0.5 * self.source_shape[0] * self.scale * true_h
+        half_w = 0.5 * self.source_shape[1] * self.scale * true_w
         theta = math.radians(self.rotation)
         cos, sin = math.cos(theta), math.sin(theta)
         a = np.array([-half_h, -half_h, half_h, half_h, -half_h])

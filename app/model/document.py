@@ -22,7 +22,7 @@ from terrasynth_core.features import read_sketch
 from terrasynth_core.synthesis import Pin, SynthesisParams
 
 from .control_specs import STYLE_PALETTE, StampSpec, StyleSpec
-from .example_library import ExampleRef
+from .example_library import ExampleRef, chosen_cell_size
 from .observable import Observable
 from .result import TerrainResult
 from .run_request import SynthesisRequest
@@ -156,6 +156,13 @@ class Document:
     def output_shape(self) -> tuple[int, int]:
         """Size of the terrain to synthesize: the sketch's."""
         return self.sketch.shape
+
+    def cell_size(self) -> float | None:
+        """The output's square cell size in metres as far as the loaded DEMs
+        tell (:func:`.example_library.chosen_cell_size` over the examples,
+        styles and stamps)."""
+        refs = [*self._examples, *(s.example for s in self._styles), *(s.example for s in self._stamps)]
+        return chosen_cell_size(self._params.cell_size, refs)
 
     @property
     def generation(self) -> int:

@@ -87,8 +87,7 @@ class ExampleRef:
         DEMFormatError
             When the file cannot be read or the crop lies outside the DEM.
         """
-        mtime = None if self.path is None else _mtime(self.path)
-        key = (self.builtin, self.path, mtime)
+        key = self._key()
         with _LOCK:
             field = _CACHE.get(key)
             if field is not None:
@@ -109,6 +108,21 @@ class ExampleRef:
             )
         return field.with_heights(field.heights[r0:r1, c0:c1].copy(), georef=None)
 
+    def _key(self) -> tuple:
+        return (self.builtin, self.path, None if self.path is None else _mtime(self.path))
+
+    def loaded_cell_size(self) -> tuple[float, float] | None:
+        """The DEM's ground cell size ``(dy, dx)`` in metres when it is
+        already loaded (no reading here: safe on the GUI thread); None when
+        it is not loaded or has no cell size."""
+        try:
+            key = self._key()
+        except DEMFormatError:
+            return None
+        with _LOCK:
+            field = _CACHE.get(key)
+        return None if field is None else field.cell_size
+
     def to_dict(self) -> dict:
         data: dict = {"builtin": self.builtin} if self.builtin is not None else {"path": self.path}
         if self.crop is not None:
@@ -120,6 +134,26 @@ class ExampleRef:
         crop = data.get("crop")
         return cls(builtin=data.get("builtin"), path=data.get("path"),
                    crop=tuple(crop) if crop is not None else None)
+
+
+def chosen_cell_size(cell_size: float | None, refs) -> float | None:
+    """The run's square cell size as far as the loaded DEMs tell:
+    ``cell_size`` (the parameters'), else the finest of ``refs`` (examples,
+    styles and stamps); None when none is known yet."""
+    if cell_size is not None:
+        return float(cell_size)
+    # The core's rule (run_cell_size): the finer side of the finest cell.
+    return min((min(c) for c in (ref.loaded_cell_size() for ref in refs) if c is not None), default=None)
+
+
+def ground_cell_text(cell_size: tuple[float, float] | None, square: float | None = None) -> str:
+    """A DEM's ground cell for people: ``"92.7 x 66.1 m"`` (dy x dx), plus
+    ``", square at 66.1 m"`` once the run's cell size ``square`` is known."""
+    if cell_size is None:
+        text = "cell size unknown"
+    else:
+        text = "{:.3g} x {:.3g} m".format(*cell_size)
+    return text if square is None else f"{text}, square at {square:.3g} m"
 
 
 def builtin_refs() -> list[ExampleRef]:

@@ -18,7 +18,7 @@ from terrasynth_core.examples import BUILTIN_PREFIX, resource_path
 from terrasynth_core.features import read_sketch
 from terrasynth_core.features.labels import read_label_map, read_mask
 from terrasynth_core.presets import PRESETS
-from terrasynth_core.synthesis import Pin
+from terrasynth_core.synthesis import Pin, SynthesisParams
 
 from .control_specs import StampSpec, StyleSpec
 from .document import Document
@@ -31,7 +31,8 @@ EXAMPLE_MAPS = {"middle-earth": "Middle-earth"}
 
 def example_map_document(key: str) -> Document:
     """A new, unsaved document holding the built-in map ``key``: its sketch
-    and size, styles, style regions, water and level, stamps and pins.
+    and size, styles, style regions, water and level, stamps, pins and the
+    cell size it was designed at.
 
     Reads the stamp DEMs for their sizes (about a second): call it off the
     GUI thread.  The plain example list is empty, since the map's styles
@@ -73,7 +74,9 @@ def example_map_document(key: str) -> Document:
         stamps.append(StampSpec(ref, tuple(entry["center"]), ref.load().shape, float(entry.get("rotation", 0.0)),
                                 float(entry.get("scale", 1.0))))
     pins = [Pin(int(p["row"]), int(p["col"]), float(p["height"])) for p in spec.get("pins", [])]
-    return Document(sketch, [], styles=styles, water_level=float(water["level"]) if water else 0.0,
+    # The cell size the map was designed at, as the core's preset carries it.
+    params = SynthesisParams(cell_size=float(spec["cell_size"])) if spec.get("cell_size") else SynthesisParams()
+    return Document(sketch, [], params=params, styles=styles, water_level=float(water["level"]) if water else 0.0,
                     pins=pins, stamps=stamps, next_style_id=len(styles))
 
 

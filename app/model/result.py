@@ -28,7 +28,7 @@ class TerrainResult:
     sketch_features : FeatureMaps or None
         The ridge and valley networks the run followed.
     cell_size : (dy, dx) or None
-        Ground size of a cell in metres (that of the first example).
+        Ground size of a cell in metres (square: the run's cell size).
     report : dict
         The run's JSON-ready summary (parameters, counts, timings, pins,
         warnings).
@@ -77,7 +77,11 @@ class TerrainResult:
 
     @classmethod
     def from_synthesis(cls, result, *, cell_size: tuple[float, float] | None = None) -> "TerrainResult":
-        """Keep what the app needs of a core ``SynthesisResult``."""
+        """Keep what the app needs of a core ``SynthesisResult``; its own
+        square cell size wins over ``cell_size`` (for a run whose examples
+        know none)."""
+        if getattr(result, "cell_size", None) is not None:
+            cell_size = (result.cell_size, result.cell_size)
         return cls(result.heights, result.patch_id, result.seam_mask, result.sketch_features,
                    cell_size, result.report(), tuple(result.pin_errors))
 

@@ -16,6 +16,7 @@ from typing import Callable, Iterator, Sequence
 
 import numpy as np
 
+from terrasynth_core.exemplars.ground import run_cell_size
 from terrasynth_core.features import SketchMap
 from terrasynth_core.pictures import height_range
 from terrasynth_core.synthesis import Controls, Pin, Session, SynthesisParams, Water, run_variations
@@ -98,8 +99,12 @@ class SynthesisRequest:
         return [ref.load() for ref in self.examples] + [spec.example.load() for spec in self.styles]
 
     def cell_size(self) -> tuple[float, float] | None:
-        """Ground size of an output cell: that of the first example (or style), metres."""
-        return self.source_fields()[0].cell_size
+        """Ground size of an output cell, metres, square: the parameters' cell
+        size, else the finest example's, style's or stamp's (slow: reads
+        them); None when none knows its cell size."""
+        fields = self.source_fields() + [spec.example.load() for spec in self.stamps]
+        cell = run_cell_size(self.params.cell_size, fields)
+        return None if cell is None else (cell, cell)
 
     def make_variations(self, seeds: Sequence[int], *, progress: Callable | None = None,
                         cancel: Callable[[], bool] | None = None, workers: int | None = None) -> list[TerrainResult]:
@@ -159,19 +164,19 @@ class RunInfo:
 
 
 def run_info(request: SynthesisRequest) -> RunInfo:
-    """Cell size of the first example and the colour range of the run: the
+    """Cell size of the run and the colour range of the run: the
     terrain being re-synthesized, or the examples' and styles' joint height
     range (slow: reads the examples)."""
     fields = request.source_fields()
     if request.previous is not None:
-        return RunInfo(request.shape, fields[0].cell_size, height_range(request.previous), request.previous)
+        return RunInfo(request.shape, request.cell_size(), height_range(request.previous), request.previous)
     bases = [s.base for s in request.styles if s.base is not None]
     low = min([f.min for f in fields] + bases)
     high = max([f.max for f in fields] + bases)
     # Patches are shifted to match their neighbours, so the output may leave
     # the examples' range a little; a margin keeps its tints from clipping.
     margin = 0.1 * (high - low)
-    return RunInfo(request.shape, fields[0].cell_size, (low - margin, high + margin))
+    return RunInfo(request.shape, request.cell_size(), (low - margin, high + margin))
 
 
 @dataclass(frozen=True, eq=False)

@@ -78,7 +78,7 @@ class ControlsOverlay:
             self._selection_timer.start()
         elif what == "pins":
             self._draw_pins()
-        elif what == "stamps":
+        elif what in ("stamps", "params", "examples", "styles"):  # (the cell size may change)
             self._draw_stamps()
 
     def _sketch_changed(self, bbox) -> None:
@@ -120,8 +120,9 @@ class ControlsOverlay:
 
     def _draw_stamps(self) -> None:
         xs, ys = [], []
+        cell = self.document.cell_size()
         for stamp in self.document.stamps:
-            corners = stamp.footprint()
+            corners = stamp.footprint(cell)
             xs += [corners[:, 1] + 0.5, [np.nan]]
             ys += [corners[:, 0] + 0.5, [np.nan]]
         if not xs:

@@ -19,7 +19,7 @@ from terrasynth_core.io import READ_EXTENSIONS
 from terrasynth_core.pictures import thumbnail
 
 from ..model.document import Document
-from ..model.example_library import ExampleRef, builtin_refs
+from ..model.example_library import ExampleRef, builtin_refs, ground_cell_text
 from ..workers import run_in_background
 from .panel_widgets import ask_dem_file, hbox
 
@@ -38,15 +38,12 @@ class ExampleInfo:
     thumbnail: np.ndarray | None  # RGBA uint8, None when a thumbnail file exists
 
 
-def describe(info: ExampleInfo) -> str:
-    """Second line of an item: size, resolution and height range."""
+def describe(info: ExampleInfo, square: float | None = None) -> str:
+    """Second line of an item: size, ground cell (dy x dx; ``square``: the
+    run's cell size it is resampled to) and height range."""
     rows, cols = info.shape
-    res = "resolution unknown"
-    if info.cell_size is not None:
-        dy, dx = info.cell_size
-        res = f"{dy:.0f} m cells" if abs(dy - dx) < 0.5 else f"{dy:.0f} x {dx:.0f} m cells"
     low, high = info.height_range
-    return f"{rows} x {cols}, {res}, {low:.0f} to {high:.0f} m"
+    return f"{rows} x {cols}, {ground_cell_text(info.cell_size, square)}, {low:.0f} to {high:.0f} m"
 
 
 def load_info(ref: ExampleRef) -> ExampleInfo:
@@ -142,10 +139,10 @@ class ExamplePanel(QWidget):
         item = self.item_for(info.ref)
         if item is not None:
             self._syncing = True
-            item.setText(f"{info.ref.label}\n{describe(info)}")
             if info.thumbnail is not None:
                 item.setIcon(QIcon(rgba_pixmap(info.thumbnail)))
             self._syncing = False
+        self._show_cell_sizes()
         self.info_loaded.emit(info)
 
     def _info_failed(self, message: str) -> None:
@@ -177,7 +174,7 @@ class ExamplePanel(QWidget):
     def _file_ready(self, info: ExampleInfo) -> None:
         self.infos[info.ref] = info
         self._syncing = True
-        item = QListWidgetItem(f"{info.ref.label}\n{describe(info)}")
+        item = QListWidgetItem(f"{info.ref.label}\n{describe(info, self.document.cell_size())}")
         item.setData(_REF_ROLE, info.ref)
         item.setFlags(item.flags() | Qt.ItemIsUserCheckable)
         item.setCheckState(Qt.Checked)
@@ -215,6 +212,21 @@ class ExamplePanel(QWidget):
     def _document_changed(self, what: str) -> None:
         if what == "examples":
             self._sync_from_document()
+        if what in ("examples", "params", "styles", "stamps"):
+            self._show_cell_sizes()
+
+    def _show_cell_sizes(self) -> None:
+        """Each loaded item's description; the chosen examples also say the
+        square cell size the run resamples them to."""
+        square = self.document.cell_size()
+        chosen = self.document.examples
+        self._syncing = True
+        for i in range(self.list.count()):
+            item = self.list.item(i)
+            info = self.infos.get(item.data(_REF_ROLE))
+            if info is not None:
+                item.setText(f"{info.ref.label}\n{describe(info, square if info.ref in chosen else None)}")
+        self._syncing = False
 
     def _sync_from_document(self) -> None:
         chosen = self.document.examples

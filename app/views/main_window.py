@@ -144,6 +144,9 @@ class MainWindow(QMainWindow):
         self.examples.item_unreadable.connect(lambda text: self.show_status(text, 30_000))
         self.canvas.notice.connect(lambda text: self.show_status(text, 10_000))
         self.styles.style_selected.connect(self.canvas.set_current_style)
+        # A DEM read in the background may change the run's cell size (the finest).
+        self.examples.info_loaded.connect(lambda _info: self.params.show_output())
+        self.examples.info_loaded.connect(lambda _info: self.styles.show_style_texts())
         self.canvas.pin_requested.connect(self.pin_stamp_requests.add_pin_at)
         self.canvas.stamp_requested.connect(self.pin_stamp_requests.place_stamp)
         self.pin_stamp_requests.stamp_placed.connect(self.docks["pins_stamps_dock"].raise_)

@@ -35,6 +35,9 @@ _TIPS = {
     "workers": "Threads for FFTs and candidate evaluation; 0 uses every core.",
     "feature_weight": "Weight of the feature deformation cost against the overlap mismatch when "
                       "picking feature patches.",
+    "cell_size": "Side of the output's square cells on the ground, in metres. Every example, style and "
+                 "stamp is resampled to it once, so features keep their true size and slopes. auto: the "
+                 "finest example's; a larger size is faster and avoids up-sampling coarse examples.",
 }
 
 
@@ -76,6 +79,9 @@ class ParamsPanel(QWidget):
         self.coarse_factor = QSpinBox(minimum=0, maximum=8, specialValueText="auto")
         self.workers = QSpinBox(minimum=0, maximum=256, specialValueText="all cores")
         self.feature_weight = QDoubleSpinBox(minimum=0.0, maximum=100.0, singleStep=0.1, decimals=2)
+        # 0 is "auto" (SynthesisParams.cell_size None).
+        self.cell_size = QDoubleSpinBox(minimum=0.0, maximum=100_000.0, singleStep=10.0, decimals=1,
+                                        specialValueText="auto (finest example)", suffix=" m")
         self.output_label = QLabel()
         self.error_label = error_label()
 
@@ -91,6 +97,7 @@ class ParamsPanel(QWidget):
             ("Coarse factor", self.coarse_factor, "coarse_factor"),
             ("Threads", self.workers, "workers"),
             ("Feature weight", self.feature_weight, "feature_weight"),
+            ("Cell size (m)", self.cell_size, "cell_size"),
         ):
             form.addRow(label, widget)
             tip = _TIPS[name]
@@ -105,13 +112,14 @@ class ParamsPanel(QWidget):
         for spin in (self.patch_size, self.overlap, self.k, self.seed, self.coarse_factor, self.workers):
             spin.valueChanged.connect(self._apply)
         self.feature_weight.valueChanged.connect(self._apply)
+        self.cell_size.valueChanged.connect(self._apply)
         for combo in (self.order, self.seam, self.blend):
             combo.currentTextChanged.connect(self._apply)
         for check in (self.overlap_auto, self.mirror):
             check.toggled.connect(self._apply)
 
         self._show(document.params)
-        self._show_output()
+        self.show_output()
         document.changed.connect(self._document_changed)
         document.sketch.changed.connect(self._sketch_changed)
 
@@ -119,6 +127,8 @@ class ParamsPanel(QWidget):
     def _document_changed(self, what: str) -> None:
         if what == "params":
             self._show(self.document.params)
+        if what in ("params", "examples", "styles", "stamps"):
+            self.show_output()
 
     def _show(self, params: SynthesisParams) -> None:
         self._updating = True
@@ -136,17 +146,20 @@ class ParamsPanel(QWidget):
             self.coarse_factor.setValue(params.coarse_factor)
             self.workers.setValue(params.workers)
             self.feature_weight.setValue(params.feature_weight)
+            self.cell_size.setValue(params.cell_size or 0.0)
         finally:
             self._updating = False
         self.error_label.clear()
 
     def _sketch_changed(self, bbox) -> None:
         if bbox is None:  # the whole sketch was replaced, maybe resized
-            self._show_output()
+            self.show_output()
 
-    def _show_output(self) -> None:
+    def show_output(self) -> None:
         rows, cols = self.document.output_shape
-        self.output_label.setText(f"{rows} x {cols} cells (the sketch's size)")
+        cell = self.document.cell_size()
+        cells = "cells" if cell is None else f"cells of {cell:.3g} m"
+        self.output_label.setText(f"{rows} x {cols} {cells} (the sketch's size)")
 
     # -- widgets to document ----------------------------------------------------------------------
     def values(self) -> dict:
@@ -163,6 +176,7 @@ class ParamsPanel(QWidget):
             "coarse_factor": self.coarse_factor.value(),
             "workers": self.workers.value(),
             "feature_weight": self.feature_weight.value(),
+            "cell_size": self.cell_size.value() or None,
         }
 
     def _apply(self) -> None:

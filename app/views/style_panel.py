@@ -18,7 +18,7 @@ from PySide6.QtWidgets import (QCheckBox, QColorDialog, QDoubleSpinBox, QFormLay
 
 from ..model.control_specs import RELIEF_SCALE_RANGE, StyleSpec
 from ..model.document import Document
-from ..model.example_library import ExampleRef, builtin_refs
+from ..model.example_library import ExampleRef, builtin_refs, ground_cell_text
 from ..workers import run_in_background
 from .panel_widgets import apply_edit, ask_dem_file, error_label, hbox
 
@@ -34,10 +34,13 @@ def swatch(color: str, side: int = 16) -> QIcon:
     return QIcon(pixmap)
 
 
-def describe_style(spec: StyleSpec) -> str:
-    """Second line of a style's item: its DEM, relief scale and base."""
+def describe_style(spec: StyleSpec, square: float | None = None) -> str:
+    """Second line of a style's item: its DEM and ground cell (once loaded;
+    ``square``: the run's cell size), relief scale and base."""
     base = "base: example median" if spec.base is None else f"base {spec.base:g} m"
-    return f"{spec.example.label}, relief x{spec.relief_scale:g}, {base}"
+    cell = spec.example.loaded_cell_size()
+    cell = "" if cell is None else f" ({ground_cell_text(cell, square)})"
+    return f"{spec.example.label}{cell}, relief x{spec.relief_scale:g}, {base}"
 
 
 def _checked_ref(ref: ExampleRef) -> ExampleRef:
@@ -244,6 +247,8 @@ class StylePanel(QWidget):
     def _document_changed(self, what: str) -> None:
         if what == "styles":
             self._show_styles()
+        elif what in ("examples", "params", "stamps"):
+            self.show_style_texts()
         elif what == "water_level":
             self._show_water_level()
         elif what == "height_range":
@@ -260,7 +265,7 @@ class StylePanel(QWidget):
         self._syncing = True
         self.list.clear()
         for spec in self.document.styles:
-            item = QListWidgetItem(swatch(spec.color), f"{spec.name}\n{describe_style(spec)}")
+            item = QListWidgetItem(swatch(spec.color), f"{spec.name}\n{describe_style(spec, self.document.cell_size())}")
             item.setData(_ID_ROLE, spec.id)
             item.setToolTip(spec.example.path or spec.example.label)
             self.list.addItem(item)
@@ -270,6 +275,18 @@ class StylePanel(QWidget):
         if self.list.currentItem() is None and self.list.count():
             self.list.setCurrentRow(self.list.count() - 1)
         self._show_editor()
+
+    def show_style_texts(self) -> None:
+        """The items' descriptions again: the run's cell size may have changed."""
+        square = self.document.cell_size()
+        specs = {spec.id: spec for spec in self.document.styles}
+        self._syncing = True
+        for i in range(self.list.count()):
+            item = self.list.item(i)
+            spec = specs.get(item.data(_ID_ROLE))
+            if spec is not None:  # (a stale item: the styles' own event rebuilds the list)
+                item.setText(f"{spec.name}\n{describe_style(spec, square)}")
+        self._syncing = False
 
     def _show_editor(self) -> None:
         style_id = self.current_style

@@ -56,7 +56,8 @@ class _Stages:
 def cmd_info(args: argparse.Namespace) -> int:
     from ..examples import resolve_dem
 
-    field = resolve_dem(args.dem, size=args.size)
+    field = resolve_dem(args.dem, size=args.size, band=args.band)
+    crs_name = _crs_name(field)
     info = {
         "file": str(args.dem),
         "format": field.format,
@@ -66,6 +67,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         "nodata": field.nodata_count,
         "cell_size": None if field.cell_size is None else [round(v, 4) for v in field.cell_size],
         "epsg": None if field.georef is None else field.georef.epsg,
+        "crs": crs_name,
     }
     if args.json:
         print(json.dumps(info))
@@ -78,7 +80,22 @@ def cmd_info(args: argparse.Namespace) -> int:
     print(f"  cell size {cell}")
     if info["epsg"]:
         print(f"  CRS       EPSG:{info['epsg']}")
+    elif crs_name:
+        print(f"  CRS       {crs_name}")
     return EXIT_OK
+
+
+def _crs_name(field) -> str | None:
+    """The CRS's name from its WKT (what names a CRS without EPSG code)."""
+    from ..io.gdal import field_crs
+
+    crs = field_crs(field.georef)
+    return None if crs is None else crs.to_wkt().split('"')[1]
+
+
+def _check_cog(args: argparse.Namespace, out: Path) -> None:
+    if getattr(args, "cog", False) and out.suffix.lower() not in (".tif", ".tiff"):
+        raise TerraSynthError(f"--cog writes GeoTIFF only: {out} is not a .tif/.tiff file")
 
 
 # -- convert ------------------------------------------------------------------
@@ -86,12 +103,13 @@ def cmd_convert(args: argparse.Namespace) -> int:
     from ..examples import resolve_dem
     from ..io import MESH_EXTENSIONS, save_dem, save_mesh
 
-    field = resolve_dem(args.input, size=args.size)
     out = Path(args.output)
+    _check_cog(args, out)
+    field = resolve_dem(args.input, size=args.size, band=args.band)
     if out.suffix.lower() in MESH_EXTENSIONS:
         save_mesh(field, out, vertical_scale=args.vertical_scale)
     else:
-        save_dem(field, out)
+        save_dem(field, out, cog=args.cog)
     print(f"wrote {out} ({field.shape[0]} x {field.shape[1]})", file=sys.stderr)
     return EXIT_OK
 
@@ -114,7 +132,7 @@ def cmd_features(args: argparse.Namespace) -> int:
         else:
             from ..examples import resolve_dem
 
-            field = resolve_dem(args.input, size=args.size)
+            field = resolve_dem(args.input, size=args.size, band=args.band)
             stages.step("read DEM")
             maps = extract_features(field, kind=args.kind)
             heights, cell_size = field.heights, field.cell_size
@@ -154,10 +172,11 @@ def cmd_synth(args: argparse.Namespace) -> int:
         raise TerraSynthError("give a --sketch (or --styles, or an output --size for a sketch-free run)")
     if args.variations < 1:
         raise TerraSynthError(f"--variations must be at least 1, got {args.variations}")
-    examples = [resolve_dem(e) for e in args.example or ()]
+    examples = [resolve_dem(e, band=args.band) for e in args.example or ()]
     sketch = read_sketch(args.sketch) if args.sketch else None
     params = SynthesisParams(
         patch_size=args.patch_size, seed=args.seed, order=args.order, seam=args.seam, blend=args.blend,
+        cell_size=args.cell_size,
         **({"overlap": args.overlap} if args.overlap is not None else {}),
     )
     controls = controls_from_args(args, have_examples=bool(examples))
@@ -173,7 +192,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
         from ..presets import load_preset
 
         preset = load_preset(args.map)
-        return _synthesize([], preset.sketch, preset.shape, SynthesisParams(seed=args.seed), args, preset.controls)
+        params = SynthesisParams(seed=args.seed, cell_size=preset.cell_size)
+        return _synthesize([], preset.sketch, preset.shape, params, args, preset.controls)
     examples = [builtin_example(DEFAULT_EXAMPLE).load()]
     sketch = read_sketch(resource_path("sketches", DEFAULT_SKETCH))
     return _synthesize(examples, sketch, None, SynthesisParams(seed=args.seed), args)
@@ -194,13 +214,15 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     # Checked before the run so a typo in the path does not cost a whole synthesis.
     if not out.parent.is_dir():
         raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
+    _check_cog(args, out)
     session = Session(examples, sketch, shape=size, params=params, controls=controls)
     for w in session.warnings:
         print(f"terrasynth-cli: note: {w}", file=sys.stderr)
-    cell = next((e.cell_size for e in [*examples, *(s.example for s in session.controls.styles)]
-                 if getattr(e, "cell_size", None)), None)
+    # The output's place on the map: near its first georeferenced example.
+    sources = [*examples, *(s.example for s in session.controls.styles)]
+    save = dict(sources=sources, cog=getattr(args, "cog", False))
     if getattr(args, "variations", 1) > 1:
-        return _variations(examples, sketch, size, params, controls, args, cell)
+        return _variations(examples, sketch, size, params, controls, args, save)
     bar = tqdm(total=0, desc="analyse", unit="patch", file=sys.stderr, disable=None, leave=False)
     result = None
     try:
@@ -214,7 +236,7 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
                 result = event.result
     finally:
         bar.close()
-    _save_result(result, out, cell)
+    _save_result(result, out, **save)
     if args.report:
         report = result.report()
         report["examples"] = [getattr(e, "source", None) for e in examples]
@@ -225,21 +247,28 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     return EXIT_OK
 
 
-def _save_result(result, out: Path, cell) -> None:
+def _save_result(result, out: Path, *, sources: list, cog: bool = False) -> None:
+    """Write the heights with the run's square cell size and, when it has
+    one, a local Transverse Mercator near the first georeferenced source."""
     from ..heightfield import HeightField
     from ..io import MESH_EXTENSIONS, save_dem, save_mesh
+    from ..io.resample import output_georeference
 
-    field = HeightField(result.heights, cell_size=cell, source=str(out), format=None)
+    c = result.cell_size
+    georef = None if c is None else output_georeference(sources, result.heights.shape, c)
+    field = HeightField(result.heights, cell_size=None if c is None else (c, c), georef=georef, source=str(out),
+                        format=None)
     if out.suffix.lower() in MESH_EXTENSIONS:
         save_mesh(field, out)
     else:
-        save_dem(field, out)
+        save_dem(field, out, cog=cog)
 
 
 def _summary(result, out: Path, said: list[str]) -> None:
     """One line per output, pin errors, and warnings not said before."""
     counts = ", ".join(f"{v} {k}" for k, v in result.counts().items() if v)
-    print(f"wrote {out}: {result.heights.shape[0]}x{result.heights.shape[1]} in {result.total_seconds:.1f} s "
+    cell = "" if result.cell_size is None else f" cells of {result.cell_size:g} m,"
+    print(f"wrote {out}: {result.heights.shape[0]}x{result.heights.shape[1]}{cell} in {result.total_seconds:.1f} s "
           f"({counts} patches)", file=sys.stderr)
     span = float(result.heights.max() - result.heights.min()) or 1.0
     for e in result.pin_errors:
@@ -250,7 +279,7 @@ def _summary(result, out: Path, said: list[str]) -> None:
             print(f"terrasynth-cli: note: {w}", file=sys.stderr)
 
 
-def _variations(examples, sketch, size, params, controls, args, cell) -> int:
+def _variations(examples, sketch, size, params, controls, args, save: dict) -> int:
     """``--variations N``: seeds SEED..SEED+N-1 in parallel, OUT_v1.. OUT_vN."""
     from ..synthesis import run_variations
 
@@ -260,7 +289,7 @@ def _variations(examples, sketch, size, params, controls, args, cell) -> int:
     print(f"terrasynth-cli: {len(seeds)} variations (seeds {seeds[0]}-{seeds[-1]}) in parallel", file=sys.stderr)
 
     def done(i, result):
-        _save_result(result, paths[i], cell)
+        _save_result(result, paths[i], **save)
         _summary(result, paths[i], [])
 
     results = run_variations(examples, sketch, seeds=seeds, shape=size, params=params, controls=controls,
@@ -313,6 +342,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("dem")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.add_argument("--size", type=parse_size, help="ROWSxCOLS of a headerless .r16/.r32")
+    _add_band(p)
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("convert", help="convert a DEM between formats (by extension), or to a mesh")
@@ -320,6 +350,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("output")
     p.add_argument("--size", type=parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
     p.add_argument("--vertical-scale", type=float, default=1.0, help="height multiplier for meshes")
+    _add_band(p)
+    _add_cog(p)
     p.set_defaults(func=cmd_convert)
 
     p = sub.add_parser("features", help="ridges and valleys (PPA) of a DEM or a sketch")
@@ -329,6 +361,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="OUT.json", help="write the feature graphs as JSON")
     p.add_argument("--overlay", metavar="OUT.png", help="write a hillshade with ridges red, valleys blue")
     p.add_argument("--size", type=parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
+    _add_band(p)
     p.set_defaults(func=cmd_features)
 
     p = sub.add_parser("synth", help="synthesize a terrain from example DEMs and a sketch")
@@ -343,6 +376,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--order", choices=("bfs", "raster"), default="bfs")
     p.add_argument("--seam", choices=("cut", "paste"), default="cut")
     p.add_argument("--blend", choices=("poisson", "c1", "none"), default="c1")
+    p.add_argument("--cell-size", type=positive_metres, metavar="M",
+                   help="output cell size in metres, square (default: the finest example's)")
+    _add_band(p, "band of every --example DEM (1-based; needed for multi-band files)")
+    _add_cog(p)
     p.add_argument("--report", metavar="REPORT.json", help="parameters, patch counts and timings as JSON")
     p.add_argument("--debug-dir", metavar="DIR", help="write patch ids, seams and features there")
     add_control_arguments(p)
@@ -360,6 +397,36 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("examples", help="list the built-in example DEMs and sketches")
     p.set_defaults(func=cmd_examples)
     return parser
+
+
+def positive_metres(text: str) -> float:
+    """A cell size: a positive finite number of metres."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (0 < value < float("inf")):
+        raise argparse.ArgumentTypeError(f"cell size {text!r} is not a positive number of metres")
+    return value
+
+
+def positive_band(text: str) -> int:
+    """A band number, 1-based."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"band {text!r} is not a band number (1, 2, ...)")
+    return value
+
+
+def _add_band(p: argparse.ArgumentParser, text: str = "band to read (1-based; needed for multi-band files)"):
+    p.add_argument("--band", type=positive_band, metavar="N", help=text)
+
+
+def _add_cog(p: argparse.ArgumentParser):
+    p.add_argument("--cog", action="store_true", help="write a Cloud-Optimized GeoTIFF (.tif output only)")
 
 
 def cmd_examples(args: argparse.Namespace) -> int:

@@ -5,6 +5,10 @@ unpainted cells) and one group per :class:`~.controls.Style`.  Every example
 is synthesized as detail about its median height, times its style's relief
 scale; the level field (:func:`.levels.level_field`) adds each region's
 base height back, smoothly across region borders.
+
+Every example, style and stamp is first brought to the run's square cell
+size (:mod:`~terrasynth_core.exemplars.ground`), so all of them are copied
+at their true scale on the ground.
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..exemplars.ground import on_ground, run_cell_size
 from ..exemplars.prepare import ExampleAnalysis, prepare_example
 from .levels import level_field, steer_level
 from .options import Controls
@@ -47,7 +52,10 @@ class StyleLayout:
         predicted heights) towards ``(lo, hi)``; the result is mapped onto
         it exactly at the end.
     notes : list of str
-        Nodata handling, for the run's warnings.
+        Nodata handling, cell size and up-sampling, for the run's warnings.
+    cell_size : float or None
+        The run's square cell size in metres (None: unknown, examples used
+        cell for cell).
     """
 
     examples: list
@@ -60,14 +68,17 @@ class StyleLayout:
     stamps: list
     remap: tuple | None
     notes: list
+    cell_size: float | None = None
 
     def group_at(self, row: float, col: float) -> int:
         rows, cols = self.group_map.shape
         return int(self.group_map[min(max(int(round(row)), 0), rows - 1), min(max(int(round(col)), 0), cols - 1)])
 
 
-def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_size: int) -> StyleLayout:
-    """Analyse the examples and lay the styles out over the output.
+def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_size: int, *,
+                 cell_size: float | None = None) -> StyleLayout:
+    """Bring the examples to one cell size, analyse them and lay the styles
+    out over the output.
 
     Parameters
     ----------
@@ -77,6 +88,9 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
         Already checked against ``shape``.
     shape : (rows, cols)
     patch_size : int
+    cell_size : float or None
+        Metres per output cell; None: the finest example's
+        (:func:`~terrasynth_core.exemplars.ground.run_cell_size`).
     """
     fields, scales, bases, members, names = [], [], [], [], []
     if plain:
@@ -93,9 +107,15 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
         bases.append(style.base)
     examples: list[ExampleAnalysis] = []
     notes = []
+    cell = run_cell_size(cell_size, [*fields, *(st.field for st in controls.stamps)])
+    if cell is None:
+        notes.append("no example has a known cell size: examples are used cell for cell and the output's "
+                     "cell size is unknown")
     for i, ex in enumerate(fields):
-        name = getattr(ex, "source", None) or f"example {i + 1}"
-        analysis = prepare_example(ex, patch_size, name=str(name))
+        name = str(getattr(ex, "source", None) or f"example {i + 1}")
+        ex, said = on_ground(ex, cell, name=name)
+        notes.extend(said)
+        analysis = prepare_example(ex, patch_size, name=name)
         if analysis.note:
             notes.append(analysis.note)
         examples.append(analysis)
@@ -133,7 +153,7 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
         level = steer_level(level, controls.pins, patch_size)
     stamps = []
     for st in controls.stamps:
-        r = render_stamp(st, shape, patch_size)
+        r = render_stamp(st, shape, patch_size, cell_size=cell, notes=notes)
         stamps.append(RenderedStamp(r.bbox, (r.detail * np.float32(factor)).astype(np.float32), r.valid, r.core))
-    return StyleLayout(examples, detail, relief, members, names, group_map, level, stamps, remap, notes)
+    return StyleLayout(examples, detail, relief, members, names, group_map, level, stamps, remap, notes, cell)
 

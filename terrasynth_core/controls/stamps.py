@@ -11,6 +11,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..errors import ParamsError
+from ..exemplars.ground import on_ground
 from ..heightfield import HeightField
 from .options import Stamp
 
@@ -30,8 +31,22 @@ class RenderedStamp:
     core: np.ndarray
 
 
-def render_stamp(stamp: Stamp, shape: tuple[int, int], patch_size: int) -> RenderedStamp:
+def render_stamp(stamp: Stamp, shape: tuple[int, int], patch_size: int, *, cell_size: float | None = None,
+                 notes: list | None = None) -> RenderedStamp:
     """Crop, rotate and scale a stamp onto the output grid (bilinear).
+
+    Parameters
+    ----------
+    stamp : Stamp
+        Its window is in the DEM's own cells; its scale multiplies the
+        footprint the window has at its true size.
+    shape : (rows, cols)
+    patch_size : int
+    cell_size : float or None
+        The run's cell size in metres: the window is first resampled to it
+        (None: used cell for cell).
+    notes : list of str, optional
+        Gets the resampling notes (up-sampling, nodata cropped).
 
     Raises
     ------
@@ -50,8 +65,11 @@ def render_stamp(stamp: Stamp, shape: tuple[int, int], patch_size: int) -> Rende
         if not (0 <= r0 < r1 <= H and 0 <= c0 < c1 <= W):
             raise ParamsError(f"stamp window {stamp.window} is outside {name} ({H}x{W} cells): "
                               "give (r0, r1, c0, c1) with 0 <= r0 < r1 <= rows and 0 <= c0 < c1 <= cols")
-        heights = heights[r0:r1, c0:c1]
-    sub = HeightField(np.ascontiguousarray(heights, dtype=np.float32), source=name)
+        fieldobj = fieldobj.window(r0, r1, c0, c1)
+    fieldobj, said = on_ground(fieldobj, cell_size, name=f"stamp {name}")
+    if notes is not None:
+        notes.extend(said)
+    sub = HeightField(np.ascontiguousarray(fieldobj.heights, dtype=np.float32), source=name)
     if sub.nodata_count:
         sub = sub.crop_valid()
         if sub.nodata_count:

@@ -1,7 +1,8 @@
 """An on-disk cache of example analyses, so that a second run on the same
 example (the CLI, a restarted app) starts placing patches at once.
 
-One ``.npz`` file per (heights, patch size, version), in
+One ``.npz`` file per (heights, patch size, version), and one per example
+resampled to a run's cell size (:mod:`.ground`), in
 ``$TERRASYNTH_CACHE_DIR`` or ``$XDG_CACHE_HOME/terrasynth`` (default
 ``~/.cache/terrasynth``).  Files are written atomically and read with
 ``allow_pickle=False``; an unreadable or stale file is ignored and rewritten,
@@ -12,7 +13,10 @@ cache off.
 from __future__ import annotations
 
 import os
+import threading
+from collections import OrderedDict
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -38,6 +42,34 @@ def cache_dir() -> Path | None:
 def _path(key: str) -> Path | None:
     folder = cache_dir()
     return None if folder is None else folder / f"example-v{CACHE_VERSION}-{key}.npz"
+
+
+class Memo(OrderedDict):
+    """The last ``size`` values in memory, backed by this disk cache.
+
+    ``get(key, compute)`` looks in memory, then on disk (``load``), and
+    only then computes (and saves) the value; thread-safe for lookups
+    (two threads may compute the same value once each).
+    """
+
+    def __init__(self, size: int, load: Callable[[str], object], save: Callable[[str, object], None]):
+        super().__init__()
+        self.size, self._load, self._save = size, load, save
+        self._lock = threading.Lock()
+
+    def get(self, key: str, compute: Callable[[], object]):
+        with self._lock:
+            value = super().get(key)
+        if value is None:
+            value = self._load(key)
+            if value is None:
+                value = compute()
+                self._save(key, value)
+            with self._lock:
+                self[key] = value
+                while len(self) > self.size:
+                    self.popitem(last=False)
+        return value
 
 
 def load(key: str):
@@ -67,12 +99,36 @@ def save(key: str, features: FeatureMaps, samples: dict, strong: np.ndarray, rel
         arrays.update(_graph_arrays(graph))
     for kind in _KINDS:
         arrays.update(_sample_arrays(kind, samples[kind]))
+    _write(path, arrays)
+
+
+def _write(path: Path, arrays: dict) -> None:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
             np.savez(f, **arrays)
     except OSError:
         pass
+
+
+def load_array(key: str) -> np.ndarray | None:
+    """A cached float32 grid (an example resampled to a cell size) or None."""
+    path = _path(key)
+    if path is None or not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            heights = z["heights"]
+        return heights if heights.ndim == 2 and heights.dtype == np.float32 else None
+    except Exception:  # a damaged or foreign file: recompute
+        return None
+
+
+def save_array(key: str, heights: np.ndarray) -> None:
+    """Store a float32 grid; failures are ignored, as for analyses."""
+    path = _path(key)
+    if path is not None:
+        _write(path, {"heights": np.ascontiguousarray(heights, dtype=np.float32)})
 
 
 def _graph_arrays(graph: FeatureGraph) -> dict:

@@ -9,8 +9,6 @@ memory and on disk (:mod:`.cache`).
 from __future__ import annotations
 
 import hashlib
-import threading
-from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -79,18 +77,7 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
     heights = np.ascontiguousarray(field.heights, dtype=np.float32)
     digest = hashlib.sha1(heights.tobytes()).hexdigest()
     key = f"{digest}-{heights.shape[0]}x{heights.shape[1]}-p{patch_size}"
-    with _CACHE_LOCK:
-        cached = _CACHE.get(key)
-    if cached is None:
-        cached = cache.load(key)
-        if cached is None:
-            cached = _analyse(heights, patch_size)
-            cache.save(key, *cached)
-        with _CACHE_LOCK:
-            _CACHE[key] = cached
-            while len(_CACHE) > _CACHE_SIZE:
-                _CACHE.popitem(last=False)
-    features, samples, strong, relief = cached
+    features, samples, strong, relief = _CACHE.get(key, lambda: _analyse(heights, patch_size))
     return ExampleAnalysis(heights, features, samples, strong, relief, note)
 
 
@@ -100,9 +87,7 @@ STRONG_QUANTILE = 0.5
 MIN_STRENGTH = 1.0
 
 # In memory too: the app re-synthesizes after every edit.
-_CACHE: OrderedDict = OrderedDict()
-_CACHE_LOCK = threading.Lock()
-_CACHE_SIZE = 8
+_CACHE = cache.Memo(8, cache.load, lambda key, value: cache.save(key, *value))
 
 
 def _analyse(heights: np.ndarray, patch_size: int) -> tuple:

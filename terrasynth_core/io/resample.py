@@ -35,6 +35,7 @@ import numpy as np
 from rasterio.crs import CRS
 from rasterio.transform import Affine
 from rasterio.warp import Resampling, reproject, transform_bounds
+from rasterio.warp import transform as transform_points
 from scipy import sparse
 
 from ..errors import ParamsError
@@ -42,7 +43,7 @@ from ..heightfield import GeoReference, HeightField
 from ._common import looks_geographic
 from .gdal import field_crs
 
-__all__ = ["ground_cell_size", "local_projection", "to_square_cells"]
+__all__ = ["ground_cell_size", "local_projection", "output_georeference", "to_square_cells"]
 
 
 def ground_cell_size(field: HeightField) -> float | None:
@@ -71,6 +72,47 @@ def local_projection(geographic: CRS, lon: float, lat: float) -> CRS:
         'PARAMETER["scale_factor",1],PARAMETER["false_easting",0],PARAMETER["false_northing",0],'
         'UNIT["metre",1],AXIS["Easting",EAST],AXIS["Northing",NORTH]]'
     )
+
+
+def output_georeference(fields, shape: tuple[int, int], cell_size: float) -> GeoReference:
+    """Where a synthesized grid of ``cell_size`` metres is put on the map.
+
+    A local Transverse Mercator (:func:`local_projection`) centred on the
+    centre of the first georeferenced field in ``fields`` (the style's
+    source), with the grid centred on it, so GIS tools show the output at
+    true size near where its style came from; centred on 0 N 0 E when no
+    field is georeferenced.
+
+    Parameters
+    ----------
+    fields : iterable of HeightField (other items are skipped)
+    shape : (rows, cols)
+        Of the output.
+    cell_size : float
+        Metres.
+
+    Returns
+    -------
+    GeoReference
+        No EPSG code; the projection in ``crs_wkt``.
+    """
+    wgs84 = CRS.from_epsg(4326)
+    base, lon, lat = wgs84, 0.0, 0.0
+    for field in fields:
+        crs = field_crs(getattr(field, "georef", None))
+        if crs is None:
+            continue
+        geo, (rows, cols) = field.georef, field.shape
+        x, y = geo.x_origin + cols * geo.x_step / 2, geo.y_origin - rows * geo.y_step / 2
+        if crs.is_geographic:
+            base, lon, lat = crs, x, y
+        else:
+            (lon,), (lat,) = transform_points(crs, wgs84, [x], [y])
+        break
+    rows, cols = shape
+    size = float(cell_size)
+    return GeoReference(-cols * size / 2, rows * size / 2, size, size, None,
+                        local_projection(base, lon, lat).to_wkt())
 
 
 def to_square_cells(field: HeightField, cell_size: float) -> HeightField:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 import os
 from dataclasses import asdict, dataclass, fields
 from typing import Literal
@@ -49,6 +50,11 @@ class SynthesisParams:
     feature_weight : float, default 1.0
         Weight of the deformation cost against the overlap SSD when picking
         among feature candidates.
+    cell_size : float or None, default None
+        Side of the output's square cells on the ground, in metres; every
+        example is resampled to it once.  None: the finest example's ground
+        cell size (examples without a known cell size are taken to be at
+        it; when none has one, examples are used cell for cell).
     """
 
     patch_size: int = 80
@@ -62,6 +68,7 @@ class SynthesisParams:
     coarse_factor: int = 0
     workers: int = 0
     feature_weight: float = 1.0
+    cell_size: float | None = None
 
     def __post_init__(self):
         def bad(name, expected):
@@ -89,6 +96,11 @@ class SynthesisParams:
             bad("workers", "a non-negative integer (0 = all cores)")
         if not (self.feature_weight >= 0):
             bad("feature_weight", "a non-negative number")
+        if self.cell_size is not None and (
+            isinstance(self.cell_size, bool) or not isinstance(self.cell_size, numbers.Real)
+            or not 0 < self.cell_size < float("inf")
+        ):
+            bad("cell_size", "a positive number of metres or None (the finest example's)")
 
     @property
     def overlap_cells(self) -> int:

@@ -236,4 +236,5 @@ def finish_stage(state: RunState, t_start: float):
         style_map=None if c.style_map is None else c.style_map.copy(),
         pin_errors=pin_errors,
         selection=None if c.selection is None else c.selection.copy(),
+        cell_size=state.layout.cell_size,
     ))

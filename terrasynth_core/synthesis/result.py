@@ -60,6 +60,9 @@ class SynthesisResult:
         Height minus wanted height at each pin, metres.
     selection : ndarray of bool, shape (rows, cols), or None
         The cells a local re-synthesis changed (None for a full run).
+    cell_size : float or None
+        Side of the output's square cells in metres (None: no example knew
+        its cell size).
     """
 
     heights: np.ndarray
@@ -74,6 +77,7 @@ class SynthesisResult:
     style_map: np.ndarray | None = None
     pin_errors: tuple[PinError, ...] = ()
     selection: np.ndarray | None = None
+    cell_size: float | None = None
 
     def counts(self) -> dict[str, int]:
         """Patches placed by kind (branch, end, path, fill, stamp)."""
@@ -87,6 +91,7 @@ class SynthesisResult:
         return {
             "params": self.params.to_dict(),
             "shape": list(self.heights.shape),
+            "cell_size": self.cell_size,
             "patch_counts": self.counts(),
             "timings": {k: round(v, 4) for k, v in self.timings.items()},
             "total_seconds": round(self.total_seconds, 4),

@@ -93,7 +93,10 @@ class Session:
         self.sketch = sketch
         self.params = params
         self.controls = controls.checked(self.shape, params.patch_size, len(examples))
-        self.layout = build_layout(examples, self.controls, self.shape, params.patch_size)
+        self.layout = build_layout(examples, self.controls, self.shape, params.patch_size,
+                                   cell_size=params.cell_size)
+        #: The run's square cell size in metres (None: unknown).
+        self.cell_size = self.layout.cell_size
         self.examples = self.layout.examples
         self.warnings: list[str] = list(self.layout.notes)
         self.sketch_maps = self._sketch_maps()

@@ -290,7 +290,8 @@ def test_synth_writes_output_of_requested_shape(synth_run, example_200):
     # Patches are copied from the example, so the heights stay near its range.
     relief = example.max - example.min
     assert example.min - relief <= field.min < field.max <= example.max + relief
-    assert field.cell_size == pytest.approx(example.cell_size)
+    # Square cells at the example's finer side (66 m), not its 93 x 66 m.
+    assert field.cell_size == pytest.approx((min(example.cell_size),) * 2)
 
 
 def test_synth_report_counts_and_timings(synth_run):

@@ -24,6 +24,7 @@ class _Result:
     warnings = ["a warning"]
     selection = None
     params = SynthesisParams(seed=3)
+    cell_size = None  # the examples knew none: the run info's is kept
 
     def report(self):
         return {"params": {"seed": 3}}
@@ -69,7 +70,7 @@ def test_a_run_is_told_in_order_with_throttled_progress_and_ends_in_the_document
     progress = [entry for entry in log if entry[0] == "progress"]
     assert len(progress) < 200  # at most one per 50 ms, however fast the patches come
     assert ("stage", "Filling the rest") in log and log[-2:] == [("stage", "Done"), (
-        "status", "Synthesized 32 x 32 in 1.2 s - a warning")]
+        "status", "Synthesized 32 x 32 cells of 30 m in 1.2 s - a warning")]
     assert controller.document.result.seed == 3 and controller.document.result.cell_size == (30.0, 30.0)
     assert isinstance(finished.args[0], _Result)
     qtbot.waitUntil(lambda: not controller.running, timeout=TIMEOUT_MS)

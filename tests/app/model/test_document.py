@@ -14,6 +14,7 @@ from terrasynth_core.synthesis import SynthesisParams
 from terrasynth_app.model import (Document, ExampleRef, ProjectError, RecoveryStore, Sketch, TerrainResult,
                                   load_project, save_project)
 from terrasynth_app.model.dem_features import dem_feature_layers, scaled_graph
+from terrasynth_app.model.example_library import ground_cell_text
 from terrasynth_app.model.export import export_terrain, resampled_field
 
 
@@ -101,7 +102,7 @@ def test_project_round_trip_keeps_everything(tmp_path):
     save_dem(HeightField(np.random.default_rng(0).normal(100, 5, (80, 90)).astype(np.float32)), dem)
     doc = _document()
     doc.add_example(ExampleRef(path=str(dem)))
-    doc.set_params(SynthesisParams(patch_size=40, seed=17, blend="poisson", overlap=12))
+    doc.set_params(SynthesisParams(patch_size=40, seed=17, blend="poisson", overlap=12, cell_size=45.0))
     doc.set_result(_result())
     path = save_project(doc, tmp_path / "p.tsproj")
     assert not doc.dirty and doc.path == path
@@ -117,6 +118,36 @@ def test_project_round_trip_keeps_everything(tmp_path):
     np.testing.assert_array_equal(back.result.seam_mask, doc.result.seam_mask)
     assert back.result.cell_size == (30.0, 30.0) and back.result.warnings == ["a warning"]
     assert back.result.sketch_features.ridges.to_dict() == doc.result.sketch_features.ridges.to_dict()
+
+
+def test_a_project_from_before_cell_sizes_opens_with_the_automatic_one(tmp_path):
+    path = save_project(_document(), tmp_path / "p.tsproj")
+    with zipfile.ZipFile(path) as zf:
+        files = {name: zf.read(name) for name in zf.namelist()}
+    meta = json.loads(files["project.json"])
+    del meta["params"]["cell_size"]
+    files["project.json"] = json.dumps(meta).encode()
+    with zipfile.ZipFile(path, "w") as zf:
+        for name, data in files.items():
+            zf.writestr(name, data)
+    assert load_project(path).params.cell_size is None
+
+
+def test_the_run_cell_size_shown_is_the_finest_loaded_or_the_chosen_one(tmp_path):
+    fine, coarse = tmp_path / "fine.npy", tmp_path / "coarse.npy"
+    save_dem(HeightField(np.ones((40, 40), np.float32), cell_size=(30.0, 20.0)), fine)
+    save_dem(HeightField(np.ones((40, 40), np.float32), cell_size=(90.0, 90.0)), coarse)
+    doc = Document(Sketch.blank((64, 64)), [ExampleRef(path=str(coarse))])
+    assert doc.cell_size() is None  # nothing loaded yet: not read on the GUI thread
+    doc.examples[0].load()
+    assert doc.cell_size() == 90.0
+    doc.add_style(ExampleRef(path=str(fine)))
+    doc.styles[0].example.load()
+    assert doc.cell_size() == 20.0
+    doc.set_params(SynthesisParams(cell_size=50))
+    assert doc.cell_size() == 50.0
+    assert ground_cell_text((30.0, 20.0), 20.0) == "30 x 20 m, square at 20 m"
+    assert ground_cell_text(None) == "cell size unknown"
 
 
 def test_project_finds_moved_dems_by_relative_path(tmp_path):

@@ -57,6 +57,25 @@ def test_params_panel_edits_the_document(qtbot, window):
     assert panel.patch_size.toolTip()
 
 
+def test_cell_size_auto_or_chosen_is_shown_with_the_examples(qtbot, window):
+    panel, doc, library = window.params, window.document, window.examples
+    assert panel.cell_size.text() == "auto (finest example)" and doc.params.cell_size is None
+    white = doc.examples[0]  # a crop of the White Mountains
+    qtbot.waitUntil(lambda: white in library.infos, timeout=30_000)
+    # The White Mountains' 93 x 66 m cells, squared at the finer side.
+    assert "92.7 x 66.1 m, square at 66.1 m" in library.item_for(white).text()
+    assert "cells of 66.1 m" in panel.output_label.text()
+    panel.cell_size.setValue(90)
+    assert doc.params.cell_size == 90.0
+    assert "square at 90 m" in library.item_for(white).text() and "cells of 90 m" in panel.output_label.text()
+    # Examples not chosen show their own cell only.
+    himalaya = ExampleRef(builtin="himalaya")
+    qtbot.waitUntil(lambda: himalaya in library.infos, timeout=30_000)
+    assert "square" not in library.item_for(himalaya).text()
+    panel.cell_size.setValue(0)
+    assert doc.params.cell_size is None and "square at 66.1 m" in library.item_for(white).text()
+
+
 def test_checking_examples_chooses_them(qtbot, window):
     panel, doc = window.examples, window.document
     item = panel.item_for(ExampleRef(builtin="st-helens"))
@@ -87,7 +106,8 @@ def test_adding_a_good_dem_file(qtbot, window, tmp_path):
     with qtbot.waitSignal(window.examples.info_loaded, timeout=10_000):
         window.examples.add_file(str(path))
     assert ExampleRef(path=str(path)) in window.document.examples
-    assert "90 x 120, 10 m cells" in window.examples.item_for(ExampleRef(path=str(path))).text()
+    # Its ground cell (dy x dx), and the square cell size the run resamples it to (the finest).
+    assert "90 x 120, 10 x 10 m, square at 10 m" in window.examples.item_for(ExampleRef(path=str(path))).text()
 
 
 def test_save_and_reopen_a_project_unchanged(qtbot, window, tmp_path):

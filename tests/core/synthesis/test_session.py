@@ -140,7 +140,10 @@ def test_nodata_in_the_example_is_cropped(white_mountains, y_sketch):
     h[:40, :] = np.nan
     session = Session([white_mountains.with_heights(h)], y_sketch, params=SMALL)
     assert any("cropped" in w for w in session.warnings)
-    assert session.examples[0].heights.shape == (360, 400)
+    # 360 x 400 valid cells of 93 x 66 m, at square 66 m cells.
+    rows, cols = session.examples[0].heights.shape
+    dy, dx = white_mountains.cell_size
+    assert rows == pytest.approx(360 * dy / dx, abs=4) and cols == pytest.approx(400, abs=4)
 
 
 def test_sketch_is_scaled_to_the_output_size(white_mountains, y_sketch):
