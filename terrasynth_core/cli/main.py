@@ -216,8 +216,10 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
         bar.close()
     _save_result(result, out, cell)
     if args.report:
-        report = result.report()
-        report["examples"] = [getattr(e, "source", None) for e in examples]
+        # Example indices of the patches: the plain examples, then the styles'.
+        names = [getattr(e, "source", None) for e in [*examples, *(s.example for s in session.controls.styles)]]
+        report = result.report(names)
+        report["examples"] = names[:len(examples)]
         _write_json_atomic(Path(args.report), report)
     if getattr(args, "debug_dir", None):
         _write_debug(result, Path(args.debug_dir))
@@ -343,7 +345,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--order", choices=("bfs", "raster"), default="bfs")
     p.add_argument("--seam", choices=("cut", "paste"), default="cut")
     p.add_argument("--blend", choices=("poisson", "c1", "none"), default="c1")
-    p.add_argument("--report", metavar="REPORT.json", help="parameters, patch counts and timings as JSON")
+    p.add_argument("--report", metavar="REPORT.json", help="parameters, patch counts, timings, the source reuse and every patch as JSON")
     p.add_argument("--debug-dir", metavar="DIR", help="write patch ids, seams and features there")
     add_control_arguments(p)
     p.set_defaults(func=cmd_synth)
