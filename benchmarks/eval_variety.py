@@ -31,9 +31,11 @@ import os
 import subprocess
 import sys
 import tempfile
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
+from compare_engines import baseline_worktree
 
 REPO = Path(__file__).resolve().parents[1]
 CASES = (
@@ -117,36 +119,29 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pictures", type=Path, default=None, metavar="DIR", help="shaded reliefs of the outputs")
     args = ap.parse_args(argv)
 
-    with tempfile.TemporaryDirectory(prefix="terrasynth-variety-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="terrasynth-variety-") as tmp, ExitStack() as stack:
         work = args.saved or args.keep or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
         old = args.old_tree or args.saved
         if old is None:
-            old = Path(tmp) / "baseline"
-            subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", str(old), args.baseline],
-                           check=True, capture_output=True)
-        try:
-            trees = {"old": old, "new": REPO}
-            caches = {k: tempfile.mkdtemp(dir=tmp) for k in trees}
-            print(f"{'case':44s} {'engine':6s} {'feat':>4s} {'reuse':>6s} {'TPI r':>6s} {'TPI v':>6s} {'sec':>6s}")
-            for case in CASES:
-                rows = {}
-                for k, tree in trees.items():
-                    out = work / f"{_case_name(case)}_{k}"
-                    if args.saved is None:
-                        _child(tree, case, out, caches[k])
-                    rows[k] = m = measure(out, case)
-                    if args.pictures:
-                        args.pictures.mkdir(parents=True, exist_ok=True)
-                        shaded(out, args.pictures / f"{out.name}.png")
-                    print(f"{_case_name(case):44s} {k:6s} {m['features']:4d} {m['reuse']:6.2f} "
-                          f"{_fmt(m['tpi']['ridge']):>6s} {_fmt(m['tpi']['valley']):>6s} {m['seconds']:6.1f}",
-                          flush=True)
-                print(f"{'':44s} {'new/old time':>19s} {rows['new']['seconds'] / rows['old']['seconds']:.2f}")
-        finally:
-            if args.baseline is not None:
-                subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(old)],
-                               check=False, capture_output=True)
+            old = stack.enter_context(baseline_worktree(args.baseline, Path(tmp)))
+        trees = {"old": old, "new": REPO}
+        caches = {k: tempfile.mkdtemp(dir=tmp) for k in trees}
+        print(f"{'case':44s} {'engine':6s} {'feat':>4s} {'reuse':>6s} {'TPI r':>6s} {'TPI v':>6s} {'sec':>6s}")
+        for case in CASES:
+            rows = {}
+            for k, tree in trees.items():
+                out = work / f"{_case_name(case)}_{k}"
+                if args.saved is None:
+                    _child(tree, case, out, caches[k])
+                rows[k] = m = measure(out, case)
+                if args.pictures:
+                    args.pictures.mkdir(parents=True, exist_ok=True)
+                    shaded(out, args.pictures / f"{out.name}.png")
+                print(f"{_case_name(case):44s} {k:6s} {m['features']:4d} {m['reuse']:6.2f} "
+                      f"{_fmt(m['tpi']['ridge']):>6s} {_fmt(m['tpi']['valley']):>6s} {m['seconds']:6.1f}",
+                      flush=True)
+            print(f"{'':44s} {'new/old time':>19s} {rows['new']['seconds'] / rows['old']['seconds']:.2f}")
     return 0
 
 
