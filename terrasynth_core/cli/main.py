@@ -345,7 +345,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--order", choices=("bfs", "raster"), default="bfs")
     p.add_argument("--seam", choices=("cut", "paste"), default="cut")
     p.add_argument("--blend", choices=("poisson", "c1", "none"), default="c1")
-    p.add_argument("--report", metavar="REPORT.json", help="parameters, patch counts, timings, the source reuse and every patch as JSON")
+    p.add_argument("--report", metavar="REPORT.json",
+                   help="parameters, patch counts, timings, the source reuse and every patch as JSON")
     p.add_argument("--debug-dir", metavar="DIR", help="write patch ids, seams and features there")
     add_control_arguments(p)
     p.set_defaults(func=cmd_synth)

@@ -131,8 +131,10 @@ class UsageRegistry:
         return out
 
     def _arrays(self):
-        return (np.array(self._examples, dtype=np.int64), np.array(self._sources, dtype=float).reshape(-1, 2),
-                np.array(self._boxes, dtype=np.int64).reshape(-1, 4), np.array(self._centres, dtype=float).reshape(-1, 2))
+        return (np.array(self._examples, dtype=np.int64),
+                np.array(self._sources, dtype=float).reshape(-1, 2),
+                np.array(self._boxes, dtype=np.int64).reshape(-1, 4),
+                np.array(self._centres, dtype=float).reshape(-1, 2))
 
     def uses(self, examples: np.ndarray, sources: np.ndarray) -> np.ndarray:
         """Per candidate source, the most feature patches any one window
