@@ -26,6 +26,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -57,6 +58,20 @@ def _run(tree: Path, size: tuple[int, int], cache: str) -> dict:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
+@contextmanager
+def baseline_worktree(rev: str, tmp: Path):
+    """``rev`` checked out in a temporary detached ``git worktree`` under
+    ``tmp`` (its path), removed afterwards."""
+    old = Path(tmp) / "baseline"
+    subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", str(old), rev],
+                   check=True, capture_output=True)
+    try:
+        yield old
+    finally:
+        subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(old)],
+                       check=False, capture_output=True)
+
+
 def _size(text: str) -> tuple[int, int]:
     rows, cols = (int(v) for v in text.lower().split("x"))
     return rows, cols
@@ -70,31 +85,25 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     sizes = [_size(s) for s in args.sizes.split(",")]
 
-    with tempfile.TemporaryDirectory(prefix="terrasynth-compare-") as tmp:
-        old = Path(tmp) / "baseline"
-        subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", str(old), args.baseline],
-                       check=True, capture_output=True)
-        try:
-            trees = {"old": old, "new": REPO}
-            caches = {k: tempfile.mkdtemp(dir=tmp) for k in trees}
-            for k, tree in trees.items():  # warm each engine's analysis cache
-                _run(tree, sizes[0], caches[k])
-            print(f"{'size':>11s} {'old s':>7s} {'new s':>7s} {'new/old':>8s}  same bytes")
-            for size in sizes:
-                times = {"old": [], "new": []}
-                digests = {}
-                for _ in range(args.repeats):
-                    for k, tree in trees.items():
-                        out = _run(tree, size, caches[k])
-                        times[k].append(out["total"])
-                        digests[k] = out["digest"]
-                t_old, t_new = (statistics.median(times[k]) for k in ("old", "new"))
-                same = "yes" if digests["old"] == digests["new"] else "no"
-                print(f"{size[0]:>5d}x{size[1]:<5d} {t_old:7.2f} {t_new:7.2f} {t_new / t_old:8.2f}  {same}",
-                      flush=True)
-        finally:
-            subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(old)],
-                           check=False, capture_output=True)
+    with tempfile.TemporaryDirectory(prefix="terrasynth-compare-") as tmp, \
+            baseline_worktree(args.baseline, tmp) as old:
+        trees = {"old": old, "new": REPO}
+        caches = {k: tempfile.mkdtemp(dir=tmp) for k in trees}
+        for k, tree in trees.items():  # warm each engine's analysis cache
+            _run(tree, sizes[0], caches[k])
+        print(f"{'size':>11s} {'old s':>7s} {'new s':>7s} {'new/old':>8s}  same bytes")
+        for size in sizes:
+            times = {"old": [], "new": []}
+            digests = {}
+            for _ in range(args.repeats):
+                for k, tree in trees.items():
+                    out = _run(tree, size, caches[k])
+                    times[k].append(out["total"])
+                    digests[k] = out["digest"]
+            t_old, t_new = (statistics.median(times[k]) for k in ("old", "new"))
+            same = "yes" if digests["old"] == digests["new"] else "no"
+            print(f"{size[0]:>5d}x{size[1]:<5d} {t_old:7.2f} {t_new:7.2f} {t_new / t_old:8.2f}  {same}",
+                  flush=True)
     return 0
 
 

@@ -238,8 +238,10 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
         bar.close()
     _save_result(result, out, **save)
     if args.report:
-        report = result.report()
-        report["examples"] = [getattr(e, "source", None) for e in examples]
+        # Example indices of the patches: the plain examples, then the styles'.
+        names = [getattr(e, "source", None) for e in [*examples, *(s.example for s in session.controls.styles)]]
+        report = result.report(names)
+        report["examples"] = names[:len(examples)]
         _write_json_atomic(Path(args.report), report)
     if getattr(args, "debug_dir", None):
         _write_debug(result, Path(args.debug_dir))
@@ -380,7 +382,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="output cell size in metres, square (default: the finest example's)")
     _add_band(p, "band of every --example DEM (1-based; needed for multi-band files)")
     _add_cog(p)
-    p.add_argument("--report", metavar="REPORT.json", help="parameters, patch counts and timings as JSON")
+    p.add_argument("--report", metavar="REPORT.json",
+                   help="parameters, patch counts, timings, the source reuse and every patch as JSON")
     p.add_argument("--debug-dir", metavar="DIR", help="write patch ids, seams and features there")
     add_control_arguments(p)
     p.set_defaults(func=cmd_synth)

@@ -21,6 +21,7 @@ batched over candidates with numpy.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -99,12 +100,21 @@ class FeaturePool:
             return None
         return min(self._groups, key=lambda d: (abs(d - degree), -d))
 
-    def rank(self, sample: FeatureSample, count: int, rng: np.random.Generator) -> list[Candidate]:
+    def rank(self, sample: FeatureSample, count: int, rng: np.random.Generator, *,
+             exclude: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> list[Candidate]:
         """The ``count`` candidates of least deformation for ``sample``.
 
         Uses the pool's nearest degree when the exact one is missing (the
         session reports it).  Ties (e.g. all endpoints cost nothing) are
         broken at random with ``rng`` so seeds give different terrains.
+
+        ``exclude(examples, centres)`` gives a penalty per example sample
+        (0 allowed, > 0 excluded; see
+        :meth:`~terrasynth_core.matching.usage.UsageRegistry.penalties`):
+        the allowed candidates come first, least deformed first, so when
+        many are excluded the next-least-deformed allowed ones are ranked
+        in their place; excluded ones follow by penalty (least used first),
+        so there is always something to place.
         """
         degree = self.nearest_degree(sample.degree)
         if degree is None:
@@ -133,7 +143,11 @@ class FeaturePool:
             centre = np.zeros((len(flat), 1, 2))
             cost = cost + bending_energies(np.vstack([[0.0, 0.0], src]), np.concatenate([centre, flat], axis=1))
         cost = cost + rng.random(cost.shape) * 1e-6  # random tie-break, seeded
-        take = np.argsort(cost, kind="stable")[:count]
+        if exclude is None:
+            take = np.argsort(cost, kind="stable")[:count]
+        else:
+            penalty = np.repeat(np.asarray(exclude(ex_idx, centers)), n_align)
+            take = np.lexsort((cost, penalty))[:count]
         target = np.vstack([[0.0, 0.0], src]) * self.radius + sample.center
         out = []
         for t in take:

@@ -15,6 +15,7 @@ from ..controls.layout import StyleLayout
 from ..features.samples import FeatureSample
 from ..matching.candidates import Candidate, FeaturePool
 from ..matching.costs import match_cost, overlap_ssd, settle
+from ..matching.usage import UsageRegistry
 from ..placing.canvas import Canvas, Cut
 from ..placing.windows import patch_window
 from ..warping.thin_plate import ThinPlateSpline, warp_patch
@@ -62,8 +63,9 @@ def pool_for(pools: dict, layout: StyleLayout, sample: FeatureSample, warnings: 
 
 
 def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.ndarray], *,
-                    shape: tuple[int, int], patch_size: int, count: int,
-                    rng: np.random.Generator) -> tuple[tuple, list[tuple[Candidate, np.ndarray]]]:
+                    shape: tuple[int, int], patch_size: int, count: int, rng: np.random.Generator,
+                    usage: UsageRegistry | None = None,
+                    cap: int | None = None) -> tuple[tuple, list[tuple[Candidate, np.ndarray]]]:
     """Rank candidates for a sample and warp them onto its window.
 
     Reads only the examples, never the output, so it can run ahead on
@@ -82,6 +84,12 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
         Candidates to rank.
     rng : numpy.random.Generator
         Random tie-breaks of the ranking.
+    usage : UsageRegistry, optional
+        A snapshot of the windows used so far (taken when this preparation
+        was asked for, so the result does not depend on thread timing):
+        windows over ``cap`` or used by a neighbour are ranked last.
+    cap : int, optional
+        Most feature patches one example window may supply.
 
     Returns
     -------
@@ -93,8 +101,9 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
     r0, r1, c0, c1 = bbox
     if r1 - r0 < 4 or c1 - c0 < 4:
         return bbox, []
+    exclude = None if usage is None else usage.exclusion(bbox, sample.center, cap)
     warped = []
-    for cand in pool.rank(sample, count, rng):
+    for cand in pool.rank(sample, count, rng, exclude=exclude):
         tps = ThinPlateSpline.fit(cand.target, cand.control, regularization=1e-3)
         patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), (r1 - r0, c1 - c0), return_valid=True)
         if valid >= MIN_VALID_SHARE:
@@ -103,7 +112,8 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
 
 
 def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: StyleLayout, *, index: int,
-                  radius: float, k: int, feature_weight: float) -> PatchRecord | None:
+                  radius: float, k: int, feature_weight: float, usage: UsageRegistry | None = None,
+                  cap: int | None = None) -> PatchRecord | None:
     """Choose among prepared candidates by match cost, deformation and seam
     cost, and merge the best into ``canvas`` (blended).
 
@@ -124,6 +134,13 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
         Candidates (best by cost) for which the seam is computed.
     feature_weight : float
         Weight of the deformation cost.
+    usage : UsageRegistry, optional
+        Every feature patch placed so far: prepared candidates whose window
+        is over ``cap`` or used by a neighbour are dropped (all but the
+        least used when every one is).  The placed patch is not recorded
+        here; the caller does that.
+    cap : int, optional
+        Most feature patches one example window may supply.
 
     Returns
     -------
@@ -133,6 +150,8 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
     bbox, warped = prepared
     if not warped:
         return None
+    if usage is not None:
+        warped = allowed(warped, usage, bbox, sample.center, cap)
     r0, r1, c0, c1 = bbox
     filled = canvas.filled[r0:r1, c0:c1]
     level = layout.level[r0:r1, c0:c1]
@@ -159,6 +178,16 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
     return PatchRecord(sample.patch_type, sample.kind, bbox, cand.example,
                        (float(cand.center[0]), float(cand.center[1])), cand.mirrored,
                        cand.deformation, ssd, cut.normalized_cost, total)
+
+
+def allowed(warped: list, usage: UsageRegistry, bbox, centre, cap: int) -> list:
+    """The prepared candidates the full registry allows (order kept); when
+    it allows none, those of the least penalty (least used)."""
+    examples = np.array([c.example for c, _ in warped])
+    sources = np.array([c.center for c, _ in warped], dtype=float)
+    penalty = usage.penalties(examples, sources, bbox, centre, cap)
+    least = penalty.min()
+    return [w for w, p in zip(warped, penalty) if p == least]
 
 
 def place_stamp(canvas: Canvas, stamp, level: np.ndarray, *, index: int, stamp_index: int) -> PatchRecord:

@@ -20,6 +20,7 @@ import numpy as np
 from ..controls.layout import StyleLayout
 from ..controls.options import Controls
 from ..features.samples import FeatureSample
+from ..matching.usage import UsageRegistry, window_cap
 from ..order.bfs import feature_order
 from ..placing.canvas import Canvas
 from ..placing.windows import WindowQueue, estimate_fill_count, fill_windows, region_seeds
@@ -124,18 +125,27 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
         yield state.placed(place_stamp(state.canvas, stamp, lay.level, index=len(state.records), stamp_index=i),
                            total)
     fallbacks: dict[tuple[str, int, int], int] = {}
+    # Variety: no example window supplies more than its share of the run's
+    # feature patches, and neighbours never share one (matching/usage.py).
+    usage = UsageRegistry(p.patch_size)
+    n_kind = {kind: sum(s.kind == kind for s in samples) for kind in ("ridge", "valley")}
     # One helper thread prepares the next patch (ranking and warping, which
-    # do not read the output) while this one merges the current patch.
+    # do not read the output) while this one merges the current patch.  It
+    # ranks against a snapshot of the windows used, taken now: what it
+    # prepares does not depend on timing (same seed, same bytes); the
+    # placing checks the prepared candidates again against every patch.
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-prefetch") as pre:
         def prepare(i):
             pool = pool_for(pools, lay, samples[i], state.warnings, patch_size=p.patch_size)
+            cap = window_cap(len(samples), n_kind[samples[i].kind], pool.size())
             rng = np.random.default_rng([p.seed, 0, i])
-            return pool, pre.submit(prepare_feature, samples[i], pool, lay.detail, shape=state.session.shape,
-                                    patch_size=p.patch_size, count=3 * p.k, rng=rng)
+            return pool, cap, pre.submit(prepare_feature, samples[i], pool, lay.detail, shape=state.session.shape,
+                                         patch_size=p.patch_size, count=3 * p.k, rng=rng, usage=usage.snapshot(),
+                                         cap=cap)
 
         pending = prepare(0) if samples else None
         for i, sample in enumerate(samples):
-            pool, future = pending
+            pool, cap, future = pending
             got = pool.nearest_degree(sample.degree)
             if got != sample.degree:
                 key = (sample.kind, sample.degree, got)
@@ -143,8 +153,9 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
             prepared = future.result()
             pending = prepare(i + 1) if i + 1 < len(samples) else None
             rec = place_feature(state.canvas, sample, prepared, lay, index=len(state.records), radius=state.radius,
-                                k=p.k, feature_weight=p.feature_weight)
+                                k=p.k, feature_weight=p.feature_weight, usage=usage, cap=cap)
             if rec is not None:
+                usage.record(rec.example, rec.source, rec.bbox, sample.center)
                 yield state.placed(rec, total)
     for (kind, want, got), n in sorted(fallbacks.items()):
         state.warnings.append(

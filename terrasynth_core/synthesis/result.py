@@ -9,6 +9,7 @@ import numpy as np
 
 from ..controls.pins import PinError
 from ..features import FeatureMaps
+from ..matching.usage import source_reuse
 from .params import SynthesisParams
 
 
@@ -86,8 +87,30 @@ class SynthesisResult:
             out[p.kind] += 1
         return out
 
-    def report(self) -> dict:
-        """JSON-ready summary: parameters, counts, timings, warnings."""
+    def source_reuse(self) -> float:
+        """Largest share of the feature patches that came from one example
+        window (:func:`~terrasynth_core.matching.usage.source_reuse`)."""
+        return source_reuse(self.patches)
+
+    def patch_table(self, names=None) -> list[dict]:
+        """Every patch as a JSON-ready dict: kind, feature, example index
+        (and name, from ``names`` per example index, when given), source
+        row/col, mirrored, bbox, deformation, SSD, seam cost, cost."""
+        out = []
+        for i, p in enumerate(self.patches):
+            row = {"index": i, "kind": p.kind, "feature": p.feature, "example": p.example}
+            if names is not None and 0 <= p.example < len(names):
+                row["example_name"] = names[p.example]
+            row.update({"source_row": round(p.source[0], 2), "source_col": round(p.source[1], 2),
+                        "mirrored": p.mirrored, "bbox": list(p.bbox), "deformation": round(p.deformation, 6),
+                        "ssd": round(p.ssd, 6), "seam_cost": round(p.seam_cost, 6), "cost": round(p.cost, 6)})
+            out.append(row)
+        return out
+
+    def report(self, names=None) -> dict:
+        """JSON-ready summary: parameters, counts, timings, warnings, the
+        source reuse and every patch (:meth:`patch_table`; ``names``: the
+        examples' names by index, when known)."""
         return {
             "params": self.params.to_dict(),
             "shape": list(self.heights.shape),
@@ -99,4 +122,6 @@ class SynthesisResult:
             "pins": [{"row": e.row, "col": e.col, "target": e.target, "height": e.height, "error": e.error}
                      for e in self.pin_errors],
             "warnings": list(self.warnings),
+            "source_reuse": round(self.source_reuse(), 4),
+            "patches": self.patch_table(names),
         }

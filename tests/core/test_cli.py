@@ -312,6 +312,18 @@ def test_synth_report_counts_and_timings(synth_run):
     assert report["total_seconds"] >= max(report["timings"].values())
 
 
+def test_synth_report_lists_every_patch_and_the_reuse(synth_run, example_200):
+    report = json.loads((synth_run / "report.json").read_text())
+    rows = report["patches"]
+    assert len(rows) == sum(report["patch_counts"].values())
+    keys = {"kind", "feature", "example", "source_row", "source_col", "mirrored", "bbox", "deformation", "ssd",
+            "seam_cost", "cost"}
+    assert all(keys <= set(r) for r in rows)
+    features = [r for r in rows if r["kind"] in ("branch", "end", "path")]
+    assert all(r["example_name"] == str(example_200) for r in features)
+    assert 1 / len(features) <= report["source_reuse"] <= 1
+
+
 def test_synth_debug_dir(synth_run):
     debug = synth_run / "debug"
     for name in ("patch_id.npy", "seam_mask.npy", "patch_id.png", "seams.png", "sketch_features.png",

@@ -112,3 +112,19 @@ def test_deformation_grows_with_the_distortion_of_a_branch(degree):
     assert [c.example for c in ranked] == [0, 1, 2, 3]
     costs = [c.deformation for c in ranked]
     assert costs[0] < 1e-5 and all(b > a for a, b in zip(costs, costs[1:]))
+
+
+def test_excluded_samples_rank_after_every_allowed_one_least_used_first():
+    sketch = _sample((60, 60), [0, 180], kind="ridge")
+    straight = [_sample((30 + 40 * i, 40), [0, 180 - 5 * i]) for i in range(4)]  # straightest first
+    pool = FeaturePool([(0, straight)], RADIUS, mirror=False)
+    plain = [c.center[0] for c in pool.rank(sketch, 8, _rng())]
+    assert plain[0] == 30
+
+    def exclude(examples, centres):  # the two straightest are used: the first more
+        return np.where(centres[:, 0] == 30, 5, np.where(centres[:, 0] == 70, 3, 0))
+
+    ranked = [c.center[0] for c in pool.rank(sketch, 8, _rng(), exclude=exclude)]
+    assert len(ranked) == 8  # as many as asked, the excluded at the end
+    # A path has two alignments (a half turn apart, which rotation makes equal).
+    assert ranked == [110, 110, 150, 150, 70, 70, 30, 30]
