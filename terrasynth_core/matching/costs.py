@@ -14,6 +14,11 @@ import numpy as np
 #: Weight of the squared height shift (in reliefs) against the overlap SSD.
 OFFSET_WEIGHT = 0.2
 
+#: Weight of a fill window's roughness prior (``ln(rho / rho_50)**2``, see
+#: :func:`~.fill_search.roughness_prior`) against the match cost: without
+#: it the fill prefers an example's smoothest windows.
+ROUGHNESS_WEIGHT = 1.0
+
 
 def overlap_ssd(existing: np.ndarray, patch: np.ndarray, filled: np.ndarray) -> tuple[float, float]:
     """Mismatch of a patch with the terrain under it, after the best shift.

@@ -30,6 +30,8 @@ import numpy as np
 from scipy import fft, ndimage
 from skimage.transform import downscale_local_mean
 
+from .costs import ROUGHNESS_WEIGHT
+
 
 class FillSearch:
     """FFT search over one example for one window size.
@@ -81,6 +83,7 @@ class FillSearch:
             if (~near).sum() >= 16:
                 allowed &= ~near
         self.allowed = allowed
+        self.prior = roughness_prior(example, window, allowed, f)
 
     def best(self, target: np.ndarray, filled: np.ndarray, count: int, rng: np.random.Generator
              ) -> list[tuple[tuple[int, int], float, float]]:
@@ -97,16 +100,18 @@ class FillSearch:
 
         Returns
         -------
-        list of ((row, col), ssd, offset)
+        list of ((row, col), ssd, offset, prior)
             Full-resolution top-left corners, the mean squared difference
-            over the overlap after the offset, and the height offset to add to
-            the example window.
+            over the overlap after the offset, the height offset to add to
+            the example window, and the window's roughness prior (see
+            :func:`roughness_prior`; weighted by ``ROUGHNESS_WEIGHT`` in the
+            ranking).
         """
         n_filled = int(filled.sum())
         if n_filled == 0:
             flat = np.flatnonzero(self.allowed.ravel())
             picks = rng.choice(flat, size=min(count, flat.size), replace=False)
-            return [((int(p // self.allowed.shape[1]) * self.f, int(p % self.allowed.shape[1]) * self.f), 0.0, 0.0)
+            return [((int(p // self.allowed.shape[1]) * self.f, int(p % self.allowed.shape[1]) * self.f), 0.0, 0.0, 0.0)
                     for p in picks]
         coarse_pos = self._coarse_best(target, filled, count)
         out = [self._refine(target, filled, pos) for pos in coarse_pos]
@@ -146,6 +151,7 @@ class FillSearch:
         var_c = s_e2m - s_em**2 / sum_m
         var_t = sum_mo2 - sum_mo**2 / sum_m
         ssd = ssd / (np.maximum(var_c, 0.0) + var_t + 1e-6 * sum_m)
+        ssd = ssd + ROUGHNESS_WEIGHT * self.prior[::f, ::f][:ar, :ac]
         ssd[~self.allowed] = np.inf
         # k best, at least a quarter window apart so they differ.
         picks = []
@@ -184,7 +190,44 @@ class FillSearch:
                 diff = o - e
                 off = diff.mean()
                 ssd = float(((diff - off) ** 2).sum() / n)
-                score = ssd / (e.var() + o.var() + 1e-6)
+                score = ssd / (e.var() + o.var() + 1e-6) + ROUGHNESS_WEIGHT * self.prior[r, c]
                 if best is None or score < best[0]:
-                    best = (score, (r, c), ssd, float(off))
+                    best = (score, (r, c), ssd, float(off), float(self.prior[r, c]))
         return best[1:]
+
+
+def roughness_prior(example: np.ndarray, window: tuple[int, int], allowed: np.ndarray, f: int) -> np.ndarray:
+    """How far each window's roughness is from the example's typical window.
+
+    Matching the overlap alone favours smooth windows (their few details
+    are easy to agree with), so a region grown from overlaps comes out
+    smoother than its example (measured: the chosen windows' median slope
+    7-11 % below that of all windows).  This prior, ``ln(rho / rho_50)**2``
+    with ``rho`` a window's mean gradient magnitude and ``rho_50`` its
+    median over the windows on offer, makes a window pay for straying from
+    the example's typical roughness in either direction.
+
+    Parameters
+    ----------
+    example : ndarray of float32, shape (H, W)
+    window : (h, w)
+    allowed : ndarray of bool, shape (ar, ac)
+        Windows on offer, at the coarse positions (every ``f`` cells).
+    f : int
+        Coarse factor.
+
+    Returns
+    -------
+    ndarray of float64, shape (H - h + 1, W - w + 1)
+        The prior per full-resolution top-left corner (0 at the median).
+    """
+    h, w = window
+    gr, gc = np.gradient(example.astype(np.float64))
+    grad = np.hypot(gr, gc)
+    # Window means from a summed-area table: exact, O(1) per window.
+    sat = np.pad(grad.cumsum(0).cumsum(1), ((1, 0), (1, 0)))
+    total = sat[h:, w:] - sat[:-h, w:] - sat[h:, :-w] + sat[:-h, :-w]
+    rho = total / (h * w) + 1e-9
+    offered = rho[::f, ::f][:allowed.shape[0], :allowed.shape[1]][allowed]
+    typical = float(np.median(offered)) if offered.size else float(np.median(rho))
+    return np.log(rho / typical) ** 2

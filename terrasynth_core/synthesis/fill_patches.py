@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..controls.layout import StyleLayout
-from ..matching.costs import match_cost, settle
+from ..matching.costs import ROUGHNESS_WEIGHT, match_cost, settle
 from ..matching.fill_search import FillSearch
 from ..placing.canvas import Canvas
 from .params import SynthesisParams
@@ -64,7 +64,7 @@ def search_fill(searches: list, detail: list[np.ndarray], members: list[int], re
     """
     options = []
     for ei in members:
-        for pos, ssd, offset in searches[ei].best(target, filled, k, rng):
+        for pos, ssd, offset, prior in searches[ei].best(target, filled, k, rng):
             # Fill windows are anchored by their mean level: the search
             # favours some parts of an example (often its smooth valley
             # floors), and a region built from them would sit below its
@@ -73,7 +73,7 @@ def search_fill(searches: list, detail: list[np.ndarray], members: list[int], re
             er, ec = pos
             mean = float(detail[ei][er:er + patch_size, ec:ec + patch_size].mean())
             ssd, offset = settle(ssd, offset, mean)
-            cost = match_cost(ssd, offset + mean, relief)
+            cost = match_cost(ssd, offset + mean, relief) + ROUGHNESS_WEIGHT * prior
             options.append((cost, ssd, offset, ei, pos, relief))
     options.sort(key=lambda t: t[0])
     return options[:k]

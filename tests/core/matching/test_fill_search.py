@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from terrasynth_core.matching.fill_search import FillSearch
+from terrasynth_core.matching.costs import ROUGHNESS_WEIGHT
+from terrasynth_core.matching.fill_search import FillSearch, roughness_prior
 
 
 def test_fft_search_matches_brute_force(white_mountains):
@@ -14,15 +15,15 @@ def test_fft_search_matches_brute_force(white_mountains):
     filled[:, :10] = True
     target = E[50:82, 70:102] + 123.0  # an exact match, shifted in height
     best = search.best(target, filled, 3, np.random.default_rng(0))
-    (r, c), ssd, offset = best[0]
+    (r, c), ssd, offset, _ = best[0]
     assert (r, c) == (50, 70)
     assert ssd < 1e-3 and offset == pytest.approx(123.0, abs=1e-3)
 
 
 def test_fft_search_ranks_by_normalised_ssd_like_brute_force(white_mountains):
     """The search ranks windows by the SSD over the two windows' variances
-    (so rough candidates are not beaten by smooth ones just for being
-    smooth): its best pick is the brute-force best."""
+    plus the roughness prior (so rough candidates are not beaten by smooth
+    ones just for being smooth): its best pick is the brute-force best."""
     E = white_mountains.heights[:120, :120].astype(np.float64)
     search = FillSearch(white_mountains.heights[:120, :120], (24, 24), coarse_factor=1)
     filled = np.zeros((24, 24), bool)
@@ -37,5 +38,37 @@ def test_fft_search_ranks_by_normalised_ssd_like_brute_force(white_mountains):
             e = E[r:r + 24, c:c + 24][filled]
             d = o - e
             scores[r, c] = ((d - d.mean()) ** 2).mean() / (e.var() + o.var() + 1e-6)
-    (r, c), _, _ = search.best(target, filled, 1, rng)[0]
+            scores[r, c] += ROUGHNESS_WEIGHT * search.prior[r, c]
+    (r, c), _, _, _ = search.best(target, filled, 1, rng)[0]
     assert (r, c) == np.unravel_index(np.argmin(scores), scores.shape)
+
+
+def test_roughness_prior_is_zero_for_typical_windows_and_grows_both_ways():
+    """A window as rough as the median one costs nothing; half or twice as
+    rough costs ln(2)**2 either way."""
+    rng = np.random.default_rng(0)
+    cols = np.arange(96)
+    # Three vertical bands of noise: amplitudes 1, 2 and 4 (the middle one typical).
+    amp = np.select([cols < 32, cols < 64], [1.0, 2.0], 4.0)
+    example = (rng.normal(0.0, 1.0, (64, 96)) * amp).astype(np.float32)
+    allowed = np.ones((64 - 16 + 1, 96 - 16 + 1), bool)
+    prior = roughness_prior(example, (16, 16), allowed, 1)
+    assert prior.shape == allowed.shape
+    assert prior[20, 40] == pytest.approx(0.0, abs=0.02)  # inside the typical band
+    assert prior[20, 5] == pytest.approx(np.log(2) ** 2, rel=0.15)   # half as rough
+    assert prior[20, 75] == pytest.approx(np.log(2) ** 2, rel=0.15)  # twice as rough
+
+
+def test_search_prefers_the_typical_window_when_the_overlap_cannot_tell():
+    """With nothing to match but a flat strip, a smooth window fits the
+    overlap best; the prior makes the search take a typical one instead."""
+    rng = np.random.default_rng(3)
+    cols = np.arange(160)
+    amp = np.select([cols < 40], [0.05], 1.0)  # a smooth quarter, the rest typical
+    example = (rng.normal(0.0, 1.0, (96, 160)) * amp).astype(np.float32)
+    search = FillSearch(example, (24, 24), coarse_factor=1)
+    filled = np.zeros((24, 24), bool)
+    filled[:, :4] = True
+    target = np.zeros((24, 24), np.float32)
+    (r, c), _, _, prior = search.best(target, filled, 1, rng)[0]
+    assert c + 24 > 40 and prior < 0.5
