@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +36,8 @@ def resampled_field(result: TerrainResult, size: tuple[int, int] | None = None) 
     """
     rows, cols = result.shape
     if size is None or tuple(size) == (rows, cols):
-        return HeightField(result.heights, cell_size=result.cell_size, source="synthesized terrain")
+        return HeightField(result.heights, cell_size=result.cell_size, georef=result.georef,
+                           source="synthesized terrain")
     new_rows, new_cols = (int(v) for v in size)
     if min(new_rows, new_cols) < 2 or new_rows * new_cols > 64_000_000:
         raise ParamsError(f"export size {new_rows}x{new_cols}: expected 2x2 to 64 million cells")
@@ -45,11 +47,18 @@ def resampled_field(result: TerrainResult, size: tuple[int, int] | None = None) 
     cc = np.linspace(0, cols - 1, new_cols, dtype=np.float32)
     coords = np.meshgrid(rr, cc, indexing="ij")
     heights = ndimage.map_coordinates(result.heights, coords, order=1, mode="nearest").astype(np.float32)
-    cell_size = None
+    cell_size = georef = None
     if result.cell_size is not None:
         dy, dx = result.cell_size
         cell_size = (dy * (rows - 1) / (new_rows - 1), dx * (cols - 1) / (new_cols - 1))
-    return HeightField(heights, cell_size=cell_size, source="synthesized terrain")
+    if result.georef is not None:
+        # The corner cells' centres stay where they were on the map.
+        g = result.georef
+        sy = g.y_step * (rows - 1) / (new_rows - 1)
+        sx = g.x_step * (cols - 1) / (new_cols - 1)
+        georef = replace(g, x_origin=g.x_origin + (g.x_step - sx) / 2, y_origin=g.y_origin - (g.y_step - sy) / 2,
+                         x_step=sx, y_step=sy)
+    return HeightField(heights, cell_size=cell_size, georef=georef, source="synthesized terrain")
 
 
 def export_terrain(result: TerrainResult, path: str | os.PathLike, *, size: tuple[int, int] | None = None,

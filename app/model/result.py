@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from terrasynth_core.features import FeatureMaps
+from terrasynth_core.heightfield import GeoReference
 from terrasynth_core.synthesis import PinError
 
 
@@ -34,6 +35,9 @@ class TerrainResult:
         warnings).
     pin_errors : tuple of PinError
         How well each elevation pin was met (height - target, metres).
+    georef : GeoReference or None
+        The output's place on the map (the run's local Transverse
+        Mercator); not kept in project files.
     """
 
     heights: np.ndarray
@@ -43,6 +47,7 @@ class TerrainResult:
     cell_size: tuple[float, float] | None = None
     report: dict = field(default_factory=dict)
     pin_errors: tuple[PinError, ...] = ()
+    georef: GeoReference | None = None
 
     def __post_init__(self):
         heights = np.asarray(self.heights, dtype=np.float32)
@@ -83,7 +88,7 @@ class TerrainResult:
         if getattr(result, "cell_size", None) is not None:
             cell_size = (result.cell_size, result.cell_size)
         return cls(result.heights, result.patch_id, result.seam_mask, result.sketch_features,
-                   cell_size, result.report(), tuple(result.pin_errors))
+                   cell_size, result.report(), tuple(result.pin_errors), getattr(result, "georef", None))
 
     @staticmethod
     def pin_errors_of(report: dict) -> tuple[PinError, ...]:

@@ -218,9 +218,7 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     session = Session(examples, sketch, shape=size, params=params, controls=controls)
     for w in session.warnings:
         print(f"terrasynth-cli: note: {w}", file=sys.stderr)
-    # The output's place on the map: near its first georeferenced example.
-    sources = [*examples, *(s.example for s in session.controls.styles)]
-    save = dict(sources=sources, cog=getattr(args, "cog", False))
+    save = dict(cog=getattr(args, "cog", False))
     if getattr(args, "variations", 1) > 1:
         return _variations(examples, sketch, size, params, controls, args, save)
     bar = tqdm(total=0, desc="analyse", unit="patch", file=sys.stderr, disable=None, leave=False)
@@ -249,17 +247,12 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     return EXIT_OK
 
 
-def _save_result(result, out: Path, *, sources: list, cog: bool = False) -> None:
-    """Write the heights with the run's square cell size and, when it has
-    one, a local Transverse Mercator near the first georeferenced source."""
-    from ..heightfield import HeightField
+def _save_result(result, out: Path, *, cog: bool = False) -> None:
+    """Write the heights with the run's square cell size and map placement
+    (:meth:`SynthesisResult.to_heightfield`)."""
     from ..io import MESH_EXTENSIONS, save_dem, save_mesh
-    from ..io.resample import output_georeference
 
-    c = result.cell_size
-    georef = None if c is None else output_georeference(sources, result.heights.shape, c)
-    field = HeightField(result.heights, cell_size=None if c is None else (c, c), georef=georef, source=str(out),
-                        format=None)
+    field = result.to_heightfield(source=str(out))
     if out.suffix.lower() in MESH_EXTENSIONS:
         save_mesh(field, out)
     else:

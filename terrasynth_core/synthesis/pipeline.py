@@ -248,4 +248,5 @@ def finish_stage(state: RunState, t_start: float):
         pin_errors=pin_errors,
         selection=None if c.selection is None else c.selection.copy(),
         cell_size=state.layout.cell_size,
+        georef=state.session.georef,
     ))

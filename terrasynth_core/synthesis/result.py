@@ -9,6 +9,7 @@ import numpy as np
 
 from ..controls.pins import PinError
 from ..features import FeatureMaps
+from ..heightfield import GeoReference, HeightField
 from ..matching.usage import source_reuse
 from .params import SynthesisParams
 
@@ -64,6 +65,9 @@ class SynthesisResult:
     cell_size : float or None
         Side of the output's square cells in metres (None: no example knew
         its cell size).
+    georef : GeoReference or None
+        The output's place on the map (a local Transverse Mercator, see
+        :func:`~terrasynth_core.io.resample.output_georeference`).
     """
 
     heights: np.ndarray
@@ -79,6 +83,13 @@ class SynthesisResult:
     pin_errors: tuple[PinError, ...] = ()
     selection: np.ndarray | None = None
     cell_size: float | None = None
+    georef: GeoReference | None = None
+
+    def to_heightfield(self, source: str | None = None) -> HeightField:
+        """The heights with the run's square cell size and map placement,
+        ready for :func:`~terrasynth_core.io.save_dem`."""
+        cell = None if self.cell_size is None else (self.cell_size, self.cell_size)
+        return HeightField(self.heights, cell_size=cell, georef=self.georef, source=source)
 
     def counts(self) -> dict[str, int]:
         """Patches placed by kind (branch, end, path, fill, stamp)."""

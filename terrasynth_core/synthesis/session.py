@@ -27,6 +27,7 @@ from ..errors import ParamsError, SynthesisCancelled
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
+from ..io.resample import output_georeference
 from .events import SynthesisFinished
 from .params import SynthesisParams
 from .pipeline import RunState, run_pipeline
@@ -97,6 +98,10 @@ class Session:
                                    cell_size=params.cell_size)
         #: The run's square cell size in metres (None: unknown).
         self.cell_size = self.layout.cell_size
+        #: Where the output goes on the map: a local Transverse Mercator
+        #: near the first georeferenced example (None without a cell size).
+        self.georef = None if self.cell_size is None else output_georeference(
+            [*examples, *(s.example for s in self.controls.styles)], self.shape, self.cell_size)
         self.examples = self.layout.examples
         self.warnings: list[str] = list(self.layout.notes)
         self.sketch_maps = self._sketch_maps()

@@ -240,6 +240,28 @@ def test_export_writes_dems_and_meshes_at_a_chosen_size(tmp_path):
         resampled_field(result, (1, 10))
 
 
+def test_export_places_the_terrain_on_the_map_at_any_size(tmp_path):
+    """A run's local projection goes into the exported GeoTIFF; a resized
+    export keeps the corner cells' centres where they were."""
+    import dataclasses
+
+    import rasterio
+
+    from terrasynth_core.heightfield import GeoReference
+    from terrasynth_core.io.resample import local_projection
+
+    wkt = local_projection(rasterio.crs.CRS.from_epsg(4326), -71.5, 44.5).to_wkt()
+    result = dataclasses.replace(_result(), georef=GeoReference(-960.0, 720.0, 30.0, 30.0, None, wkt))
+    with rasterio.open(export_terrain(result, tmp_path / "t.tif")) as src:
+        assert src.crs == rasterio.crs.CRS.from_wkt(wkt) and src.res == (30.0, 30.0)
+        assert src.transform.c == -960.0 and src.transform.f == 720.0
+    with rasterio.open(export_terrain(result, tmp_path / "s.tif", size=(24, 32))) as src:
+        rows, cols = result.shape
+        # Centre of the last cell: the same ground point before and after.
+        x, y = src.transform @ (32 - 0.5, 24 - 0.5)
+        assert x == pytest.approx(-960.0 + (cols - 0.5) * 30.0) and y == pytest.approx(720.0 - (rows - 0.5) * 30.0)
+
+
 def test_resampling_keeps_corners_and_linear_ramps():
     ramp = np.add.outer(np.arange(48, dtype=np.float32), np.zeros(64, np.float32))
     result = TerrainResult(ramp, np.zeros((48, 64), np.int32), np.zeros((48, 64), bool))
