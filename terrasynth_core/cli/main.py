@@ -194,6 +194,7 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     # Checked before the run so a typo in the path does not cost a whole synthesis.
     if not out.parent.is_dir():
         raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
+    _check_report_path(args, out)
     session = Session(examples, sketch, shape=size, params=params, controls=controls)
     for w in session.warnings:
         print(f"terrasynth-cli: note: {w}", file=sys.stderr)
@@ -223,6 +224,25 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
         _write_debug(result, Path(args.debug_dir))
     _summary(result, out, session.warnings)
     return EXIT_OK
+
+
+def _check_report_path(args, out: Path) -> None:
+    """Refuse a ``--report`` that would be (or replace) a heightmap's sidecar, before the run."""
+    from ..io import sidecar_of
+    from ..io._common import check_not_sidecar
+
+    if not getattr(args, "report", None):
+        return
+    report = Path(args.report)
+    outs = [out]
+    if getattr(args, "variations", 1) > 1:
+        outs = [out.with_name(f"{out.stem}_v{i + 1}{out.suffix}") for i in range(args.variations)]
+    for o in outs:
+        side = sidecar_of(o)
+        if side is not None and report.resolve() == side.resolve():
+            raise TerraSynthError(f"--report {report} is the sidecar of the output {o} (its metres and "
+                                  "cell size); give the report another name")
+    check_not_sidecar(report, "report")
 
 
 def _save_result(result, out: Path, cell) -> None:
@@ -293,8 +313,9 @@ def _write_debug(result, folder: Path) -> None:
 
 
 def _write_json_atomic(path: Path, data: dict) -> None:
-    from ..io._common import atomic_outputs, open_new
+    from ..io._common import atomic_outputs, check_not_sidecar, open_new
 
+    check_not_sidecar(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
         f.write(json.dumps(data).encode("utf-8"))

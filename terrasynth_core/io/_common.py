@@ -183,6 +183,53 @@ def _georef_json(georef: GeoReference | None) -> dict | None:
     return content
 
 
+def _is_our_sidecar(path: Path) -> bool:
+    """Whether the existing file ``path`` is a sidecar TerraSynth wrote."""
+    try:
+        content = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(content, dict) and content.get("format") == SIDECAR_FORMAT
+
+
+def check_sidecar_free(path: Path) -> None:
+    """Refuse to write the heightmap ``path`` when its sidecar would replace a file not ours.
+
+    The rule for ``<stem>.json`` beside a PNG, ``.npy``, ``.r16`` or
+    ``.r32``: a sidecar is marked by ``"format": "terrasynth-heightmap"``
+    (every sidecar TerraSynth ever wrote carries it); an existing
+    ``<stem>.json`` without that marker belongs to the user and is never
+    overwritten.
+
+    Raises
+    ------
+    DEMFormatError
+        Naming the JSON file and what to do.
+    """
+    side = sidecar_path(path)
+    if side.exists() and not _is_our_sidecar(side):
+        raise DEMFormatError(
+            f"cannot write {path}: its sidecar {side} would replace an existing file that is not a "
+            "TerraSynth sidecar; move that file away or choose another output name"
+        )
+
+
+def check_not_sidecar(path: Path, what: str = "JSON") -> None:
+    """Refuse to write a report or other JSON ``path`` over a heightmap's sidecar.
+
+    Raises
+    ------
+    DEMFormatError
+        When ``path`` exists and is a TerraSynth sidecar (overwriting it
+        would make its heightmap read as raw levels).
+    """
+    if path.is_file() and _is_our_sidecar(path):
+        raise DEMFormatError(
+            f"cannot write the {what} {path}: it is the sidecar of a heightmap beside it "
+            "(its metres and cell size); choose another name"
+        )
+
+
 def write_sidecar(content: dict, path: Path) -> None:
     """Write a sidecar dictionary as JSON to a new file ``path``."""
     with open_new(path) as fh:

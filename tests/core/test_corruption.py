@@ -1,0 +1,134 @@
+"""The corruption corpus (issue 13): bad inputs and dangerous outputs through
+the CLI, in-process.
+
+Every case builds its files in an empty folder, hashes them, runs
+``terrasynth-cli`` through :func:`terrasynth_core.cli.main` and asserts:
+exit 0 or 2, no traceback, on error one line naming the file or value at
+fault, and no file that existed before changed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from terrasynth_core.cli.main import EXIT_BAD_INPUT, EXIT_OK, main
+from terrasynth_core.heightfield import HeightField
+from terrasynth_core.io import save_dem
+
+
+def _digests(folder: Path) -> dict[str, str]:
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _example(path: Path, shape=(120, 120), offset=500.0, relief=300.0) -> Path:
+    """A small smooth example DEM with a sidecar giving 30 m cells."""
+    y, x = np.mgrid[0:shape[0], 0:shape[1]]
+    heights = (offset + relief * np.sin(x / 9.0) * np.cos(y / 7.0)).astype(np.float32)
+    save_dem(HeightField(heights, cell_size=(30.0, 30.0)), path)
+    return path
+
+
+def _mine(path: Path, text='{"mine": 1}\n') -> Path:
+    path.write_text(text)
+    return path
+
+
+# -- cases: each takes the folder, makes its inputs, returns (argv, code, words in the message)
+
+def c_convert_png_keeps_users_json(tmp):
+    _example(tmp / "x.npy")
+    _mine(tmp / "u.json")
+    return ["convert", tmp / "x.npy", tmp / "u.png"], EXIT_BAD_INPUT, ["u.json", "not a TerraSynth sidecar"]
+
+
+def c_convert_npy_keeps_users_json(tmp):
+    _example(tmp / "x.npy")
+    _mine(tmp / "u.json", '[1, 2]')
+    return ["convert", tmp / "x.npy", tmp / "u.npy"], EXIT_BAD_INPUT, ["u.json", "not a TerraSynth sidecar"]
+
+
+def c_convert_r16_keeps_users_json(tmp):
+    _example(tmp / "x.npy")
+    _mine(tmp / "u.json", "not json at all")
+    return ["convert", tmp / "x.npy", tmp / "u.r16"], EXIT_BAD_INPUT, ["u.json", "not a TerraSynth sidecar"]
+
+
+def c_convert_r32_keeps_users_json(tmp):
+    _example(tmp / "x.npy")
+    _mine(tmp / "u.json", '{"format": "something-else"}')
+    return ["convert", tmp / "x.npy", tmp / "u.r32"], EXIT_BAD_INPUT, ["u.json", "not a TerraSynth sidecar"]
+
+
+def c_synth_report_is_outputs_sidecar(tmp):
+    _example(tmp / "x.npy")
+    return (["synth", "--example", tmp / "x.npy", "--size", "64x64", "--out", tmp / "t.png",
+             "--report", tmp / "t.json"], EXIT_BAD_INPUT, ["t.json", "sidecar", "t.png"])
+
+
+def c_synth_report_over_other_sidecar(tmp):
+    _example(tmp / "x.npy")
+    save_dem(HeightField(np.ones((4, 4), np.float32)), tmp / "old.r16")
+    return (["synth", "--example", tmp / "x.npy", "--size", "64x64", "--out", tmp / "t.tif",
+             "--report", tmp / "old.json"], EXIT_BAD_INPUT, ["old.json", "sidecar"])
+
+
+def c_features_json_over_sidecar(tmp):
+    _example(tmp / "x.npy")
+    return (["features", tmp / "x.npy", "--json", tmp / "x.json"], EXIT_BAD_INPUT, ["x.json", "sidecar"])
+
+
+CASES = [
+    c_convert_png_keeps_users_json,
+    c_convert_npy_keeps_users_json,
+    c_convert_r16_keeps_users_json,
+    c_convert_r32_keeps_users_json,
+    c_synth_report_is_outputs_sidecar,
+    c_synth_report_over_other_sidecar,
+    c_features_json_over_sidecar,
+]
+
+
+def run_case(capsys, argv) -> tuple[int, str, str]:
+    """``main(argv)`` -> (exit code, stdout, stderr); argparse's exit counts as a code."""
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.mark.parametrize("case", CASES, ids=lambda f: f.__name__[2:])
+def test_corruption_corpus(capsys, tmp_path, case):
+    argv, expected, words = case(tmp_path)
+    before = _digests(tmp_path)
+    code, out, err = run_case(capsys, argv)
+    assert code == expected, err
+    assert "Traceback" not in err
+    if expected == EXIT_BAD_INPUT:
+        lines = err.strip().splitlines()
+        assert len(lines) == 1, err
+        for word in words:
+            assert word in lines[0], lines[0]
+    after = _digests(tmp_path)
+    changed = [name for name, digest in before.items() if after.get(name) != digest]
+    assert not changed, f"pre-existing files changed: {changed}"
+    if code != EXIT_OK:
+        assert set(after) == set(before), f"files left behind: {set(after) - set(before)}"
+
+
+def test_sidecar_rewritten_when_it_is_ours(tmp_path):
+    """Writing the same heightmap again replaces our own sidecar (no false refusal)."""
+    _example(tmp_path / "x.npy")
+    assert main(["convert", str(tmp_path / "x.npy"), str(tmp_path / "u.png")]) == EXIT_OK
+    first = json.loads((tmp_path / "u.json").read_text())
+    save_dem(HeightField(np.full((8, 8), 5.0, np.float32) + np.arange(8, dtype=np.float32)), tmp_path / "u.png")
+    second = json.loads((tmp_path / "u.json").read_text())
+    assert first["format"] == second["format"] == "terrasynth-heightmap"
+    assert second["shape"] == [8, 8]
