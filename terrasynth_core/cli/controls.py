@@ -13,6 +13,7 @@ Option syntax::
 from __future__ import annotations
 
 import argparse
+import math
 import re
 
 from ..errors import ParamsError
@@ -98,7 +99,7 @@ def parse_pin(text: str):
     from ..controls.pins import Pin
 
     row, col, height = _numbers(text, "--pin", (3,))
-    if row != int(row) or col != int(col):
+    if not (math.isfinite(row) and math.isfinite(col)) or row != int(row) or col != int(col):
         raise ParamsError(f"--pin {text!r}: ROW and COL must be whole cells")
     return Pin(int(row), int(col), height)
 

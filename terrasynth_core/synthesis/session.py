@@ -22,7 +22,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from ..controls.layout import build_layout
-from ..controls.options import Controls
+from ..controls.options import Controls, check_heights
 from ..errors import ParamsError, SynthesisCancelled
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
@@ -93,6 +93,7 @@ class Session:
         self.sketch = sketch
         self.params = params
         self.controls = controls.checked(self.shape, params.patch_size, len(examples))
+        check_heights(examples, self.controls)
         self.layout = build_layout(examples, self.controls, self.shape, params.patch_size)
         self.examples = self.layout.examples
         self.warnings: list[str] = list(self.layout.notes)

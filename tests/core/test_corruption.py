@@ -83,6 +83,74 @@ def c_features_json_over_sidecar(tmp):
     return (["features", tmp / "x.npy", "--json", tmp / "x.json"], EXIT_BAD_INPUT, ["x.json", "sidecar"])
 
 
+# -- 16-bit colour PNG heightmaps (finding 2)
+
+def c_info_16bit_rgba_png(tmp):
+    from test_io_read import write_png16
+
+    levels = np.array([[0, 59400], [1000, 30000]], np.uint16)
+    write_png16(tmp / "h.png", np.dstack([levels, levels, levels, np.full_like(levels, 65535)]), 6)
+    return ["info", tmp / "h.png", "--json"], EXIT_OK, ['"max": 59400.0']
+
+
+def c_info_16bit_colour_png_refused(tmp):
+    from test_io_read import write_png16
+
+    levels = np.array([[0, 59400], [1000, 30000]], np.uint16)
+    write_png16(tmp / "pic.png", np.dstack([levels, levels // 3, levels]), 2)
+    return ["info", tmp / "pic.png"], EXIT_BAD_INPUT, ["pic.png", "colour"]
+
+
+# -- extreme numbers (finding 4): refused before the run, naming the value and the range
+
+def _synth_pin(tmp, *options):
+    _example(tmp / "x.npy")
+    return ["synth", "--example", tmp / "x.npy", "--size", "128x128", "--patch-size", "32",
+            "--out", tmp / "t.tif", *options]
+
+
+def c_pin_nan_position(tmp):
+    return _synth_pin(tmp, "--pin", "nan,nan,nan"), EXIT_BAD_INPUT, ["'nan,nan,nan'", "whole cells"]
+
+
+def c_pin_inf_position(tmp):
+    return _synth_pin(tmp, "--pin=inf,0,500"), EXIT_BAD_INPUT, ["'inf,0,500'", "whole cells"]
+
+
+def c_pin_nan_height(tmp):
+    return _synth_pin(tmp, "--pin", "10,10,nan"), EXIT_BAD_INPUT, ["(10, 10)", "non-finite"]
+
+
+def c_pin_height_1e30(tmp):
+    return _synth_pin(tmp, "--pin", "100,100,1e30"), EXIT_BAD_INPUT, ["(100, 100)", "1e+30", "examples' heights"]
+
+
+def c_pin_height_1e9(tmp):
+    return (_synth_pin(tmp, "--pin", "100,100,1e9"), EXIT_BAD_INPUT,
+            ["(100, 100)", "1e+09", "examples' heights", "widened by 3 times"])
+
+
+def c_pin_height_range_1e30(tmp):
+    return (_synth_pin(tmp, "--height-range=-1e30,1e30"), EXIT_BAD_INPUT, ["-1e+30..1e+30", "100000"])
+
+
+def c_pin_beyond_height_range(tmp):
+    return (_synth_pin(tmp, "--height-range=0,1000", "--pin", "5,5,9000"), EXIT_BAD_INPUT,
+            ["9000", "the height range 0..1000", "-3000..4000"])
+
+
+def c_example_near_1e30(tmp):
+    heights = np.full((120, 120), 1e30, np.float32)
+    heights[::2] = 3e29
+    np.save(tmp / "huge.npy", heights)
+    return (["synth", "--example", tmp / "huge.npy", "--size", "128x128", "--patch-size", "32",
+             "--out", tmp / "t.tif"], EXIT_BAD_INPUT, ["huge.npy", "1e+30", "100000"])
+
+
+def c_pin_within_range_runs(tmp):
+    return _synth_pin(tmp, "--pin", "64,64,900"), EXIT_OK, []
+
+
 CASES = [
     c_convert_png_keeps_users_json,
     c_convert_npy_keeps_users_json,
@@ -91,6 +159,17 @@ CASES = [
     c_synth_report_is_outputs_sidecar,
     c_synth_report_over_other_sidecar,
     c_features_json_over_sidecar,
+    c_info_16bit_rgba_png,
+    c_info_16bit_colour_png_refused,
+    c_pin_nan_position,
+    c_pin_inf_position,
+    c_pin_nan_height,
+    c_pin_height_1e30,
+    c_pin_height_1e9,
+    c_pin_height_range_1e30,
+    c_pin_beyond_height_range,
+    c_example_near_1e30,
+    c_pin_within_range_runs,
 ]
 
 
@@ -116,6 +195,9 @@ def test_corruption_corpus(capsys, tmp_path, case):
         assert len(lines) == 1, err
         for word in words:
             assert word in lines[0], lines[0]
+    else:
+        for word in words:
+            assert word in out, out
     after = _digests(tmp_path)
     changed = [name for name, digest in before.items() if after.get(name) != digest]
     assert not changed, f"pre-existing files changed: {changed}"
