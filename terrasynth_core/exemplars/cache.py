@@ -4,8 +4,10 @@ example (the CLI, a restarted app) starts placing patches at once.
 One ``.npz`` file per (heights, patch size, version), in
 ``$TERRASYNTH_CACHE_DIR`` or ``$XDG_CACHE_HOME/terrasynth`` (default
 ``~/.cache/terrasynth``).  Files are written atomically and read with
-``allow_pickle=False``; an unreadable or stale file is ignored and rewritten,
-never an error.  Set ``TERRASYNTH_CACHE_DIR`` to an empty string to turn the
+``allow_pickle=False``; each holds its key (the heights' digest, shape and
+patch size), checked on load, so a file of another example under this
+one's name is never used; an unreadable, stale or foreign file is ignored
+and rewritten, never an error.  Set ``TERRASYNTH_CACHE_DIR`` to an empty string to turn the
 cache off.
 """
 
@@ -47,6 +49,8 @@ def load(key: str):
         return None
     try:
         with np.load(path, allow_pickle=False) as z:
+            if not _same_key(z, key):
+                return None  # another example's file under this name (or one from before keys)
             shape = tuple(int(v) for v in z["shape"])
             graphs = [_graph_from(z, kind, shape) for kind in _KINDS]
             samples = {kind: _samples_from(z, kind) for kind in _KINDS}
@@ -57,12 +61,20 @@ def load(key: str):
         return None
 
 
+def _same_key(z, key: str) -> bool:
+    """Whether the file ``z`` was saved under ``key``: the key (the heights'
+    digest, shape and patch size) is stored inside, so a file copied or
+    renamed onto another example's name is never used for it."""
+    return "key" in z.files and z["key"].shape == () and str(z["key"]) == key
+
+
 def save(key: str, features: FeatureMaps, samples: dict, strong: np.ndarray, relief: float) -> None:
     """Store an analysis; failures (read-only home, full disk) are ignored."""
     path = _path(key)
     if path is None:
         return
-    arrays = {"shape": np.array(strong.shape), "strong": np.packbits(strong), "relief": np.array(relief)}
+    arrays = {"key": np.array(key), "shape": np.array(strong.shape), "strong": np.packbits(strong),
+              "relief": np.array(relief)}
     for graph in (features.ridges, features.valleys):
         arrays.update(_graph_arrays(graph))
     for kind in _KINDS:
