@@ -77,6 +77,10 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
             f"{patch_size}x{patch_size}: use a larger example or a smaller patch size"
         )
     heights = np.ascontiguousarray(field.heights, dtype=np.float32)
+    if not np.ptp(heights):
+        flat = (f"{name} is flat (every cell {heights.flat[0]:g} m): it has no relief to give, "
+                "the terrain will be flat")
+        note = flat if note is None else f"{note}; {flat}"
     digest = hashlib.sha1(heights.tobytes()).hexdigest()
     key = f"{digest}-{heights.shape[0]}x{heights.shape[1]}-p{patch_size}"
     with _CACHE_LOCK:

@@ -106,7 +106,14 @@ class Session:
             self.warnings.append("the sketch has no strokes: non-feature synthesis only")
             blank = SketchMap(np.zeros(self.shape, bool), np.zeros(self.shape, bool))
             return sketch_features(blank)
-        return sketch_features(self.sketch)
+        maps = sketch_features(self.sketch)
+        if not maps.ridges.paths and not maps.valleys.paths:
+            painted = 100 * float((self.sketch.ridge_mask | self.sketch.valley_mask).mean())
+            self.warnings.append(
+                f"the sketch's strokes ({painted:.0f} % of it painted) give no ridge or valley line: "
+                "draw lines, not filled areas; non-feature synthesis only"
+            )
+        return maps
 
     def _check_features(self) -> None:
         for graph in (self.sketch_maps.ridges, self.sketch_maps.valleys):
