@@ -393,9 +393,32 @@ def cmd_examples(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+#: Options whose value may start with "-" (``--size -5x5``, ``--height-range -100,900``):
+#: argparse would take such a value for an option and say "expected one argument".
+_SIGNED_VALUE_OPTIONS = frozenset({"--size", "--height-range", "--pin", "--stamp", "--water-level", "--water-depth",
+                                   "--bank-width", "--pin-radius", "--vertical-scale", "--seed", "--patch-size",
+                                   "--overlap", "--variations"})
+
+
+def _join_signed_values(argv: list[str]) -> list[str]:
+    """``["--size", "-5x5"]`` -> ``["--size=-5x5"]``, so the value reaches its parser."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        arg = argv[i]
+        nxt = argv[i + 1] if i + 1 < len(argv) else None
+        if arg in _SIGNED_VALUE_OPTIONS and nxt is not None and nxt.startswith("-") and not nxt.startswith("--"):
+            out.append(f"{arg}={nxt}")
+            i += 2
+        else:
+            out.append(arg)
+            i += 1
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_join_signed_values(list(sys.argv[1:] if argv is None else argv)))
     try:
         return args.func(args)
     except TerraSynthError as exc:

@@ -16,6 +16,8 @@ polygons at their lowest segment.
 from __future__ import annotations
 
 import math
+import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -183,6 +185,38 @@ def resize_nearest(layer: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return layer[np.ix_(rows, cols)]
 
 
+#: Largest painted map (sketch, style regions, water) read, in pixels: the
+#: core's output limit.  Larger images are refused before they are decoded.
+MAX_IMAGE_PIXELS = 64_000_000
+
+
+def open_image(path: Path, what: str) -> Image.Image:
+    """``Image.open(path)`` with its size checked before any pixel is decoded.
+
+    Raises
+    ------
+    SketchError
+        Naming ``what``, the file and the limit, for an image of more than
+        :data:`MAX_IMAGE_PIXELS` pixels (also for those Pillow itself
+        refuses as decompression bombs).
+    """
+    limit = f"at most {MAX_IMAGE_PIXELS} pixels (e.g. 8000x8000) are read: scale it down"
+    try:
+        with warnings.catch_warnings():
+            # Pillow warns from 89 M pixels; the size is checked here instead.
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            image = Image.open(path)
+    except Image.DecompressionBombError as exc:
+        pixels = re.search(r"\((\d+) pixels\)", str(exc))
+        size = f"{pixels.group(1)} pixels" if pixels else "too many pixels"
+        raise SketchError(f"{what} {path} has {size}; {limit}") from None
+    cols, rows = image.size
+    if rows * cols > MAX_IMAGE_PIXELS:
+        image.close()
+        raise SketchError(f"{what} {path} is {cols}x{rows} pixels; {limit}")
+    return image
+
+
 def read_sketch(path) -> SketchMap:
     """Read a sketch image file.
 
@@ -204,7 +238,7 @@ def read_sketch(path) -> SketchMap:
     """
     path = Path(path)
     try:
-        with Image.open(path) as image:
+        with open_image(path, "sketch") as image:
             image.load()
             mode = image.mode
             if mode not in _COLOUR_MODES:

@@ -151,6 +151,71 @@ def c_pin_within_range_runs(tmp):
     return _synth_pin(tmp, "--pin", "64,64,900"), EXIT_OK, []
 
 
+# -- silent wrong output, huge images, lesser (finding 5, 6 and 8 parts)
+
+def _sketch(path: Path, rgb: np.ndarray) -> Path:
+    from PIL import Image
+
+    Image.fromarray(rgb).save(path)
+    return path
+
+
+def _png_header_only(path: Path, cols: int, rows: int) -> Path:
+    """A PNG that claims ``cols x rows`` RGB pixels but holds no data: enough to
+    test that the size is refused before any pixel is decoded."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", cols, rows, 8, 2, 0, 0, 0))
+                     + chunk(b"IDAT", zlib.compress(b"")) + chunk(b"IEND", b""))
+    return path
+
+
+def c_all_red_sketch_is_reported(tmp):
+    _example(tmp / "x.npy")
+    rgb = np.zeros((64, 64, 3), np.uint8)
+    rgb[..., 0] = 255
+    _sketch(tmp / "red.png", rgb)
+    return (["synth", "--example", tmp / "x.npy", "--sketch", tmp / "red.png", "--patch-size", "32",
+             "--out", tmp / "t.tif"], EXIT_OK, ["100 % of it painted", "no ridge or valley line"])
+
+
+def c_flat_example_is_reported(tmp):
+    save_dem(HeightField(np.full((120, 120), 250.0, np.float32), cell_size=(30.0, 30.0)), tmp / "flat.npy")
+    return (["synth", "--example", tmp / "flat.npy", "--size", "64x64", "--patch-size", "32",
+             "--out", tmp / "t.tif"], EXIT_OK, ["flat.npy is flat", "250 m"])
+
+
+def c_negative_size(tmp):
+    _example(tmp / "x.npy")
+    return (["synth", "--example", tmp / "x.npy", "--size", "-5x5", "--out", tmp / "t.tif"], EXIT_BAD_INPUT,
+            ["--size", "'-5x5'", "at least 2"])
+
+
+def c_sketch_decompression_bomb(tmp):
+    _example(tmp / "x.npy")
+    _png_header_only(tmp / "bomb.png", 20000, 20000)
+    return (["synth", "--example", tmp / "x.npy", "--sketch", tmp / "bomb.png", "--out", tmp / "t.tif"],
+            EXIT_BAD_INPUT, ["bomb.png", "400000000 pixels", "64000000"])
+
+
+def c_sketch_over_the_pixel_limit(tmp):
+    _example(tmp / "x.npy")
+    _png_header_only(tmp / "big.png", 10000, 10000)
+    return (["synth", "--example", tmp / "x.npy", "--sketch", tmp / "big.png", "--out", tmp / "t.tif"],
+            EXIT_BAD_INPUT, ["big.png", "10000x10000", "64000000"])
+
+
+def c_style_map_over_the_pixel_limit(tmp):
+    _example(tmp / "x.npy")
+    _png_header_only(tmp / "regions.png", 9000, 9000)
+    return (["synth", "--example", tmp / "x.npy", "--styles", tmp / "regions.png", "--style",
+             f"#ff0000={tmp / 'x.npy'}", "--out", tmp / "t.tif"], EXIT_BAD_INPUT, ["regions.png", "9000x9000"])
+
+
 CASES = [
     c_convert_png_keeps_users_json,
     c_convert_npy_keeps_users_json,
@@ -170,6 +235,12 @@ CASES = [
     c_pin_beyond_height_range,
     c_example_near_1e30,
     c_pin_within_range_runs,
+    c_all_red_sketch_is_reported,
+    c_flat_example_is_reported,
+    c_negative_size,
+    c_sketch_decompression_bomb,
+    c_sketch_over_the_pixel_limit,
+    c_style_map_over_the_pixel_limit,
 ]
 
 
@@ -191,13 +262,14 @@ def test_corruption_corpus(capsys, tmp_path, case):
     assert code == expected, err
     assert "Traceback" not in err
     if expected == EXIT_BAD_INPUT:
-        lines = err.strip().splitlines()
+        # One line of error (argparse's usage lines before it are not a message).
+        lines = [line for line in err.strip().splitlines() if "error:" in line]
         assert len(lines) == 1, err
         for word in words:
             assert word in lines[0], lines[0]
     else:
         for word in words:
-            assert word in out, out
+            assert word in out + err, out + err
     after = _digests(tmp_path)
     changed = [name for name, digest in before.items() if after.get(name) != digest]
     assert not changed, f"pre-existing files changed: {changed}"
