@@ -284,13 +284,12 @@ def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False) -> 
         with wrap_errors(path, "write"), atomic_outputs(path) as (temp,):
             _PATH_WRITERS[name](field, temp, cog=cog)
         return
-    if name in _SIDECAR_FORMATS:
-        check_sidecar_free(path)
     targets = (path, sidecar_path(path)) if name in _SIDECAR_FORMATS else (path,)
     with wrap_errors(path, "write"), atomic_outputs(*targets) as temps:
         with open_new(temps[0]) as fh:
             sidecar = _WRITERS[name](field, fh)
         if len(temps) > 1:
+            check_sidecar_free(path, sidecar)
             write_sidecar(sidecar, temps[1])
 
 

@@ -34,35 +34,37 @@ def _example(path: Path, shape=(120, 120), offset=500.0, relief=300.0) -> Path:
     return path
 
 
-def _mine(path: Path, text='{"mine": 1}\n') -> Path:
+def _mine(path: Path, text: str) -> Path:
     path.write_text(text)
     return path
 
 
 # -- cases: each takes the folder, makes its inputs, returns (argv, code, words in the message)
 
-def c_convert_png_keeps_users_json(tmp):
+def _keeps_users_json(ext: str, text: str):
+    """``convert X u<ext>`` beside the user's own ``u.json`` holding ``text``."""
+    def case(tmp):
+        _example(tmp / "x.npy")
+        _mine(tmp / "u.json", text)
+        return ["convert", tmp / "x.npy", tmp / f"u{ext}"], EXIT_BAD_INPUT, ["u.json", "not a TerraSynth sidecar"]
+
+    case.__name__ = f"c_convert_{ext[1:]}_keeps_users_json"
+    return case
+
+
+def c_convert_r16_beside_npy_of_same_stem(tmp):
+    """Issue 13: ".npy, .r16, .r32 outputs of one stem" share (and clobber) one sidecar."""
     _example(tmp / "x.npy")
-    _mine(tmp / "u.json")
-    return ["convert", tmp / "x.npy", tmp / "u.png"], EXIT_BAD_INPUT, ["u.json", "not a TerraSynth sidecar"]
+    save_dem(HeightField(np.full((8, 8), 7.0, np.float32), cell_size=(10.0, 10.0)), tmp / "t.npy")
+    return ["convert", tmp / "x.npy", tmp / "t.r16"], EXIT_BAD_INPUT, ["t.json", "t.npy", "another output name"]
 
 
-def c_convert_npy_keeps_users_json(tmp):
+def c_convert_png_beside_plain_png_picture(tmp):
+    from PIL import Image
+
     _example(tmp / "x.npy")
-    _mine(tmp / "u.json", '[1, 2]')
-    return ["convert", tmp / "x.npy", tmp / "u.npy"], EXIT_BAD_INPUT, ["u.json", "not a TerraSynth sidecar"]
-
-
-def c_convert_r16_keeps_users_json(tmp):
-    _example(tmp / "x.npy")
-    _mine(tmp / "u.json", "not json at all")
-    return ["convert", tmp / "x.npy", tmp / "u.r16"], EXIT_BAD_INPUT, ["u.json", "not a TerraSynth sidecar"]
-
-
-def c_convert_r32_keeps_users_json(tmp):
-    _example(tmp / "x.npy")
-    _mine(tmp / "u.json", '{"format": "something-else"}')
-    return ["convert", tmp / "x.npy", tmp / "u.r32"], EXIT_BAD_INPUT, ["u.json", "not a TerraSynth sidecar"]
+    Image.fromarray(np.arange(64, dtype=np.uint8).reshape(8, 8)).save(tmp / "h.png")
+    return ["convert", tmp / "x.npy", tmp / "h.npy"], EXIT_BAD_INPUT, ["h.json", "h.png"]
 
 
 def c_synth_report_is_outputs_sidecar(tmp):
@@ -217,10 +219,12 @@ def c_style_map_over_the_pixel_limit(tmp):
 
 
 CASES = [
-    c_convert_png_keeps_users_json,
-    c_convert_npy_keeps_users_json,
-    c_convert_r16_keeps_users_json,
-    c_convert_r32_keeps_users_json,
+    _keeps_users_json(".png", '{"mine": 1}\n'),
+    _keeps_users_json(".npy", "[1, 2]"),
+    _keeps_users_json(".r16", "not json at all"),
+    _keeps_users_json(".r32", '{"format": "something-else"}'),
+    c_convert_r16_beside_npy_of_same_stem,
+    c_convert_png_beside_plain_png_picture,
     c_synth_report_is_outputs_sidecar,
     c_synth_report_over_other_sidecar,
     c_features_json_over_sidecar,

@@ -1,7 +1,5 @@
 """The main window: start-up, projects, prompts, recovery, panels, export."""
 
-import zipfile
-
 import numpy as np
 import pytest
 from PySide6.QtCore import QSettings
@@ -132,18 +130,12 @@ def test_opening_a_bad_project_reports_it(qtbot, window, dialogs, tmp_path):
     np.testing.assert_array_equal(window.document.sketch.ridge, ridge)
 
 
-def test_opening_a_bit_rotted_project_keeps_the_open_document(qtbot, window, dialogs, tmp_path):
+def test_opening_a_bit_rotted_project_keeps_the_open_document(qtbot, window, dialogs, tmp_path, bit_rot):
     """Issue 13, finding 3: bit-rot inside a .tsproj raised zlib.error past the Open action."""
     from terrasynth_app.model import save_project
 
     path = save_project(window.document.snapshot(), tmp_path / "rot.tsproj", mark_saved=False)
-    with zipfile.ZipFile(path) as zf:
-        info = zf.getinfo("sketch_ridge.npy")
-    raw = bytearray(path.read_bytes())
-    start = info.header_offset + 30 + len(info.filename.encode()) + len(info.extra)
-    for i in range(start + 2, start + min(info.compress_size, 40)):
-        raw[i] ^= 0x5A
-    path.write_bytes(bytes(raw))
+    bit_rot(path)
     ridge, title = window.document.sketch.ridge.copy(), window.windowTitle()
     assert not window.files.open_project(str(path))
     [message] = dialogs.messages("critical")
