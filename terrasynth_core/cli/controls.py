@@ -40,7 +40,8 @@ def add_control_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--pin-radius", type=float, metavar="CELLS", help="how far a pin's correction reaches")
     g.add_argument("--height-range", metavar="LO,HI", help="map the output's heights onto LO..HI metres")
     g.add_argument("--variations", type=int, default=1, metavar="N",
-                   help="make N results with seeds SEED..SEED+N-1 in parallel (OUT_v1, OUT_v2, ...)")
+                   help="make N results (at most 64) with seeds SEED..SEED+N-1, one per core at a time "
+                        "(OUT_v1, OUT_v2, ...)")
 
 
 def _numbers(text: str, what: str, count: tuple[int, ...]) -> list[float]:

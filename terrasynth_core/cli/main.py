@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -152,8 +153,10 @@ def cmd_synth(args: argparse.Namespace) -> int:
         raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY), or --styles with --style")
     if not args.sketch and not args.styles and not args.size:
         raise TerraSynthError("give a --sketch (or --styles, or an output --size for a sketch-free run)")
-    if args.variations < 1:
-        raise TerraSynthError(f"--variations must be at least 1, got {args.variations}")
+    from ..synthesis.variations import MAX_VARIATIONS
+
+    if not 1 <= args.variations <= MAX_VARIATIONS:
+        raise TerraSynthError(f"--variations must be 1 to {MAX_VARIATIONS}, got {args.variations}")
     examples = [resolve_dem(e) for e in args.example or ()]
     sketch = read_sketch(args.sketch) if args.sketch else None
     params = SynthesisParams(
@@ -219,9 +222,9 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     if args.report:
         report = result.report()
         report["examples"] = [getattr(e, "source", None) for e in examples]
-        _write_json_atomic(Path(args.report), report)
+        _after_output(out, f"the report {args.report}", lambda: _write_json_atomic(Path(args.report), report))
     if getattr(args, "debug_dir", None):
-        _write_debug(result, Path(args.debug_dir))
+        _after_output(out, f"the debug folder {args.debug_dir}", lambda: _write_debug(result, Path(args.debug_dir)))
     _summary(result, out, session.warnings)
     return EXIT_OK
 
@@ -243,6 +246,15 @@ def _check_report_path(args, out: Path) -> None:
             raise TerraSynthError(f"--report {report} is the sidecar of the output {o} (its metres and "
                                   "cell size); give the report another name")
     check_not_sidecar(report, "report")
+
+
+def _after_output(out: Path, what: str, write) -> None:
+    """Run ``write`` (an extra output); on failure say that ``out`` was written and ``what`` was not."""
+    try:
+        write()
+    except (TerraSynthError, OSError) as exc:
+        detail = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise TerraSynthError(f"wrote {out}, but {what} could not be written: {detail}") from None
 
 
 def _save_result(result, out: Path, cell) -> None:
@@ -271,13 +283,15 @@ def _summary(result, out: Path, said: list[str]) -> None:
 
 
 def _variations(examples, sketch, size, params, controls, args, cell) -> int:
-    """``--variations N``: seeds SEED..SEED+N-1 in parallel, OUT_v1.. OUT_vN."""
+    """``--variations N``: seeds SEED..SEED+N-1, one per core at a time, OUT_v1.. OUT_vN."""
     from ..synthesis import run_variations
 
     out = Path(args.out)
     seeds = [params.seed + i for i in range(args.variations)]
     paths = [out.with_name(f"{out.stem}_v{i + 1}{out.suffix}") for i in range(len(seeds))]
-    print(f"terrasynth-cli: {len(seeds)} variations (seeds {seeds[0]}-{seeds[-1]}) in parallel", file=sys.stderr)
+    at_once = min(len(seeds), os.cpu_count() or 1)
+    print(f"terrasynth-cli: {len(seeds)} variations (seeds {seeds[0]}-{seeds[-1]}), {at_once} at a time",
+          file=sys.stderr)
 
     def done(i, result):
         _save_result(result, paths[i], cell)
