@@ -191,7 +191,11 @@ class HeightField:
         valid = ~self.nodata
         if valid.all():
             return self
-        r0, r1, c0, c1 = largest_valid_rectangle(valid)
+        return self.crop(*largest_valid_rectangle(valid))
+
+    def crop(self, r0: int, r1: int, c0: int, c1: int) -> "HeightField":
+        """Rows ``r0:r1`` and columns ``c0:c1`` (at least 2x2), the georeference
+        origin moved with them."""
         geo = self.georef
         if geo is not None:
             geo = replace(

@@ -232,6 +232,16 @@ def c_debug_dir_fails_after_the_output(tmp):
              tmp / "dbg", "--out", tmp / "t.tif"], EXIT_BAD_INPUT, ["wrote", "t.tif", "but the debug folder", "dbg"])
 
 
+def c_example_with_every_other_row_nodata(tmp):
+    """Finding 8: the valid rectangle is one row; the README's fill fallback applies."""
+    y, x = np.mgrid[0:160, 0:160]
+    heights = (500 + 300 * np.sin(x / 9.0) * np.cos(y / 7.0)).astype(np.float32)
+    heights[::2] = np.nan
+    np.save(tmp / "rows.npy", heights)
+    return (["synth", "--example", tmp / "rows.npy", "--size", "64x64", "--patch-size", "32",
+             "--out", tmp / "t.tif"], EXIT_OK, ["rows.npy", "nodata cells filled"])
+
+
 CASES = [
     _keeps_users_json(".png", '{"mine": 1}\n'),
     _keeps_users_json(".npy", "[1, 2]"),
@@ -261,6 +271,7 @@ CASES = [
     c_style_map_over_the_pixel_limit,
     c_variations_over_the_limit,
     c_debug_dir_fails_after_the_output,
+    c_example_with_every_other_row_nodata,
 ]
 
 
