@@ -23,7 +23,7 @@ from __future__ import annotations
 import io
 import json
 import os
-import tempfile
+import secrets
 import zipfile
 import zlib
 from pathlib import Path
@@ -183,12 +183,14 @@ def load_project(path: str | os.PathLike) -> Document:
 # -- helpers --------------------------------------------------------------------
 def _write_zip(path: Path, meta: dict, arrays: dict[str, np.ndarray]) -> None:
     directory = path.parent if str(path.parent) else Path(".")
+    tmp = directory / f".{path.name}.{secrets.token_hex(6)}.tmp"
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+        # Not mkstemp: its files are 0600; a project gets the mode any file the user makes gets (umask).
+        fh = open(tmp, "xb")
     except OSError as exc:
         raise ProjectError(f"cannot write project {path}: {exc.strerror or exc}") from None
     try:
-        with os.fdopen(fd, "wb") as fh:
+        with fh:
             # Level 1: strokes and seam masks shrink a lot, heights little, and
             # speed matters more (autosave runs while the user works).
             with zipfile.ZipFile(fh, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=1) as zf:

@@ -162,3 +162,18 @@ def test_recovery_info_that_is_not_an_object(tmp_path):
         assert store.describe() == "Unsaved work on an untitled project, autosaved at an unknown time"
         recovered = store.load()
         assert recovered.path is None and recovered.dirty
+
+
+def test_saved_projects_get_the_mode_other_outputs_get(tmp_path):
+    """Issue 13, finding 8: projects were 0600 (mkstemp) while every other output follows the umask."""
+    import os
+    import stat
+
+    old = os.umask(0o022)
+    try:
+        path = _saved(tmp_path)
+        (tmp_path / "other").write_text("x")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(path.stat().st_mode) == stat.S_IMODE((tmp_path / "other").stat().st_mode) == 0o644
+    assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []
