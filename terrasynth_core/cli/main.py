@@ -309,11 +309,14 @@ def _write_debug(result, folder: Path) -> None:
     """Patch ids, seams and the sketch's features as pictures and arrays."""
     import numpy as np
 
+    from ..io._common import atomic_outputs, open_new
     from ..pictures import grey_hillshade, patch_colours, render_overlay, save_png
 
     folder.mkdir(parents=True, exist_ok=True)
-    np.save(folder / "patch_id.npy", result.patch_id)
-    np.save(folder / "seam_mask.npy", result.seam_mask)
+    for name, array in (("patch_id.npy", result.patch_id), ("seam_mask.npy", result.seam_mask)):
+        # Atomic, as every output: a full disk leaves no truncated array.
+        with atomic_outputs(folder / name) as (tmp,), open_new(tmp) as f:
+            np.save(f, array, allow_pickle=False)
     save_png(patch_colours(result.patch_id), folder / "patch_id.png")
     rgb = np.repeat(grey_hillshade(result.heights)[..., None], 3, axis=2)
     rgb[result.seam_mask] = (255, 200, 0)

@@ -242,6 +242,16 @@ def c_example_with_every_other_row_nodata(tmp):
              "--out", tmp / "t.tif"], EXIT_OK, ["rows.npy", "nodata cells filled"])
 
 
+def c_debug_dir_on_a_full_disk(tmp):
+    """Finding 7: a full disk left a truncated patch_id.npy and said "error: : 65536 requested..."."""
+    _example(tmp / "x.npy")
+    (tmp / "dbg").mkdir()
+    _mine(tmp / "dbg" / "patch_id.npy", "an older file of the user's")
+    return (["synth", "--example", tmp / "x.npy", "--size", "64x64", "--patch-size", "32", "--debug-dir",
+             tmp / "dbg", "--out", tmp / "t.tif"], EXIT_BAD_INPUT, ["wrote", "t.tif", "but the debug folder",
+                                                                      "No space left on device"])
+
+
 CASES = [
     _keeps_users_json(".png", '{"mine": 1}\n'),
     _keeps_users_json(".npy", "[1, 2]"),
@@ -272,6 +282,7 @@ CASES = [
     c_variations_over_the_limit,
     c_debug_dir_fails_after_the_output,
     c_example_with_every_other_row_nodata,
+    c_debug_dir_on_a_full_disk,
 ]
 
 
@@ -285,9 +296,24 @@ def run_case(capsys, argv) -> tuple[int, str, str]:
     return code, out, err
 
 
+def _full_disk_for_numpy(monkeypatch):
+    """``np.save`` fails half-way as on a full disk (a tmpfs is not mountable here)."""
+    real_save = np.save
+
+    def save(file, array, *args, **kwargs):
+        if hasattr(file, "write"):
+            file.write(b"\x93NUMPY partial")
+            raise OSError(28, "No space left on device")
+        return real_save(file, array, *args, **kwargs)
+
+    monkeypatch.setattr(np, "save", save)
+
+
 @pytest.mark.parametrize("case", CASES, ids=lambda f: f.__name__[2:])
-def test_corruption_corpus(capsys, tmp_path, case):
+def test_corruption_corpus(capsys, tmp_path, monkeypatch, case):
     argv, expected, words = case(tmp_path)
+    if "No space left on device" in words:
+        _full_disk_for_numpy(monkeypatch)
     before = _digests(tmp_path)
     code, out, err = run_case(capsys, argv)
     assert code == expected, err
