@@ -343,3 +343,29 @@ def test_sidecar_rewritten_when_it_is_ours(tmp_path):
     second = json.loads((tmp_path / "u.json").read_text())
     assert first["format"] == second["format"] == "terrasynth-heightmap"
     assert second["shape"] == [8, 8]
+
+
+def test_sigterm_during_a_write_leaves_no_temporary_file(tmp_path):
+    """Issue 13, finding 7: SIGTERM during a large write left a hidden .NAME.HEX.tmp."""
+    import subprocess
+    import sys
+
+    _example(tmp_path / "x.npy")
+    script = (
+        "import os, signal, sys\n"
+        "import numpy as np\n"
+        "real = np.save\n"
+        "def save(fh, array, **kw):\n"
+        "    fh.write(b'partial' * 1000); fh.flush()\n"
+        "    os.kill(os.getpid(), signal.SIGTERM)\n"
+        "    real(fh, array, **kw)\n"
+        "np.save = save\n"
+        "from terrasynth_core.cli.main import main\n"
+        "sys.exit(main(sys.argv[1:]))\n"
+    )
+    before = _digests(tmp_path)
+    done = subprocess.run([sys.executable, "-c", script, "convert", str(tmp_path / "x.npy"), str(tmp_path / "y.npy")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.strip() == "terrasynth-cli: interrupted"
+    assert _digests(tmp_path) == before  # no y.npy, no y.json, no temporary file
