@@ -258,15 +258,20 @@ def read_sketch(path) -> SketchMap:
         raise SketchError(f"sketch {path} is only {rgb.shape[1]}x{rgb.shape[0]} pixels; expected at least 2x2")
     sketch = SketchMap.from_rgb(rgb)
     if not sketch.has_strokes:
-        _refuse_other_colours(rgb[..., :3], path)
+        # Transparent pixels say nothing, whatever colour they keep underneath.
+        opaque = rgb[..., 3] >= 128 if rgb.shape[2] == 4 else np.ones(rgb.shape[:2], bool)
+        _refuse_other_colours(rgb[..., :3][opaque], path)
     return sketch
 
 
 def _refuse_other_colours(rgb: np.ndarray, path: Path) -> None:
     """A sketch without red or blue but with drawing in other colours was
     almost surely painted in the wrong colours: say so instead of silently
-    synthesizing terrain without features.  A blank canvas passes."""
+    synthesizing terrain without features.  A blank (or fully transparent)
+    canvas passes."""
     flat = rgb.reshape(-1, 3)
+    if not len(flat):
+        return
     colours, counts = np.unique(flat, axis=0, return_counts=True)
     background = colours[np.argmax(counts)]
     drawn = np.abs(flat.astype(np.int16) - background).max(axis=1) > 32

@@ -252,6 +252,16 @@ def c_debug_dir_on_a_full_disk(tmp):
                                                                       "No space left on device"])
 
 
+def c_all_transparent_sketch_is_blank(tmp):
+    """Finding 8: transparent pixels keeping colours underneath read as "no red strokes but drawn"."""
+    _example(tmp / "x.npy")
+    rgba = np.random.default_rng(3).integers(0, 256, (64, 64, 4), dtype=np.uint8)
+    rgba[..., 3] = 0
+    _sketch(tmp / "clear.png", rgba)
+    return (["synth", "--example", tmp / "x.npy", "--sketch", tmp / "clear.png", "--patch-size", "32",
+             "--out", tmp / "t.tif"], EXIT_OK, ["the sketch has no strokes"])
+
+
 CASES = [
     _keeps_users_json(".png", '{"mine": 1}\n'),
     _keeps_users_json(".npy", "[1, 2]"),
@@ -283,6 +293,7 @@ CASES = [
     c_debug_dir_fails_after_the_output,
     c_example_with_every_other_row_nodata,
     c_debug_dir_on_a_full_disk,
+    c_all_transparent_sketch_is_blank,
 ]
 
 
