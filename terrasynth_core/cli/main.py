@@ -96,6 +96,9 @@ def cmd_convert(args: argparse.Namespace) -> int:
     else:
         save_dem(field, out)
     print(f"wrote {out} ({field.shape[0]} x {field.shape[1]})", file=sys.stderr)
+    if out.suffix.lower() == ".ter" and field.nodata_count:
+        print(f"terrasynth-cli: note: Terragen has no nodata: {field.nodata_count} nodata cells of {args.input} "
+              f"were written as the minimum height {field.min:g} m", file=sys.stderr)
     return EXIT_OK
 
 

@@ -262,6 +262,14 @@ def c_all_transparent_sketch_is_blank(tmp):
              "--out", tmp / "t.tif"], EXIT_OK, ["the sketch has no strokes"])
 
 
+def c_nodata_to_terragen_is_reported(tmp):
+    """Finding 8: NaN holes written to .ter silently became the minimum height."""
+    heights = np.linspace(100, 200, 64 * 64, dtype=np.float32).reshape(64, 64)
+    heights[10:20, 10:20] = np.nan
+    save_dem(HeightField(heights, cell_size=(30.0, 30.0)), tmp / "holes.npy")
+    return ["convert", tmp / "holes.npy", tmp / "holes.ter"], EXIT_OK, ["100 nodata cells", "holes.npy", "minimum"]
+
+
 CASES = [
     _keeps_users_json(".png", '{"mine": 1}\n'),
     _keeps_users_json(".npy", "[1, 2]"),
@@ -294,6 +302,7 @@ CASES = [
     c_example_with_every_other_row_nodata,
     c_debug_dir_on_a_full_disk,
     c_all_transparent_sketch_is_blank,
+    c_nodata_to_terragen_is_reported,
 ]
 
 
