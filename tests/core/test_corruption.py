@@ -103,6 +103,22 @@ def c_info_16bit_colour_png_refused(tmp):
     return ["info", tmp / "pic.png"], EXIT_BAD_INPUT, ["pic.png", "colour"]
 
 
+def c_info_16bit_grey_alpha_png_nodata(tmp):
+    from test_io_read import write_png16
+
+    levels = np.array([[0, 59400], [1000, 30000]], np.uint16)
+    write_png16(tmp / "la.png", np.dstack([levels, np.array([[65535, 0], [65535, 65535]], np.uint16)]), 4)
+    return ["info", tmp / "la.png", "--json"], EXIT_OK, ['"max": 30000.0', '"nodata": 1']
+
+
+def c_info_png_with_malformed_sidecar(tmp):
+    save_dem(HeightField(np.arange(16, dtype=np.float32).reshape(4, 4)), tmp / "m.png")
+    side = json.loads((tmp / "m.json").read_text())
+    side["max"] = "lots"
+    (tmp / "m.json").write_text(json.dumps(side))
+    return ["info", tmp / "m.png"], EXIT_BAD_INPUT, ["m.json", "malformed"]
+
+
 # -- extreme numbers (finding 4): refused before the run, naming the value and the range
 
 def _synth_pin(tmp, *options):
@@ -282,6 +298,8 @@ CASES = [
     c_features_json_over_sidecar,
     c_info_16bit_rgba_png,
     c_info_16bit_colour_png_refused,
+    c_info_16bit_grey_alpha_png_nodata,
+    c_info_png_with_malformed_sidecar,
     c_pin_nan_position,
     c_pin_inf_position,
     c_pin_nan_height,
