@@ -242,7 +242,9 @@ def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False) -> 
         One of :data:`WRITE_EXTENSIONS` (any case).  PNG, ``.r16``, ``.r32``
         and ``.npy`` also get the sidecar ``<same stem>.json``; an existing
         ``<same stem>.json`` that is not a TerraSynth sidecar is never
-        replaced (:class:`DEMFormatError` instead).
+        replaced, nor one that another heightmap of the same stem is read
+        with, unless it stays the same (:class:`DEMFormatError` instead;
+        see :func:`._common.check_sidecar_free`).
     cog : bool, default False
         For ``.tif``/``.tiff``: write a Cloud-Optimized GeoTIFF (tiled,
         with overviews, readable over HTTP range requests).
