@@ -23,8 +23,9 @@ from __future__ import annotations
 import io
 import json
 import os
-import tempfile
+import secrets
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -37,7 +38,7 @@ from .control_specs import StampSpec, StyleSpec
 from .document import Document
 from .example_library import ExampleRef
 from .result import TerrainResult
-from .sketch_layers import Sketch
+from .sketch_layers import MAX_SIDE, Sketch
 
 #: Extension of project files.
 PROJECT_EXTENSION = ".tsproj"
@@ -119,6 +120,9 @@ def load_project(path: str | os.PathLike) -> Document:
     try:
         with zipfile.ZipFile(path) as zf:
             meta = json.loads(zf.read("project.json"))
+            if not isinstance(meta, dict):
+                raise ProjectError(f"{path} is damaged: its project.json holds a {type(meta).__name__}, "
+                                   "not an object")
             if meta.get("format") != FORMAT_NAME:
                 raise ProjectError(f"{path} is not a TerraSynth project (format {meta.get('format')!r})")
             if int(meta.get("version", 0)) > FORMAT_VERSION:
@@ -126,6 +130,7 @@ def load_project(path: str | os.PathLike) -> Document:
                     f"{path} is a version {meta['version']} project; this TerraSynth reads up to version "
                     f"{FORMAT_VERSION}"
                 )
+            _check_meta(meta, path)
             names = set(zf.namelist())
             regions = {name: _array(zf, f"sketch_{name}") for name in ("style", "water")
                        if f"sketch_{name}.npy" in names}
@@ -162,8 +167,15 @@ def load_project(path: str | os.PathLike) -> Document:
         raise ProjectError(f"{path}: {exc}") from None
     except FileNotFoundError:
         raise ProjectError(f"project file {path} does not exist") from None
-    except (OSError, zipfile.BadZipFile, KeyError, ValueError, TypeError) as exc:
-        raise ProjectError(f"{path} is damaged or not a TerraSynth project: {exc}") from None
+    except IsADirectoryError:
+        raise ProjectError(f"{path} is a folder, not a project file") from None
+    except (OSError, zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError, RuntimeError, KeyError,
+            ValueError, TypeError, AttributeError, OverflowError, MemoryError) as exc:
+        # Bit-rot in a member raises zlib.error or BadZipFile (CRC), an encrypted or
+        # unknown-method member RuntimeError or NotImplementedError, a wrong type
+        # of JSON value AttributeError or TypeError: all are a damaged file here.
+        detail = " ".join(str(exc).split()) or type(exc).__name__
+        raise ProjectError(f"{path} is damaged or not a TerraSynth project: {detail}") from None
     document.mark_saved(path)
     return document
 
@@ -171,12 +183,14 @@ def load_project(path: str | os.PathLike) -> Document:
 # -- helpers --------------------------------------------------------------------
 def _write_zip(path: Path, meta: dict, arrays: dict[str, np.ndarray]) -> None:
     directory = path.parent if str(path.parent) else Path(".")
+    tmp = directory / f".{path.name}.{secrets.token_hex(6)}.tmp"
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+        # Not mkstemp: its files are 0600; a project gets the mode any file the user makes gets (umask).
+        fh = open(tmp, "xb")
     except OSError as exc:
         raise ProjectError(f"cannot write project {path}: {exc.strerror or exc}") from None
     try:
-        with os.fdopen(fd, "wb") as fh:
+        with fh:
             # Level 1: strokes and seam masks shrink a lot, heights little, and
             # speed matters more (autosave runs while the user works).
             with zipfile.ZipFile(fh, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=1) as zf:
@@ -196,8 +210,45 @@ def _write_zip(path: Path, meta: dict, arrays: dict[str, np.ndarray]) -> None:
         raise
 
 
+#: Largest layer a project may hold, in cells (the core's output limit).
+MAX_LAYER_CELLS = MAX_SIDE * MAX_SIDE
+
+#: Keys of ``project.json`` and the JSON type each must have.
+_META_TYPES = {"examples": list, "params": dict, "sketch": dict}
+_OPTIONAL_META_TYPES = {"styles": list, "stamps": list, "pins": list, "result": dict, "height_range": list}
+
+
+def _check_meta(meta: dict, path: Path) -> None:
+    """Refuse a ``project.json`` whose keys are missing or of the wrong JSON type."""
+    for key, kind in _META_TYPES.items():
+        if key not in meta:
+            raise ProjectError(f"{path} is damaged: project.json has no {key!r}")
+        if not isinstance(meta[key], kind):
+            raise ProjectError(f"{path} is damaged: {key!r} in project.json is not a JSON {kind.__name__}")
+    for key, kind in _OPTIONAL_META_TYPES.items():
+        if meta.get(key) is not None and not isinstance(meta[key], kind):
+            raise ProjectError(f"{path} is damaged: {key!r} in project.json is not a JSON {kind.__name__}")
+    for key in ("examples", "styles", "stamps", "pins"):
+        if any(not isinstance(entry, dict) for entry in meta.get(key) or []):
+            raise ProjectError(f"{path} is damaged: an entry of {key!r} in project.json is not an object")
+
+
 def _array(zf: zipfile.ZipFile, name: str) -> np.ndarray:
-    return np.load(io.BytesIO(zf.read(f"{name}.npy")), allow_pickle=False)
+    """A layer, its size checked from the ``.npy`` header before anything is allocated."""
+    member = f"{name}.npy"
+    with zf.open(member) as fh:
+        version = np.lib.format.read_magic(fh)
+        if version == (1, 0):
+            shape, _, dtype = np.lib.format.read_array_header_1_0(fh)
+        else:
+            shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
+    if len(shape) != 2 or dtype.hasobject:
+        raise ProjectError(f"{zf.filename} is damaged: {member} holds an array of shape {shape} and type "
+                           f"{dtype}; expected a 2-D grid")
+    if shape[0] * shape[1] > MAX_LAYER_CELLS:
+        raise ProjectError(f"{zf.filename} is damaged or too large: {member} is {shape[0]} x {shape[1]} cells; "
+                           f"at most {MAX_LAYER_CELLS} cells ({MAX_SIDE} x {MAX_SIDE}) are read")
+    return np.load(io.BytesIO(zf.read(member)), allow_pickle=False)
 
 
 def _example_entry(ref: ExampleRef, folder: Path) -> dict:

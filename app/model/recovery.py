@@ -41,12 +41,19 @@ class RecoveryStore:
     def exists(self) -> bool:
         return self.path.is_file()
 
-    def describe(self) -> str:
-        """One line for the recovery prompt: when, and which project."""
+    def _read_info(self) -> dict:
+        """``recovery.json``'s ``original`` and ``saved_at`` strings; a damaged file gives neither."""
         try:
             info = json.loads(self._info.read_text())
         except (OSError, ValueError):
-            info = {}
+            return {}
+        if not isinstance(info, dict):
+            return {}
+        return {key: info[key] for key in ("original", "saved_at") if isinstance(info.get(key), str)}
+
+    def describe(self) -> str:
+        """One line for the recovery prompt: when, and which project."""
+        info = self._read_info()
         what = Path(info["original"]).name if info.get("original") else "an untitled project"
         when = info.get("saved_at", "an unknown time").replace("T", " ")
         return f"Unsaved work on {what}, autosaved at {when}"
@@ -60,10 +67,7 @@ class RecoveryStore:
             When the recovery file is damaged.
         """
         document = load_project(self.path)
-        try:
-            original = json.loads(self._info.read_text()).get("original")
-        except (OSError, ValueError):
-            original = None
+        original = self._read_info().get("original")
         recovered = document.snapshot(path=Path(original) if original else None)
         recovered.mark_unsaved()
         return recovered

@@ -13,6 +13,7 @@ Option syntax::
 from __future__ import annotations
 
 import argparse
+import math
 import re
 
 from ..errors import ParamsError
@@ -39,7 +40,8 @@ def add_control_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--pin-radius", type=float, metavar="CELLS", help="how far a pin's correction reaches")
     g.add_argument("--height-range", metavar="LO,HI", help="map the output's heights onto LO..HI metres")
     g.add_argument("--variations", type=int, default=1, metavar="N",
-                   help="make N results with seeds SEED..SEED+N-1 in parallel (OUT_v1, OUT_v2, ...)")
+                   help="make N results (at most 64) with seeds SEED..SEED+N-1, one per core at a time "
+                        "(OUT_v1, OUT_v2, ...)")
 
 
 def _numbers(text: str, what: str, count: tuple[int, ...]) -> list[float]:
@@ -98,7 +100,7 @@ def parse_pin(text: str):
     from ..controls.pins import Pin
 
     row, col, height = _numbers(text, "--pin", (3,))
-    if row != int(row) or col != int(col):
+    if not (math.isfinite(row) and math.isfinite(col)) or row != int(row) or col != int(col):
         raise ParamsError(f"--pin {text!r}: ROW and COL must be whole cells")
     return Pin(int(row), int(col), height)
 

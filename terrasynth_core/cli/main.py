@@ -9,7 +9,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from .controls import add_control_arguments
@@ -111,6 +114,9 @@ def cmd_convert(args: argparse.Namespace) -> int:
     else:
         save_dem(field, out, cog=args.cog)
     print(f"wrote {out} ({field.shape[0]} x {field.shape[1]})", file=sys.stderr)
+    if out.suffix.lower() == ".ter" and field.nodata_count:
+        print(f"terrasynth-cli: note: Terragen has no nodata: {field.nodata_count} nodata cells of {args.input} "
+              f"were written as the minimum height {field.min:g} m", file=sys.stderr)
     return EXIT_OK
 
 
@@ -170,8 +176,10 @@ def cmd_synth(args: argparse.Namespace) -> int:
         raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY), or --styles with --style")
     if not args.sketch and not args.styles and not args.size:
         raise TerraSynthError("give a --sketch (or --styles, or an output --size for a sketch-free run)")
-    if args.variations < 1:
-        raise TerraSynthError(f"--variations must be at least 1, got {args.variations}")
+    from ..synthesis.variations import MAX_VARIATIONS
+
+    if not 1 <= args.variations <= MAX_VARIATIONS:
+        raise TerraSynthError(f"--variations must be 1 to {MAX_VARIATIONS}, got {args.variations}")
     examples = [resolve_dem(e, band=args.band) for e in args.example or ()]
     sketch = read_sketch(args.sketch) if args.sketch else None
     params = SynthesisParams(
@@ -215,6 +223,7 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     if not out.parent.is_dir():
         raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
     _check_cog(args, out)
+    _check_report_path(args, out)
     session = Session(examples, sketch, shape=size, params=params, controls=controls)
     for w in session.warnings:
         print(f"terrasynth-cli: note: {w}", file=sys.stderr)
@@ -240,11 +249,39 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
         names = [getattr(e, "source", None) for e in [*examples, *(s.example for s in session.controls.styles)]]
         report = result.report(names)
         report["examples"] = names[:len(examples)]
-        _write_json_atomic(Path(args.report), report)
+        _after_output(out, f"the report {args.report}", lambda: _write_json_atomic(Path(args.report), report))
     if getattr(args, "debug_dir", None):
-        _write_debug(result, Path(args.debug_dir))
+        _after_output(out, f"the debug folder {args.debug_dir}", lambda: _write_debug(result, Path(args.debug_dir)))
     _summary(result, out, session.warnings)
     return EXIT_OK
+
+
+def _check_report_path(args, out: Path) -> None:
+    """Refuse a ``--report`` that would be (or replace) a heightmap's sidecar, before the run."""
+    from ..io import sidecar_of
+    from ..io._common import check_not_sidecar
+
+    if not getattr(args, "report", None):
+        return
+    report = Path(args.report)
+    outs = [out]
+    if getattr(args, "variations", 1) > 1:
+        outs = [out.with_name(f"{out.stem}_v{i + 1}{out.suffix}") for i in range(args.variations)]
+    for o in outs:
+        side = sidecar_of(o)
+        if side is not None and report.resolve() == side.resolve():
+            raise TerraSynthError(f"--report {report} is the sidecar of the output {o} (its metres and "
+                                  "cell size); give the report another name")
+    check_not_sidecar(report, "report")
+
+
+def _after_output(out: Path, what: str, write) -> None:
+    """Run ``write`` (an extra output); on failure say that ``out`` was written and ``what`` was not."""
+    try:
+        write()
+    except (TerraSynthError, OSError) as exc:
+        detail = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise TerraSynthError(f"wrote {out}, but {what} could not be written: {detail}") from None
 
 
 def _save_result(result, out: Path, *, cog: bool = False) -> None:
@@ -275,13 +312,15 @@ def _summary(result, out: Path, said: list[str]) -> None:
 
 
 def _variations(examples, sketch, size, params, controls, args, save: dict) -> int:
-    """``--variations N``: seeds SEED..SEED+N-1 in parallel, OUT_v1.. OUT_vN."""
+    """``--variations N``: seeds SEED..SEED+N-1, one per core at a time, OUT_v1.. OUT_vN."""
     from ..synthesis import run_variations
 
     out = Path(args.out)
     seeds = [params.seed + i for i in range(args.variations)]
     paths = [out.with_name(f"{out.stem}_v{i + 1}{out.suffix}") for i in range(len(seeds))]
-    print(f"terrasynth-cli: {len(seeds)} variations (seeds {seeds[0]}-{seeds[-1]}) in parallel", file=sys.stderr)
+    at_once = min(len(seeds), os.cpu_count() or 1)
+    print(f"terrasynth-cli: {len(seeds)} variations (seeds {seeds[0]}-{seeds[-1]}), {at_once} at a time",
+          file=sys.stderr)
 
     def done(i, result):
         _save_result(result, paths[i], **save)
@@ -299,11 +338,14 @@ def _write_debug(result, folder: Path) -> None:
     """Patch ids, seams and the sketch's features as pictures and arrays."""
     import numpy as np
 
+    from ..io._common import atomic_outputs, open_new
     from ..pictures import grey_hillshade, patch_colours, render_overlay, save_png
 
     folder.mkdir(parents=True, exist_ok=True)
-    np.save(folder / "patch_id.npy", result.patch_id)
-    np.save(folder / "seam_mask.npy", result.seam_mask)
+    for name, array in (("patch_id.npy", result.patch_id), ("seam_mask.npy", result.seam_mask)):
+        # Atomic, as every output: a full disk leaves no truncated array.
+        with atomic_outputs(folder / name) as (tmp,), open_new(tmp) as f:
+            np.save(f, array, allow_pickle=False)
     save_png(patch_colours(result.patch_id), folder / "patch_id.png")
     rgb = np.repeat(grey_hillshade(result.heights)[..., None], 3, axis=2)
     rgb[result.seam_mask] = (255, 200, 0)
@@ -317,8 +359,9 @@ def _write_debug(result, folder: Path) -> None:
 
 
 def _write_json_atomic(path: Path, data: dict) -> None:
-    from ..io._common import atomic_outputs, open_new
+    from ..io._common import atomic_outputs, check_not_sidecar, open_new
 
+    check_not_sidecar(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
         f.write(json.dumps(data).encode("utf-8"))
@@ -435,9 +478,48 @@ def cmd_examples(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+#: Options whose value may start with "-" (``--size -5x5``, ``--height-range -100,900``):
+#: argparse would take such a value for an option and say "expected one argument".
+_SIGNED_VALUE_OPTIONS = frozenset({"--size", "--height-range", "--pin", "--stamp", "--water-level", "--water-depth",
+                                   "--bank-width", "--pin-radius", "--vertical-scale", "--seed", "--patch-size",
+                                   "--overlap", "--variations"})
+
+
+def _join_signed_values(argv: list[str]) -> list[str]:
+    """``["--size", "-5x5"]`` -> ``["--size=-5x5"]``, so the value reaches its parser."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        arg = argv[i]
+        nxt = argv[i + 1] if i + 1 < len(argv) else None
+        if arg in _SIGNED_VALUE_OPTIONS and nxt is not None and nxt.startswith("-") and not nxt.startswith("--"):
+            out.append(f"{arg}={nxt}")
+            i += 2
+        else:
+            out.append(arg)
+            i += 1
+    return out
+
+
+def _terminated(signum, frame):
+    """SIGTERM as Ctrl-C: unwinding runs the atomic writes' clean-up, so no temporary file stays."""
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_join_signed_values(list(sys.argv[1:] if argv is None else argv)))
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _terminated)
+    try:
+        return _run(args)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         return args.func(args)
     except TerraSynthError as exc:

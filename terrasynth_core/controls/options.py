@@ -20,6 +20,7 @@ DEM, places a localized feature (Mount St. Helens) and a water mask.  Here:
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,7 +28,7 @@ import numpy as np
 from ..errors import ParamsError
 from ..features.sketch import resize_nearest
 from ..heightfield import HeightField
-from .pins import check_pins
+from .pins import check_pin_heights, check_pins
 from .water import Water
 
 #: Footprint scales a :class:`Stamp` may have, (lowest, highest).
@@ -50,6 +51,94 @@ def check_stamp_transform(scale: float, rotation: float, what: str = "stamp") ->
         raise ParamsError(f"{what}: rotation must be a finite angle in degrees, got {rotation}")
 
 
+#: Heights the engine takes, metres: within +- this (Earth's relief is under 20 km;
+#: larger values are other units or fill values, and overflow the solvers).
+HEIGHT_LIMIT = 100_000.0
+#: Pins may lie up to this many times the examples' height span beyond it ...
+PIN_SPANS = 3.0
+#: ... the span counting as at least this many metres (flat examples).
+MIN_PIN_SPAN = 100.0
+
+
+def _as_heights(example) -> np.ndarray | None:
+    """An example's heights as a real array (no copy), None if not numbers."""
+    arr = np.asarray(example.heights if isinstance(example, HeightField) else example)
+    return arr if arr.dtype.kind in "iuf" and arr.size else None
+
+
+def _height_span(arr: np.ndarray) -> tuple[float, float] | None:
+    """Lowest and highest finite height, None when there is none."""
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN
+        lo, hi = float(np.nanmin(arr)), float(np.nanmax(arr))
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        finite = arr[np.isfinite(arr)]
+        if not finite.size:
+            return None
+        lo, hi = float(finite.min()), float(finite.max())
+    return lo, hi
+
+
+def check_heights(examples, controls: "Controls") -> None:
+    """Refuse absurd heights before a run: examples beyond :data:`HEIGHT_LIMIT`
+    and pins too far from the terrain's heights.
+
+    The pins' allowed range is the height range when one is given, else the
+    span of the example heights (the plain examples as they are, each style's
+    example about its base, times its relief scale); widened on each side by
+    :data:`PIN_SPANS` times that span (at least :data:`MIN_PIN_SPAN` metres).
+
+    Parameters
+    ----------
+    examples : sequence of HeightField or ndarray
+    controls : Controls
+        Checked (:meth:`Controls.checked`).
+
+    Raises
+    ------
+    ParamsError
+        Naming the example or pin, the value and the allowed range.
+    """
+    spans = []
+    named = [(ex, getattr(ex, "source", None) or f"example {i + 1}") for i, ex in enumerate(examples)]
+    named += [(st.example, f"style {_style_name(st, i)}") for i, st in enumerate(controls.styles)]
+    named += [(st.field, f"stamp {i + 1}") for i, st in enumerate(controls.stamps)]
+    finite = {}
+    for ex, name in named:
+        heights = _as_heights(ex)
+        span = None if heights is None else _height_span(heights)
+        if span is None:
+            continue  # reported by the example analysis
+        lo, hi = span
+        worst = lo if abs(lo) > abs(hi) else hi
+        if abs(worst) > HEIGHT_LIMIT:
+            raise ParamsError(f"{name}: holds a height of {worst:g} m; heights must be within "
+                              f"+-{HEIGHT_LIMIT:g} m (a DEM in other units, or an unmarked fill value?)")
+        finite[id(ex)] = (heights, lo, hi)
+    if not controls.pins:
+        return
+    if controls.height_range is not None:
+        lo, hi = controls.height_range
+        source = "the height range"
+    else:
+        for ex in examples:
+            if id(ex) in finite:
+                spans.append(finite[id(ex)][1:])
+        for st in controls.styles:
+            if id(st.example) in finite:
+                heights, lo, hi = finite[id(st.example)]
+                median = float(np.nanmedian(np.where(np.isfinite(heights), heights, np.nan)))
+                base = median if st.base is None else float(st.base)
+                spans.append((base + st.relief_scale * (lo - median), base + st.relief_scale * (hi - median)))
+        if not spans:
+            return
+        lo, hi = min(s[0] for s in spans), max(s[1] for s in spans)
+        source = "the examples' heights"
+    reach = PIN_SPANS * max(hi - lo, MIN_PIN_SPAN)
+    check_pin_heights(controls.pins, (lo - reach, hi + reach),
+                      f"{source} {lo:.0f}..{hi:.0f} m widened by {PIN_SPANS:g} times their span")
+
+
 def check_height_range(height_range) -> tuple[float, float] | None:
     """A final height range as two floats, or None for none.
 
@@ -68,6 +157,8 @@ def check_height_range(height_range) -> tuple[float, float] | None:
     lo, hi = (float(v) for v in height_range)
     if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
         raise ParamsError(f"height range must be two finite heights LO < HI, got {height_range}")
+    if max(abs(lo), abs(hi)) > HEIGHT_LIMIT:
+        raise ParamsError(f"height range {lo:g}..{hi:g} m: heights must be within +-{HEIGHT_LIMIT:g} m")
     return lo, hi
 
 

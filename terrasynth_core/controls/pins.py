@@ -66,6 +66,10 @@ def check_pins(pins: Sequence[Pin], shape: tuple[int, int]) -> tuple[Pin, ...]:
     for pin in pins:
         if not isinstance(pin, Pin):
             raise ParamsError(f"pins must be Pin(row, col, height), got {pin!r}")
+        if not all(isinstance(v, (int, float, np.integer, np.floating)) and math.isfinite(v)
+                   for v in (pin.row, pin.col)):
+            raise ParamsError(f"pin at ({pin.row}, {pin.col}): row and column must be whole cells of the "
+                              f"{shape[0]}x{shape[1]} output")
         r, c = int(pin.row), int(pin.col)
         if r != pin.row or c != pin.col or not (0 <= r < shape[0] and 0 <= c < shape[1]):
             raise ParamsError(
@@ -79,6 +83,18 @@ def check_pins(pins: Sequence[Pin], shape: tuple[int, int]) -> tuple[Pin, ...]:
         seen.add((r, c))
         out.append(Pin(r, c, float(pin.height)))
     return tuple(out)
+
+
+def check_pin_heights(pins: Sequence[Pin], allowed: tuple[float, float], rule: str) -> None:
+    """Refuse a pin whose height lies outside ``allowed`` (lo, hi) metres.
+
+    ``rule`` says where the range comes from, for the message.
+    """
+    lo, hi = allowed
+    for pin in pins:
+        if not lo <= pin.height <= hi:
+            raise ParamsError(f"pin at ({pin.row}, {pin.col}): height {pin.height:g} m is outside "
+                              f"{lo:.0f}..{hi:.0f} m ({rule})")
 
 
 def apply_pins(heights: np.ndarray, pins: Sequence[Pin], *, radius: float,

@@ -5,8 +5,10 @@ One ``.npz`` file per (heights, patch size, version), and one per example
 resampled to a run's cell size (:mod:`.ground`), in
 ``$TERRASYNTH_CACHE_DIR`` or ``$XDG_CACHE_HOME/terrasynth`` (default
 ``~/.cache/terrasynth``).  Files are written atomically and read with
-``allow_pickle=False``; an unreadable or stale file is ignored and rewritten,
-never an error.  Set ``TERRASYNTH_CACHE_DIR`` to an empty string to turn the
+``allow_pickle=False``; each holds its key (the heights' digest, shape and
+patch size), checked on load, so a file of another example under this
+one's name is never used; an unreadable, stale or foreign file is ignored
+and rewritten, never an error.  Set ``TERRASYNTH_CACHE_DIR`` to an empty string to turn the
 cache off.
 """
 
@@ -79,6 +81,8 @@ def load(key: str):
         return None
     try:
         with np.load(path, allow_pickle=False) as z:
+            if not _same_key(z, key):
+                return None  # another example's file under this name (or one from before keys)
             shape = tuple(int(v) for v in z["shape"])
             graphs = [_graph_from(z, kind, shape) for kind in _KINDS]
             samples = {kind: _samples_from(z, kind) for kind in _KINDS}
@@ -89,12 +93,20 @@ def load(key: str):
         return None
 
 
+def _same_key(z, key: str) -> bool:
+    """Whether the file ``z`` was saved under ``key``: the key (the heights'
+    digest, shape and patch size) is stored inside, so a file copied or
+    renamed onto another example's name is never used for it."""
+    return "key" in z.files and z["key"].shape == () and str(z["key"]) == key
+
+
 def save(key: str, features: FeatureMaps, samples: dict, strong: np.ndarray, relief: float) -> None:
     """Store an analysis; failures (read-only home, full disk) are ignored."""
     path = _path(key)
     if path is None:
         return
-    arrays = {"shape": np.array(strong.shape), "strong": np.packbits(strong), "relief": np.array(relief)}
+    arrays = {"key": np.array(key), "shape": np.array(strong.shape), "strong": np.packbits(strong),
+              "relief": np.array(relief)}
     for graph in (features.ridges, features.valleys):
         arrays.update(_graph_arrays(graph))
     for kind in _KINDS:
@@ -118,6 +130,8 @@ def load_array(key: str) -> np.ndarray | None:
         return None
     try:
         with np.load(path, allow_pickle=False) as z:
+            if not _same_key(z, key):
+                return None  # another grid's file under this name (or one from before keys)
             heights = z["heights"]
         return heights if heights.ndim == 2 and heights.dtype == np.float32 else None
     except Exception:  # a damaged or foreign file: recompute
@@ -128,7 +142,7 @@ def save_array(key: str, heights: np.ndarray) -> None:
     """Store a float32 grid; failures are ignored, as for analyses."""
     path = _path(key)
     if path is not None:
-        _write(path, {"heights": np.ascontiguousarray(heights, dtype=np.float32)})
+        _write(path, {"key": np.array(key), "heights": np.ascontiguousarray(heights, dtype=np.float32)})
 
 
 def _graph_arrays(graph: FeatureGraph) -> dict:

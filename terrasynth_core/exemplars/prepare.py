@@ -17,7 +17,7 @@ from scipy import ndimage
 from ..measures import topographic_position_index
 from ..errors import ParamsError
 from ..features import FeatureMaps, extract_features
-from ..heightfield import HeightField
+from ..heightfield import HeightField, largest_valid_rectangle
 from . import cache
 from ..features.samples import example_samples
 
@@ -62,10 +62,10 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
         field = HeightField(np.asarray(field, dtype=np.float32), source=name)
     note = None
     if field.nodata_count:
-        cropped = field.crop_valid()
-        if min(cropped.shape) >= 2 * patch_size:
-            note = f"{name}: cropped to its largest valid rectangle {cropped.shape[0]}x{cropped.shape[1]} (nodata)"
-            field = cropped
+        r0, r1, c0, c1 = largest_valid_rectangle(~field.nodata)
+        if min(r1 - r0, c1 - c0) >= 2 * patch_size:
+            note = f"{name}: cropped to its largest valid rectangle {r1 - r0}x{c1 - c0} (nodata)"
+            field = field.window(r0, r1, c0, c1)
         else:
             note = f"{name}: {field.nodata_count} nodata cells filled from their neighbours"
             field = field.fill_nodata()
@@ -75,6 +75,10 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
             f"{patch_size}x{patch_size}: use a larger example or a smaller patch size"
         )
     heights = np.ascontiguousarray(field.heights, dtype=np.float32)
+    if not np.ptp(heights):
+        flat = (f"{name} is flat (every cell {heights.flat[0]:g} m): it has no relief to give, "
+                "the terrain will be flat")
+        note = flat if note is None else f"{note}; {flat}"
     digest = hashlib.sha1(heights.tobytes()).hexdigest()
     key = f"{digest}-{heights.shape[0]}x{heights.shape[1]}-p{patch_size}"
     features, samples, strong, relief = _CACHE.get(key, lambda: _analyse(heights, patch_size))

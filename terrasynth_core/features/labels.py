@@ -8,9 +8,10 @@ import re
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
+from PIL import UnidentifiedImageError
 
 from ..errors import SketchError
+from .sketch import open_image
 
 _HEX = re.compile(r"^#?([0-9a-fA-F]{6})$")
 
@@ -38,7 +39,7 @@ def parse_colour(text: str) -> tuple[int, int, int]:
 
 def _read_rgba(path: Path, what: str) -> np.ndarray:
     try:
-        with Image.open(path) as image:
+        with open_image(path, what) as image:
             image.load()
             rgba = np.asarray(image.convert("RGBA"))
     except FileNotFoundError:

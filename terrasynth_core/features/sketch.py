@@ -16,6 +16,8 @@ polygons at their lowest segment.
 from __future__ import annotations
 
 import math
+import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -183,6 +185,38 @@ def resize_nearest(layer: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return layer[np.ix_(rows, cols)]
 
 
+#: Largest painted map (sketch, style regions, water) read, in pixels: the
+#: core's output limit.  Larger images are refused before they are decoded.
+MAX_IMAGE_PIXELS = 64_000_000
+
+
+def open_image(path: Path, what: str) -> Image.Image:
+    """``Image.open(path)`` with its size checked before any pixel is decoded.
+
+    Raises
+    ------
+    SketchError
+        Naming ``what``, the file and the limit, for an image of more than
+        :data:`MAX_IMAGE_PIXELS` pixels (also for those Pillow itself
+        refuses as decompression bombs).
+    """
+    limit = f"at most {MAX_IMAGE_PIXELS} pixels (e.g. 8000x8000) are read: scale it down"
+    try:
+        with warnings.catch_warnings():
+            # Pillow warns from 89 M pixels; the size is checked here instead.
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            image = Image.open(path)
+    except Image.DecompressionBombError as exc:
+        pixels = re.search(r"\((\d+) pixels\)", str(exc))
+        size = f"{pixels.group(1)} pixels" if pixels else "too many pixels"
+        raise SketchError(f"{what} {path} has {size}; {limit}") from None
+    cols, rows = image.size
+    if rows * cols > MAX_IMAGE_PIXELS:
+        image.close()
+        raise SketchError(f"{what} {path} is {cols}x{rows} pixels; {limit}")
+    return image
+
+
 def read_sketch(path) -> SketchMap:
     """Read a sketch image file.
 
@@ -204,7 +238,7 @@ def read_sketch(path) -> SketchMap:
     """
     path = Path(path)
     try:
-        with Image.open(path) as image:
+        with open_image(path, "sketch") as image:
             image.load()
             mode = image.mode
             if mode not in _COLOUR_MODES:
@@ -224,15 +258,20 @@ def read_sketch(path) -> SketchMap:
         raise SketchError(f"sketch {path} is only {rgb.shape[1]}x{rgb.shape[0]} pixels; expected at least 2x2")
     sketch = SketchMap.from_rgb(rgb)
     if not sketch.has_strokes:
-        _refuse_other_colours(rgb[..., :3], path)
+        # Transparent pixels say nothing, whatever colour they keep underneath.
+        opaque = rgb[..., 3] >= 128 if rgb.shape[2] == 4 else np.ones(rgb.shape[:2], bool)
+        _refuse_other_colours(rgb[..., :3][opaque], path)
     return sketch
 
 
 def _refuse_other_colours(rgb: np.ndarray, path: Path) -> None:
     """A sketch without red or blue but with drawing in other colours was
     almost surely painted in the wrong colours: say so instead of silently
-    synthesizing terrain without features.  A blank canvas passes."""
+    synthesizing terrain without features.  A blank (or fully transparent)
+    canvas passes."""
     flat = rgb.reshape(-1, 3)
+    if not len(flat):
+        return
     colours, counts = np.unique(flat, axis=0, return_counts=True)
     background = colours[np.argmax(counts)]
     drawn = np.abs(flat.astype(np.int16) - background).max(axis=1) > 32

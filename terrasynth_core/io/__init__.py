@@ -63,7 +63,7 @@ from pathlib import Path
 from ..errors import DEMFormatError
 from ..heightfield import HeightField
 from . import esri_ascii, gdal, hgt, mesh, npy, png, raw, terragen, usgs_dem
-from ._common import atomic_outputs, open_new, sidecar_path, wrap_errors, write_sidecar
+from ._common import atomic_outputs, check_sidecar_free, open_new, sidecar_path, wrap_errors, write_sidecar
 
 __all__ = [
     "MESH_EXTENSIONS",
@@ -73,6 +73,7 @@ __all__ = [
     "load_dem",
     "save_dem",
     "save_mesh",
+    "sidecar_of",
 ]
 
 #: Short format name by extension.
@@ -179,6 +180,12 @@ def format_name(path: str | PathLike) -> str:
     return name
 
 
+def sidecar_of(path: str | PathLike) -> Path | None:
+    """The JSON sidecar :func:`save_dem` writes beside ``path``, ``None`` for formats without one."""
+    path = Path(path)
+    return sidecar_path(path) if _FORMAT_NAMES.get(path.suffix.lower()) in _SIDECAR_FORMATS else None
+
+
 def load_dem(
     path: str | PathLike, *, size: tuple[int, int] | None = None, band: int | None = None
 ) -> HeightField:
@@ -233,7 +240,11 @@ def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False) -> 
     field : HeightField
     path : str or path-like
         One of :data:`WRITE_EXTENSIONS` (any case).  PNG, ``.r16``, ``.r32``
-        and ``.npy`` also get the sidecar ``<same stem>.json``.
+        and ``.npy`` also get the sidecar ``<same stem>.json``; an existing
+        ``<same stem>.json`` that is not a TerraSynth sidecar is never
+        replaced, nor one that another heightmap of the same stem is read
+        with, unless it stays the same (:class:`DEMFormatError` instead;
+        see :func:`._common.check_sidecar_free`).
     cog : bool, default False
         For ``.tif``/``.tiff``: write a Cloud-Optimized GeoTIFF (tiled,
         with overviews, readable over HTTP range requests).
@@ -280,6 +291,7 @@ def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False) -> 
         with open_new(temps[0]) as fh:
             sidecar = _WRITERS[name](field, fh)
         if len(temps) > 1:
+            check_sidecar_free(path, sidecar)
             write_sidecar(sidecar, temps[1])
 
 

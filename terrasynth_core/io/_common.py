@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import glob
 import json
 import math
 import os
@@ -32,6 +33,8 @@ from ..heightfield import GeoReference, HeightField, geographic_cell_size
 
 #: Value of the sidecar's ``"format"`` key; a JSON file without it is not ours.
 SIDECAR_FORMAT = "terrasynth-heightmap"
+#: Extensions of the heightmaps read with a ``<stem>.json`` sidecar.
+SIDECAR_EXTENSIONS = (".png", ".npy", ".r16", ".r32")
 
 #: Exceptions that file-format libraries raise on bad input.  They are turned
 #: into :class:`DEMFormatError`; anything else is a bug and propagates.
@@ -181,6 +184,66 @@ def _georef_json(georef: GeoReference | None) -> dict | None:
     content["epsg"] = int(georef.epsg) if georef.epsg is not None else None
     content["crs_wkt"] = georef.crs_wkt
     return content
+
+
+def _is_our_sidecar(path: Path) -> bool:
+    """Whether the existing file ``path`` is a sidecar TerraSynth wrote."""
+    try:
+        content = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(content, dict) and content.get("format") == SIDECAR_FORMAT
+
+
+def check_sidecar_free(path: Path, content: dict) -> None:
+    """Refuse to write the heightmap ``path`` when its sidecar would replace a file not ours.
+
+    The rule for ``<stem>.json`` beside a PNG, ``.npy``, ``.r16`` or
+    ``.r32``: a sidecar is marked by ``"format": "terrasynth-heightmap"``
+    (every sidecar TerraSynth ever wrote carries it); an existing
+    ``<stem>.json`` without that marker belongs to the user and is never
+    overwritten.  Nor is one that another heightmap of the same stem (another
+    of those extensions) is read with, unless the new ``content`` is the same
+    (the same field written in two formats).
+
+    Raises
+    ------
+    DEMFormatError
+        Naming the JSON file and what to do.
+    """
+    side = sidecar_path(path)
+    if side.exists():
+        if not _is_our_sidecar(side):
+            raise DEMFormatError(
+                f"cannot write {path}: its sidecar {side} would replace an existing file that is not a "
+                "TerraSynth sidecar; move that file away or choose another output name"
+            )
+        if json.loads(side.read_text(encoding="utf-8")) == json.loads(json.dumps(content)):
+            return
+    # One sidecar serves every heightmap of its stem: another one would be read
+    # through the new content (a PNG's levels as another range, an .npy's nodata).
+    for other in path.parent.glob(glob.escape(path.stem) + ".*"):
+        if other.suffix.lower() in SIDECAR_EXTENSIONS and other.name != path.name and other.stem == path.stem:
+            raise DEMFormatError(
+                f"cannot write {path}: its sidecar {side} is also read with {other}, which it would "
+                "change; choose another output name"
+            )
+
+
+def check_not_sidecar(path: Path, what: str = "JSON") -> None:
+    """Refuse to write a report or other JSON ``path`` over a heightmap's sidecar.
+
+    Raises
+    ------
+    DEMFormatError
+        When ``path`` exists and is a TerraSynth sidecar (overwriting it
+        would make its heightmap read as raw levels).
+    """
+    if path.is_file() and _is_our_sidecar(path):
+        raise DEMFormatError(
+            f"cannot write the {what} {path}: it is the sidecar of a heightmap beside it "
+            "(its metres and cell size); choose another name"
+        )
 
 
 def write_sidecar(content: dict, path: Path) -> None:

@@ -9,11 +9,14 @@ Without a sidecar the levels themselves are taken as heights.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import BinaryIO
 
 import numpy as np
+import rasterio
 from PIL import Image
+from rasterio.errors import NotGeoreferencedWarning
 
 from ..errors import DEMFormatError
 from ..heightfield import HeightField
@@ -46,6 +49,41 @@ def _gray_levels(image: Image.Image, path: Path) -> tuple[np.ndarray, int]:
     return red, 255
 
 
+#: PNG colour types with several samples per pixel: grey+alpha, RGB, RGBA.
+_MULTI_SAMPLE_TYPES = {4: "grey+alpha", 2: "RGB", 6: "RGBA"}
+
+
+def _png_header(path: Path) -> tuple[int, int] | None:
+    """``(bit depth, colour type)`` from the PNG's IHDR, ``None`` if not a PNG."""
+    with open(path, "rb") as fh:
+        head = fh.read(26)
+    if len(head) < 26 or head[:8] != b"\x89PNG\r\n\x1a\n" or head[12:16] != b"IHDR":
+        return None
+    return head[24], head[25]
+
+
+def _wide_levels(path: Path, colour_type: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """16-bit levels of a grey+alpha, RGB or RGBA PNG, and its transparent cells.
+
+    Pillow reduces such files to 8 bits, so they are read through GDAL, whose
+    PNG driver keeps the 16-bit samples.  The colour bands must be equal (a
+    grey heightmap saved in colour); alpha 0 marks nodata.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NotGeoreferencedWarning)
+        with rasterio.open(path) as ds:
+            bands = ds.read()
+    kind = _MULTI_SAMPLE_TYPES[colour_type]
+    colours = bands[:1] if colour_type == 4 else bands[:3]
+    alpha = bands[-1] if colour_type in (4, 6) else None
+    if any(not np.array_equal(colours[0], c) for c in colours[1:]):
+        raise DEMFormatError(
+            f"{path}: a 16-bit {kind} colour image whose red, green and blue differ (a picture?); "
+            "expected a grayscale heightmap (equal channels)"
+        )
+    return colours[0], (alpha == 0) if alpha is not None else None
+
+
 def read_png(path: Path) -> HeightField:
     """Read an 8- or 16-bit grayscale PNG heightmap.
 
@@ -53,6 +91,8 @@ def read_png(path: Path) -> HeightField:
     ----------
     path : Path
         The PNG; an RGB or RGBA PNG with equal channels counts as grayscale.
+        16-bit grey+alpha, RGB and RGBA files keep their 16 bits (read
+        through GDAL; alpha 0 is nodata); 8-bit ones ignore alpha.
 
     Returns
     -------
@@ -67,13 +107,21 @@ def read_png(path: Path) -> HeightField:
     DEMFormatError
         A colour image, or a file Pillow cannot decode.
     """
-    with Image.open(path) as image:
-        if image.format != "PNG":
-            raise DEMFormatError(f"{path}: content is {image.format}, not PNG")
-        image.load()
-        levels, top = _gray_levels(image, path)
+    header = _png_header(path)
+    transparent = None
+    if header is not None and header[0] == 16 and header[1] in _MULTI_SAMPLE_TYPES:
+        (levels, transparent), top = _wide_levels(path, header[1]), 65535
+    else:
+        with Image.open(path) as image:
+            if image.format != "PNG":
+                raise DEMFormatError(f"{path}: content is {image.format}, not PNG")
+            image.load()
+            levels, top = _gray_levels(image, path)
     sidecar = read_sidecar(path)
-    return read_field(path, "png", decode_levels(levels, top, sidecar), **sidecar_placement(sidecar),
+    heights = decode_levels(levels, top, sidecar)
+    if transparent is not None:
+        heights[transparent] = np.nan
+    return read_field(path, "png", heights, **sidecar_placement(sidecar),
                       metadata={"bit_depth": 8 if top == 255 else 16, "sidecar": sidecar is not None})
 
 

@@ -22,7 +22,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from ..controls.layout import build_layout
-from ..controls.options import Controls
+from ..controls.options import Controls, check_heights
 from ..errors import ParamsError, SynthesisCancelled
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
@@ -94,6 +94,7 @@ class Session:
         self.sketch = sketch
         self.params = params
         self.controls = controls.checked(self.shape, params.patch_size, len(examples))
+        check_heights(examples, self.controls)
         self.layout = build_layout(examples, self.controls, self.shape, params.patch_size,
                                    cell_size=params.cell_size)
         #: The run's square cell size in metres (None: unknown).
@@ -113,7 +114,14 @@ class Session:
             self.warnings.append("the sketch has no strokes: non-feature synthesis only")
             blank = SketchMap(np.zeros(self.shape, bool), np.zeros(self.shape, bool))
             return sketch_features(blank)
-        return sketch_features(self.sketch)
+        maps = sketch_features(self.sketch)
+        if not maps.ridges.paths and not maps.valleys.paths:
+            painted = 100 * float((self.sketch.ridge_mask | self.sketch.valley_mask).mean())
+            self.warnings.append(
+                f"the sketch's strokes ({painted:.0f} % of it painted) give no ridge or valley line: "
+                "draw lines, not filled areas; non-feature synthesis only"
+            )
+        return maps
 
     def _check_features(self) -> None:
         for graph in (self.sketch_maps.ridges, self.sketch_maps.valleys):

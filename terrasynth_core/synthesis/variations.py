@@ -24,6 +24,8 @@ from .session import Session
 
 #: Seconds between polls of the cancel callable.
 POLL_SECONDS = 0.1
+#: Most variations one call makes (each is a whole synthesis).
+MAX_VARIATIONS = 64
 
 
 def run_variations(examples: Sequence, sketch=None, *, seeds: Sequence[int], shape=None,
@@ -67,6 +69,8 @@ def run_variations(examples: Sequence, sketch=None, *, seeds: Sequence[int], sha
     seeds = [int(s) for s in seeds]
     if not seeds:
         raise ParamsError("variations need at least one seed")
+    if len(seeds) > MAX_VARIATIONS:
+        raise ParamsError(f"{len(seeds)} variations asked for; at most {MAX_VARIATIONS} are made at once")
     if example_sets is None:
         sets = [list(examples)] * len(seeds)
         if len(set(seeds)) != len(seeds):

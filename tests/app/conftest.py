@@ -105,3 +105,22 @@ def drag(qtbot):
 
     return drag
 
+
+
+def _bit_rot(path, member="sketch_ridge.npy"):
+    """Flip bytes inside the deflated data of ``member`` of the zip at ``path`` (not its header)."""
+    import zipfile
+
+    with zipfile.ZipFile(path) as zf:
+        info = zf.getinfo(member)
+    raw = bytearray(path.read_bytes())
+    start = info.header_offset + 30 + len(info.filename.encode()) + len(info.extra)
+    for i in range(start + 2, start + min(info.compress_size, 40)):
+        raw[i] ^= 0x5A
+    path.write_bytes(bytes(raw))
+
+
+@pytest.fixture
+def bit_rot():
+    """``bit_rot(path, member=...)``: damage a member of a project zip as bit-rot would."""
+    return _bit_rot

@@ -470,10 +470,12 @@ def test_console_script_is_installed_and_works(tmp_path):
 
 # -- demo -----------------------------------------------------------------------
 def test_demo_synthesizes_builtin_example_with_builtin_sketch(capsys, tmp_path):
-    out, report = tmp_path / "demo.npy", tmp_path / "demo.json"
+    # (The report is not demo.json: that is demo.npy's sidecar, refused since issue 13.)
+    out, report = tmp_path / "demo.npy", tmp_path / "demo_report.json"
     code, _, err = run(capsys, "demo", "--out", out, "--report", report)
     assert code == EXIT_OK, err
     field = load_dem(out)
+    assert field.metadata["sidecar"] and field.cell_size is not None
     # The default sketch is 512x512 and the demo keeps its size.
     assert field.shape == (512, 512) and field.nodata_count == 0
     summary = json.loads(report.read_text())

@@ -13,6 +13,7 @@ import rasterio
 import tifffile
 from PIL import Image
 
+from terrasynth_core.errors import DEMFormatError
 from terrasynth_core.heightfield import GeoReference, geographic_cell_size
 from terrasynth_core.io import READ_EXTENSIONS, format_name, load_dem
 
@@ -333,6 +334,44 @@ def test_png_rgb_with_equal_channels_is_gray(tmp_path):
     Image.fromarray(np.dstack([gray, gray, gray, np.full_like(gray, 255)])).save(tmp_path / "rgba.png")
     dem = load_dem(tmp_path / "rgba.png")
     np.testing.assert_array_equal(dem.heights, gray.astype(np.float32))
+
+
+def write_png16(path, samples: np.ndarray, colour_type: int) -> None:
+    """A hand-made 16-bit PNG (Pillow cannot write 16-bit colour): ``samples``
+    of shape (rows, cols, channels), colour type 0, 2, 4 or 6."""
+    import zlib
+
+    rows, cols = samples.shape[:2]
+    raw = b"".join(b"\x00" + samples[r].astype(">u2").tobytes() for r in range(rows))
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", cols, rows, 16, colour_type, 0, 0, 0))
+                     + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+@pytest.mark.parametrize("colour_type,channels", [(6, "gggA"), (2, "ggg"), (4, "gA")])
+def test_png_16bit_colour_heightmap_keeps_16_bits(tmp_path, colour_type, channels):
+    """Issue 13, finding 2: a 16-bit RGBA/RGB/LA heightmap was read at 8 bits (max 232 for 59400)."""
+    levels = np.array([[0, 1000, 59400], [258, 40000, 65535]], dtype=np.uint16)
+    alpha = np.array([[65535, 65535, 65535], [65535, 0, 65535]], dtype=np.uint16)
+    samples = np.dstack([alpha if c == "A" else levels for c in channels])
+    path = tmp_path / "h.png"
+    write_png16(path, samples, colour_type)
+    dem = load_dem(path)
+    expected = levels.astype(np.float32)
+    if "A" in channels:
+        expected[1, 1] = np.nan  # alpha 0 is nodata
+    np.testing.assert_array_equal(dem.heights, expected)
+    assert dem.metadata["bit_depth"] == 16
+
+
+def test_png_16bit_real_colour_is_refused(tmp_path):
+    red = np.array([[0, 1000], [5000, 65535]], dtype=np.uint16)
+    write_png16(tmp_path / "pic.png", np.dstack([red, red // 2, red, np.full_like(red, 65535)]), 6)
+    with pytest.raises(DEMFormatError, match=r"pic\.png.*colour"):
+        load_dem(tmp_path / "pic.png")
 
 
 def test_png_foreign_json_is_ignored(tmp_path):

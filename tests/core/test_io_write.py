@@ -30,6 +30,19 @@ def _field(*, nodata=True, georef=True, shape=(40, 50), cell_size=(30.0, 30.0)):
     return HeightField(heights, cell_size=cell_size, georef=geo, source="synthetic")
 
 
+def test_same_field_in_two_formats_of_one_stem_shares_its_sidecar(tmp_path):
+    """Equal sidecars may be rewritten; a different one for a file of the same stem is refused."""
+    field = _field()
+    save_dem(field, tmp_path / "s.png")
+    save_dem(field, tmp_path / "s.r16")  # the same levels sidecar: allowed
+    np.testing.assert_array_equal(load_dem(tmp_path / "s.png").nodata, field.nodata)
+    before = (tmp_path / "s.json").read_bytes()
+    with pytest.raises(DEMFormatError, match=r"s\.json.*s\.(png|r16)"):
+        save_dem(field, tmp_path / "s.npy")  # NaN-nodata sidecar would change how s.png reads
+    assert (tmp_path / "s.json").read_bytes() == before and not (tmp_path / "s.npy").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.json", "s.png", "s.r16"]
+
+
 def test_write_extensions():
     assert set(WRITE_EXTENSIONS) == {".tif", ".tiff", ".asc", ".png", ".npy", ".ter", ".r16", ".r32"}
     assert MESH_EXTENSIONS == (".obj", ".stl", ".ply")
@@ -108,8 +121,9 @@ def test_terragen_default_scale_without_cell_size(tmp_path):
 def test_round_trip_without_georef_keeps_cell_size(tmp_path):
     field = _field(georef=False, cell_size=(10.0, 12.5))
     for ext in (".tif", ".npy", ".r32", ".png", ".r16", ".ter"):
-        save_dem(field, tmp_path / f"g{ext}")
-        back = load_dem(tmp_path / f"g{ext}")
+        # One stem per format: heightmaps of one stem would share one sidecar (refused).
+        save_dem(field, tmp_path / f"g_{ext[1:]}{ext}")
+        back = load_dem(tmp_path / f"g_{ext[1:]}{ext}")
         assert back.cell_size == pytest.approx((10.0, 12.5)), ext
         assert back.georef is None, ext
 
@@ -206,7 +220,7 @@ def test_writers_do_not_mutate_the_field(tmp_path):
     field = _field()
     copy = field.heights.copy()
     for ext in WRITE_EXTENSIONS:
-        save_dem(field, tmp_path / f"m{ext}")
+        save_dem(field, tmp_path / f"m_{ext[1:]}{ext}")
     np.testing.assert_array_equal(field.heights, copy)
 
 

@@ -150,6 +150,20 @@ def test_opening_a_bad_project_reports_it(qtbot, window, dialogs, tmp_path):
     np.testing.assert_array_equal(window.document.sketch.ridge, ridge)
 
 
+def test_opening_a_bit_rotted_project_keeps_the_open_document(qtbot, window, dialogs, tmp_path, bit_rot):
+    """Issue 13, finding 3: bit-rot inside a .tsproj raised zlib.error past the Open action."""
+    from terrasynth_app.model import save_project
+
+    path = save_project(window.document.snapshot(), tmp_path / "rot.tsproj", mark_saved=False)
+    bit_rot(path)
+    ridge, title = window.document.sketch.ridge.copy(), window.windowTitle()
+    assert not window.files.open_project(str(path))
+    [message] = dialogs.messages("critical")
+    assert "rot.tsproj" in message and "damaged" in message
+    np.testing.assert_array_equal(window.document.sketch.ridge, ridge)
+    assert window.windowTitle() == title and window.document.path != path
+
+
 def test_autosave_and_recovery_on_the_next_start(qtbot, window, dialogs, tmp_path):
     doc = window.document
     doc.sketch.draw_polyline([(5, 5), (5, 150)], "valley", radius=2)

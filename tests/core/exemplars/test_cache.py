@@ -24,3 +24,24 @@ def test_analysis_disk_cache_round_trips_and_survives_damage(white_mountains, tm
     an._CACHE.clear()
     third = an.prepare_example(white_mountains, 32)  # damaged file: recomputed, not an error
     assert len(third.samples["ridge"]) == len(first.samples["ridge"])
+
+
+def test_a_cache_file_of_another_dem_under_this_name_is_not_used(white_mountains, lowland, tmp_path, monkeypatch):
+    """Issue 13, finding 6: another DEM's analysis copied onto this DEM's cache name was used."""
+    from terrasynth_core.exemplars import prepare as an
+
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path / "a"))
+    an._CACHE.clear()
+    own = an.prepare_example(white_mountains, 32)
+    [own_file] = (tmp_path / "a").glob("example-*.npz")
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path / "b"))
+    an._CACHE.clear()
+    an.prepare_example(lowland, 32)
+    [other_file] = (tmp_path / "b").glob("example-*.npz")
+    own_file.write_bytes(other_file.read_bytes())  # the other DEM's analysis under this DEM's name
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path / "a"))
+    an._CACHE.clear()
+    again = an.prepare_example(white_mountains, 32)
+    assert again.strong_mask.shape == own.strong_mask.shape
+    assert np.array_equal(again.strong_mask, own.strong_mask) and again.relief == own.relief
+    assert len(again.samples["ridge"]) == len(own.samples["ridge"])
