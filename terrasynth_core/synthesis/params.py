@@ -49,6 +49,10 @@ class SynthesisParams:
     feature_weight : float, default 1.0
         Weight of the deformation cost against the overlap SSD when picking
         among feature candidates.
+    drainage : bool, default True
+        Shape the finished heights so painted valleys drain to an outlet
+        (the border, water or their lowest end) and painted ridges are not
+        cut by a stream (:mod:`~terrasynth_core.controls.drainage`).
     """
 
     patch_size: int = 80
@@ -62,6 +66,7 @@ class SynthesisParams:
     coarse_factor: int = 0
     workers: int = 0
     feature_weight: float = 1.0
+    drainage: bool = True
 
     def __post_init__(self):
         def bad(name, expected):
@@ -89,6 +94,8 @@ class SynthesisParams:
             bad("workers", "a non-negative integer (0 = all cores)")
         if not (self.feature_weight >= 0):
             bad("feature_weight", "a non-negative number")
+        if not isinstance(self.drainage, bool):
+            bad("drainage", "True or False")
 
     @property
     def overlap_cells(self) -> int:
