@@ -8,8 +8,10 @@ pieced from example patches, and a fill patch or a seam can leave a dam
 across it), so this finish step makes it so:
 
 1. **Floor profile.**  Each valley path is sampled every 0.7 cell; the floor
-   at a point is the lowest height within a disc of a tenth of a patch (the
-   synthesized thalweg is rarely exactly under the stroke).
+   at a point is the lowest height on the stroke's cross-section within a
+   tenth of a patch (the synthesized thalweg is rarely exactly under the
+   stroke).  A cross-section rather than a disc: a disc's minimum hides a
+   dam narrower than the disc (a seam, say).
 2. **Outlet.**  Per connected network: the end touching the map border or
    painted water (the lowest of them), else the lowest end.
 3. **Monotone fit.**  The network is rooted at the outlet and cut into
@@ -33,10 +35,12 @@ across it), so this finish step makes it so:
    times coarser (the field is smooth on that scale) and interpolated: a
    broad, smooth lowering or raising of the valley with its own detail
    kept, not a trench.  Up to two more passes resample and refit, for the
-   interpolation's round-off and floors that moved to another cell.
+   interpolation's residual and floors that moved to another cell; the
+   last on the full grid (only where a residual is left), since
+   centimetres are enough for a pit in a floor fitted nearly flat.
 
-Ridges divide: along each painted ridge the crest (the highest height within
-a twentieth of a patch) is compared with the terrain beside it (up to a
+Ridges divide: along each painted ridge the crest (the highest height on
+the cross-section within a twentieth of a patch) is compared with the terrain beside it (up to a
 sixth of a patch on either side).  Where the crest is lower than the
 terrain beside it *and* lies in a notch of the crest profile (below the
 crest on both sides along the ridge), a stream can cross: the crest is
@@ -71,7 +75,7 @@ RIDGE_HALF_WIDTH = 1.0 / 6.0
 #: Least floor gradient, as a share of the terrain's height span per cell.
 MIN_SLOPE = 2e-5
 #: Most a crest is raised, as a share of the terrain's height span.
-RIDGE_MAX_RAISE = 0.03
+RIDGE_MAX_RAISE = 0.05
 #: Spacing of the samples along a stroke, cells.
 STEP = 0.7
 #: Fit-and-correct passes.
@@ -116,9 +120,11 @@ def apply_drainage(heights: np.ndarray, valleys: FeatureGraph | None, ridges: Fe
     if valleys is not None and valleys.paths:
         r_floor = max(1, int(round(FLOOR_RADIUS * patch_size)))
         width = max(3.0, VALLEY_HALF_WIDTH * patch_size)
-        for _ in range(PASSES):
+        for n in range(PASSES):
             pins = _valley_pins(out, valleys, r_floor, eps, water)
-            if not _correct(out, pins, width, locked, tol=1e-4 * span):
+            # The last pass on the full grid: the coarse solve leaves
+            # centimetres, enough for a pit in a floor fitted nearly flat.
+            if not _correct(out, pins, width, locked, tol=1e-5 * span, coarse=n < PASSES - 1):
                 break
     return out
 
@@ -145,16 +151,24 @@ def _cells(points: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.n
     return r, c
 
 
+def _normals(points: np.ndarray) -> np.ndarray:
+    """Unit normals of a polyline, (n, 2) as (row, col)."""
+    tangent = np.gradient(points, axis=0) if len(points) > 1 else np.array([[0.0, 1.0]])
+    tangent = tangent / np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-9)[:, None]
+    return np.column_stack([-tangent[:, 1], tangent[:, 0]])
+
+
 def _lowest(h: np.ndarray, points: np.ndarray, radius: int, sign: float = 1.0):
-    """The lowest height (``sign=-1``: highest) within ``radius`` of each
-    point, and its cell; ties go to the cell nearest the point."""
-    dr, dc = np.nonzero(_disc(radius))
-    dr, dc = dr - radius, dc - radius
-    r, c = _cells(points, h.shape)
-    rr = np.clip(r[:, None] + dr[None, :], 0, h.shape[0] - 1)
-    cc = np.clip(c[:, None] + dc[None, :], 0, h.shape[1] - 1)
+    """The lowest height (``sign=-1``: highest) on the cross-section of the
+    stroke within ``radius`` of each point, and its cell; ties go to the
+    cell nearest the stroke.  A cross-section, not a disc, so a dam
+    narrower than the disc still shows."""
+    t = np.arange(-radius, radius + 0.25, 0.5)
+    q = points[:, None, :] + t[None, :, None] * _normals(points)[:, None, :]
+    rr, cc = _cells(q.reshape(-1, 2), h.shape)
+    rr, cc = rr.reshape(q.shape[:2]), cc.reshape(q.shape[:2])
     v = sign * h[rr, cc].astype(np.float64)
-    k = np.argmin(v + 1e-9 * (dr * dr + dc * dc)[None, :], axis=1)
+    k = np.argmin(v + 1e-9 * (t * t)[None, :], axis=1)
     i = np.arange(len(points))
     return sign * v[i, k], np.column_stack([rr[i, k], cc[i, k]]).astype(float)
 
@@ -235,16 +249,22 @@ def _fit_network(graph, adj, dense, outlet, floor, eps):
     for n in reversed(order):
         reach[n] = max((len(dense[i]) + reach[m] for i, m in children[n]), default=0)
     pins = []
-    stack: list[tuple[int, float | None]] = [(outlet, None)]
+    # A chain starts at a node (the outlet, or a junction on a chain already
+    # fitted, whose fitted height it starts from), leaves it by one path
+    # (None: the longest) and then follows the longest route to a source.
+    stack: list[tuple[int, tuple[int, int] | None, float | None]] = [(outlet, None, None)]
     while stack:
-        node, start = stack.pop()
+        node, first, start = stack.pop()
         parts = [np.array([[graph.nodes[node].row, graph.nodes[node].col]], float)]
         branches = []
         cur = node
         while children[cur]:
-            i, m = max(children[cur], key=lambda im: len(dense[im[0]]) + reach[im[1]])
-            here = sum(len(p) for p in parts) - 1
-            branches.extend((cur, here, j, k) for j, k in children[cur] if k != m)
+            i, m = first if first is not None else max(children[cur],
+                                                        key=lambda im: len(dense[im[0]]) + reach[im[1]])
+            if first is None:
+                here = sum(len(p) for p in parts) - 1
+                branches.extend((cur, here, jk) for jk in children[cur] if jk != (i, m))
+            first = None
             parts.append(oriented(i, cur)[1:])
             cur = m
         pts = np.concatenate(parts)
@@ -253,19 +273,26 @@ def _fit_network(graph, adj, dense, outlet, floor, eps):
         f, at = floor(pts)
         g = _descending_fit(f, _arc_length(pts), eps, start)
         pins.append((at, g - f))
-        for b_node, index, _, _ in branches:
-            stack.append((b_node, float(g[index])))
+        for b_node, index, jk in branches:
+            stack.append((b_node, jk, float(g[index])))
     return pins
 
 
 def _descending_fit(floor: np.ndarray, s: np.ndarray, eps: float, start: float | None) -> np.ndarray:
     """The profile nearest ``floor`` (least squares) that rises by at least
-    ``eps`` per cell along ``s`` and, given ``start``, begins there."""
+    ``eps`` per cell along ``s``, is not below ``floor`` at its last point
+    (the source: lowered, it would be a pit at the valley's head) and,
+    given ``start``, begins there."""
     tilted = floor - eps * s
     fit = isotonic_regression(tilted, increasing=True).x
+    if fit[-1] < tilted[-1]:
+        # Under a lower bound on the last point: that point at its bound and
+        # the rest the unbounded fit clipped to it (isotonic regression under
+        # a constant bound is the clipped unbounded fit).
+        fit = np.minimum(isotonic_regression(tilted[:-1], increasing=True).x, tilted[-1]) \
+            if len(tilted) > 1 else fit
+        fit = np.append(fit, tilted[-1]) if len(tilted) > 1 else tilted.copy()
     if start is not None:
-        # Isotonic regression under a constant lower bound is the clipped
-        # unbounded fit.
         fit = np.maximum(fit, start)
         fit[0] = start
     return fit + eps * s
@@ -285,9 +312,7 @@ def _ridge_pins(h: np.ndarray, graph: FeatureGraph, radius: int, width: float,
         if len(pts) < 3 or offsets.size == 0:
             continue
         crest, at = _lowest(h, pts, radius, sign=-1.0)
-        tangent = np.gradient(pts, axis=0)
-        tangent /= np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-9)[:, None]
-        normal = np.column_stack([-tangent[:, 1], tangent[:, 0]])
+        normal = _normals(pts)
         side = np.full(len(pts), -np.inf)
         for sign in (1.0, -1.0):
             for d in offsets:
@@ -297,7 +322,7 @@ def _ridge_pins(h: np.ndarray, graph: FeatureGraph, radius: int, width: float,
                 side = np.maximum(side, v)
         # A notch: below the crest on both sides along the ridge.
         dam = np.minimum(np.maximum.accumulate(crest), np.maximum.accumulate(crest[::-1])[::-1])
-        want = np.minimum(np.maximum(crest, side + eps * width), dam)
+        want = np.where(side > crest, dam, crest)
         # A smooth hump over the whole notch (no spike between two crest
         # cells), never more than ``cap``.
         raise_by = np.maximum(want - crest, 0.0)
@@ -311,7 +336,7 @@ def _ridge_pins(h: np.ndarray, graph: FeatureGraph, radius: int, width: float,
 # -- the correction -------------------------------------------------------------
 
 def _correct(out: np.ndarray, chains: Sequence[tuple[np.ndarray, np.ndarray]], width: float,
-             locked: np.ndarray, *, tol: float, pin_zeros: bool = True) -> bool:
+             locked: np.ndarray, *, tol: float, pin_zeros: bool = True, coarse: bool = True) -> bool:
     """Add to ``out`` (in place) the smooth field that takes each chain's
     values on its cells and fades to zero ``width`` cells from the changed
     ones.  False when nothing needed changing.
@@ -320,10 +345,11 @@ def _correct(out: np.ndarray, chains: Sequence[tuple[np.ndarray, np.ndarray]], w
     coarser by ``width // 8`` (3 for an 80-cell patch: a ninth of the
     unknowns, a twentieth of the time) and interpolated bilinearly; cells
     whose coarse neighbours are all outside the solve get exactly zero.
-    ``pin_zeros`` False leaves unchanged cells free instead of holding them.
+    ``pin_zeros`` False leaves unchanged cells free instead of holding them;
+    ``coarse`` False solves on the full grid.
     """
     shape = out.shape
-    k = max(1, int(width // 8))
+    k = max(1, int(width // 8)) if coarse else 1
     cshape = (-(-shape[0] // k), -(-shape[1] // k))
     total = np.zeros(cshape)
     count = np.zeros(cshape)
