@@ -224,11 +224,11 @@ def _valley_pins(h: np.ndarray, graph: FeatureGraph, radius: int, eps: float,
         outlets = [n for n in ends if touches(graph.nodes[n])] or ends
         node_floor = {n: float(floor(np.array([[graph.nodes[n].row, graph.nodes[n].col]]))[0][0]) for n in outlets}
         outlet = min(outlets, key=lambda n: (node_floor[n], n))
-        out.extend(_fit_network(graph, adj, dense, outlet, floor, eps))
+        out.extend(_fit_network(graph, adj, dense, outlet, floor, eps, radius))
     return out
 
 
-def _fit_network(graph, adj, dense, outlet, floor, eps):
+def _fit_network(graph, adj, dense, outlet, floor, eps, radius):
     """Root the network at ``outlet``, cut it into chains (longest route
     first) and fit each chain's floor."""
     children: dict[int, list[tuple[int, int]]] = {}
@@ -271,8 +271,13 @@ def _fit_network(graph, adj, dense, outlet, floor, eps):
         if len(pts) < 2:
             continue
         f, at = floor(pts)
-        g = _descending_fit(f, _arc_length(pts), eps, start)
-        pins.append((at, g - f))
+        s = _arc_length(pts)
+        g = _descending_fit(f, s, eps, start)
+        # Near its junction a tributary's cross-section reaches the trunk,
+        # whose floor the trunk's own fit sets: pinned from both, a trunk
+        # cell below the junction would be raised to the tributary's level.
+        keep = s > radius + 1 if start is not None else np.ones(len(s), bool)
+        pins.append((at[keep], (g - f)[keep]))
         for b_node, index, jk in branches:
             stack.append((b_node, jk, float(g[index])))
     return pins
