@@ -26,10 +26,12 @@ across it), so this finish step makes it so:
    cumulative maximum would fill every lake to its dam (long flat floors),
    a cumulative minimum would cut every dam down to the lake (gorges).  A
    tributary starts at the fitted height of the trunk at the junction and
-   stays above it.
+   stays above it; its first cells are left to the trunk's correction (its
+   cross-section there reaches the trunk's floor).  A source is never
+   lowered: that would dig a pit at the valley's head.
 4. **Smooth correction.**  The change ``fit - floor`` is pinned on the
-   floor cells (the lowest cell of each sample's disc: the thalweg, on or
-   next to the centreline) and spread by the pins' solver
+   floor cells (the lowest cell of each sample's cross-section: the
+   thalweg, on or next to the centreline) and spread by the pins' solver
    (:func:`.pins.smooth_correction`: least squared Laplacian, zero with zero
    slope at a valley half-width, a third of a patch), solved on a grid three
    times coarser (the field is smooth on that scale) and interpolated: a
@@ -40,12 +42,13 @@ across it), so this finish step makes it so:
    centimetres are enough for a pit in a floor fitted nearly flat.
 
 Ridges divide: along each painted ridge the crest (the highest height on
-the cross-section within a twentieth of a patch) is compared with the terrain beside it (up to a
-sixth of a patch on either side).  Where the crest is lower than the
-terrain beside it *and* lies in a notch of the crest profile (below the
-crest on both sides along the ridge), a stream can cross: the crest is
-raised there by a smooth hump over the notch, at most to the lower of the
-two flanking crest heights and at most 3 % of the height span, with the
+the cross-section within a twentieth of a patch) is compared with the
+terrain beside it (up to a sixth of a patch on either side).  Where the
+crest is lower than the terrain beside it *and* lies in a notch of the
+crest profile (below the crest on both sides along the ridge), a stream
+can cross: the crest is raised there by a smooth hump over the notch, to
+the lower of the two flanking crest heights but at most 5 % of the height
+span, with the
 same smooth correction over a sixth of a patch (one pass).  Crests that
 descend along the ridge are left alone, so it stays local and modest.  It
 cannot make a crest out of a stroke painted across a slope: that is the
