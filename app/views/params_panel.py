@@ -30,6 +30,8 @@ _TIPS = {
     "blend": "Seam removal: poisson (the paper's Poisson solve), c1 (also carries the slope across "
              "the seam) or none.",
     "mirror": "Also consider the mirror image of each example feature patch.",
+    "drainage": "Shape the finished terrain so painted valleys drain to an outlet (the border, water or "
+                "their lowest end) and no stream cuts a painted ridge.",
     "coarse_factor": "Down-sampling of the example for the fast search of fill patches; the best "
                      "positions are refined at full resolution. auto: from the example's size.",
     "workers": "Threads for FFTs and candidate evaluation; 0 uses every core.",
@@ -76,6 +78,7 @@ class ParamsPanel(QWidget):
         self.blend = QComboBox()
         self.blend.addItems(["poisson", "c1", "none"])
         self.mirror = QCheckBox("use mirrored patches")
+        self.drainage = QCheckBox("valleys drain, ridges divide")
         self.coarse_factor = QSpinBox(minimum=0, maximum=8, specialValueText="auto")
         self.workers = QSpinBox(minimum=0, maximum=256, specialValueText="all cores")
         self.feature_weight = QDoubleSpinBox(minimum=0.0, maximum=100.0, singleStep=0.1, decimals=2)
@@ -94,6 +97,7 @@ class ParamsPanel(QWidget):
             ("Seam", self.seam, "seam"),
             ("Blend", self.blend, "blend"),
             ("Mirror", self.mirror, "mirror"),
+            ("Drainage", self.drainage, "drainage"),
             ("Coarse factor", self.coarse_factor, "coarse_factor"),
             ("Threads", self.workers, "workers"),
             ("Feature weight", self.feature_weight, "feature_weight"),
@@ -115,7 +119,7 @@ class ParamsPanel(QWidget):
         self.cell_size.valueChanged.connect(self._apply)
         for combo in (self.order, self.seam, self.blend):
             combo.currentTextChanged.connect(self._apply)
-        for check in (self.overlap_auto, self.mirror):
+        for check in (self.overlap_auto, self.mirror, self.drainage):
             check.toggled.connect(self._apply)
 
         self._show(document.params)
@@ -143,6 +147,7 @@ class ParamsPanel(QWidget):
             self.seam.setCurrentText(params.seam)
             self.blend.setCurrentText(params.blend)
             self.mirror.setChecked(params.mirror)
+            self.drainage.setChecked(params.drainage)
             self.coarse_factor.setValue(params.coarse_factor)
             self.workers.setValue(params.workers)
             self.feature_weight.setValue(params.feature_weight)
@@ -173,6 +178,7 @@ class ParamsPanel(QWidget):
             "seam": self.seam.currentText(),
             "blend": self.blend.currentText(),
             "mirror": self.mirror.isChecked(),
+            "drainage": self.drainage.isChecked(),
             "coarse_factor": self.coarse_factor.value(),
             "workers": self.workers.value(),
             "feature_weight": self.feature_weight.value(),

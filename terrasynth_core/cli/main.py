@@ -184,7 +184,7 @@ def cmd_synth(args: argparse.Namespace) -> int:
     sketch = read_sketch(args.sketch) if args.sketch else None
     params = SynthesisParams(
         patch_size=args.patch_size, seed=args.seed, order=args.order, seam=args.seam, blend=args.blend,
-        cell_size=args.cell_size,
+        cell_size=args.cell_size, drainage=not args.no_drainage,
         **({"overlap": args.overlap} if args.overlap is not None else {}),
     )
     controls = controls_from_args(args, have_examples=bool(examples))
@@ -413,6 +413,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--order", choices=("bfs", "raster"), default="bfs")
     p.add_argument("--seam", choices=("cut", "paste"), default="cut")
+    p.add_argument("--no-drainage", action="store_true",
+                   help="leave the finished heights as synthesized (default: painted valleys drain, ridges divide)")
     p.add_argument("--blend", choices=("poisson", "c1", "none"), default="c1")
     p.add_argument("--cell-size", type=positive_metres, metavar="M",
                    help="output cell size in metres, square (default: the finest example's)")

@@ -140,7 +140,7 @@ def apply_pins(heights: np.ndarray, pins: Sequence[Pin], *, radius: float,
             local = [(p.row - r0, p.col - c0, p.height - float(out[p.row, p.col])) for p in members
                      if free[p.row - r0, p.col - c0]]
             if local:
-                d = _smooth_correction(free, local)
+                d = smooth_correction(free, local)
                 out[r0:r1, c0:c1] += d.astype(np.float32)
         # The solve meets the pins to round-off; float32 addition may not.
         for p in pins:
@@ -151,13 +151,21 @@ def apply_pins(heights: np.ndarray, pins: Sequence[Pin], *, radius: float,
     return out, errors
 
 
-def _smooth_correction(free: np.ndarray, pins: list[tuple[int, int, float]]) -> np.ndarray:
+def smooth_correction(free: np.ndarray, pins: list[tuple[int, int, float]]) -> np.ndarray:
     """The least-bending field that is ``value`` at each pin and 0 off ``free``.
 
     Minimises ``sum (Laplacian d)^2`` over every cell of ``free`` and its
     4-neighbours, with ``d = 0`` on cells outside ``free`` (so the field
     leaves the free area with zero value and, through the Laplacian rows
-    just outside, zero slope).
+    just outside, zero slope).  Also the drainage step's solver
+    (:mod:`.drainage`), with the stroke centrelines as its pins.
+
+    Parameters
+    ----------
+    free : ndarray of bool, shape (rows, cols)
+        Cells that may change.
+    pins : list of (row, col, value)
+        Cells of ``free`` whose value is set; no cell twice.
     """
     shape = free.shape
     pinned = np.zeros(shape, bool)

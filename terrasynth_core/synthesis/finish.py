@@ -1,19 +1,23 @@
-"""The finished heights: height range, then water, then pins (both in final
-metres), keeping every locked cell of a local re-synthesis bit for bit."""
+"""The finished heights: height range, then drainage (valleys drain, ridges
+divide), water, then pins (all in final metres), keeping every locked cell
+of a local re-synthesis bit for bit."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..controls.drainage import apply_drainage
 from ..controls.layout import StyleLayout
 from ..controls.options import Controls
 from ..controls.pins import PinError, apply_pins
 from ..controls.water import apply_water, flooded_land
+from ..features import FeatureMaps
 
 
 def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout, *, locked: np.ndarray | None,
-                   bank_width: float) -> tuple[np.ndarray, tuple[PinError, ...], list[str]]:
-    """Apply the height range, water and pins to synthesized heights.
+                   bank_width: float, sketch: FeatureMaps | None = None,
+                   patch_size: int = 80) -> tuple[np.ndarray, tuple[PinError, ...], list[str]]:
+    """Apply the height range, drainage, water and pins to synthesized heights.
 
     Parameters
     ----------
@@ -28,6 +32,11 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
         None for a full run (the height range applies only then).
     bank_width : float
         Cells over which land slopes down to the water.
+    sketch : FeatureMaps, optional
+        The sketch's ridges and valleys in output cells: given, valleys are
+        made to drain and ridges to divide (None: no drainage step).
+    patch_size : int
+        Sets the drainage step's widths.
 
     Returns
     -------
@@ -42,6 +51,9 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
         span = float(heights.max() - heights.min())
         if span > 0:
             heights = (lo + (heights.astype(np.float64) - heights.min()) * ((hi - lo) / span)).astype(np.float32)
+    if sketch is not None:
+        heights = apply_drainage(heights, sketch.valleys, sketch.ridges, patch_size=patch_size,
+                                 water=None if controls.water is None else controls.water.mask, locked=locked)
     if controls.water is not None:
         heights = apply_water(heights, controls.water, bank_width=bank_width, locked=locked)
         flooded = flooded_land(heights, controls.water)

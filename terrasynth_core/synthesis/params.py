@@ -55,6 +55,10 @@ class SynthesisParams:
         example is resampled to it once.  None: the finest example's ground
         cell size (examples without a known cell size are taken to be at
         it; when none has one, examples are used cell for cell).
+    drainage : bool, default True
+        Shape the finished heights so painted valleys drain to an outlet
+        (the border, water or their lowest end) and painted ridges are not
+        cut by a stream (:mod:`~terrasynth_core.controls.drainage`).
     """
 
     patch_size: int = 80
@@ -69,6 +73,7 @@ class SynthesisParams:
     workers: int = 0
     feature_weight: float = 1.0
     cell_size: float | None = None
+    drainage: bool = True
 
     def __post_init__(self):
         def bad(name, expected):
@@ -101,6 +106,8 @@ class SynthesisParams:
             or not 0 < self.cell_size < float("inf")
         ):
             bad("cell_size", "a positive number of metres or None (the finest example's)")
+        if not isinstance(self.drainage, bool):
+            bad("drainage", "True or False")
 
     @property
     def overlap_cells(self) -> int:

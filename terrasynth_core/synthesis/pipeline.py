@@ -223,14 +223,16 @@ def fill_stage(state: RunState):
 
 
 def finish_stage(state: RunState, t_start: float):
-    """Height range, water and pins; then the result."""
+    """Height range, drainage, water and pins; then the result."""
     t = time.perf_counter()
     yield StageStarted("finish", 0)
     c = state.controls
     heights, patch_id, seams = state.canvas.finish()
     locked = state.canvas.locked if c.resynthesis else None
-    heights, pin_errors, notes = finish_heights(heights, c, state.layout, locked=locked,
-                                                bank_width=state.params.patch_size / 2)
+    p = state.params
+    heights, pin_errors, notes = finish_heights(heights, c, state.layout, locked=locked, bank_width=p.patch_size / 2,
+                                                sketch=state.session.sketch_maps if p.drainage else None,
+                                                patch_size=p.patch_size)
     state.warnings.extend(notes)
     state.timings["finish"] = time.perf_counter() - t
     yield StageFinished("finish", state.timings["finish"])

@@ -52,8 +52,11 @@ def test_params_panel_edits_the_document(qtbot, window):
     assert "overlap" in panel.error_label.text() and doc.params.overlap == 16
     panel.overlap.setValue(20)
     assert doc.params.overlap == 20 and panel.error_label.text() == ""
+    panel.drainage.setChecked(False)
+    assert doc.params.drainage is False
     doc.set_params(SynthesisParams(patch_size=64, k=9))
     assert panel.patch_size.value() == 64 and panel.k.value() == 9 and panel.overlap_auto.isChecked()
+    assert panel.drainage.isChecked()
     assert panel.patch_size.toolTip()
 
 

@@ -1,0 +1,392 @@
+"""Valleys drain, ridges divide: the sketch's networks shaped into a drainage
+network on the finished heights.
+
+A painted valley network is meant as a drainage network: its floor descends
+towards an outlet, with no closed depression along it, and tributaries meet
+the main valley at its floor.  Synthesis does not promise that (a valley is
+pieced from example patches, and a fill patch or a seam can leave a dam
+across it), so this finish step makes it so:
+
+1. **Floor profile.**  Each valley path is sampled every 0.7 cell; the floor
+   at a point is the lowest height on the stroke's cross-section within a
+   tenth of a patch (the synthesized thalweg is rarely exactly under the
+   stroke).  A cross-section rather than a disc: a disc's minimum hides a
+   dam narrower than the disc (a seam, say).
+2. **Outlet.**  Per connected network: the end touching the map border or
+   painted water (the lowest of them), else the lowest end.
+3. **Monotone fit.**  The network is rooted at the outlet and cut into
+   chains, longest route first (the trunk from the outlet to its farthest
+   source, then every tributary from its junction).  On each chain the floor
+   gets the L2 isotonic regression (pool adjacent violators) of
+   ``floor - eps * s`` plus ``eps * s`` (``s``: distance from the chain's
+   start): the non-decreasing-upstream profile closest to the floor in the
+   least-squares sense, with a minimum gradient ``eps`` (2e-5 of the height
+   span per cell) so water runs instead of pooling.  A dam is partly cut
+   and the lake behind it partly filled, whichever moves less; an upstream
+   cumulative maximum would fill every lake to its dam (long flat floors),
+   a cumulative minimum would cut every dam down to the lake (gorges).  A
+   tributary starts at the fitted height of the trunk at the junction and
+   stays above it; its first cells are left to the trunk's correction (its
+   cross-section there reaches the trunk's floor).  A source is never
+   lowered: that would dig a pit at the valley's head.
+4. **Smooth correction.**  The change ``fit - floor`` is pinned on the
+   floor cells (the lowest cell of each sample's cross-section: the
+   thalweg, on or next to the centreline) and spread by the pins' solver
+   (:func:`.pins.smooth_correction`: least squared Laplacian, zero with zero
+   slope at a valley half-width, a third of a patch), solved on a grid three
+   times coarser (the field is smooth on that scale) and interpolated: a
+   broad, smooth lowering or raising of the valley with its own detail
+   kept, not a trench.  Up to two more passes resample and refit, for the
+   interpolation's residual and floors that moved to another cell; the
+   last on the full grid (only where a residual is left), since
+   centimetres are enough for a pit in a floor fitted nearly flat.
+
+Ridges divide: along each painted ridge the crest (the highest height on
+the cross-section within a twentieth of a patch) is compared with the
+terrain beside it (up to a sixth of a patch on either side).  Where the
+crest is lower than the terrain beside it *and* lies in a notch of the
+crest profile (below the crest on both sides along the ridge), a stream
+can cross: the crest is raised there by a smooth hump over the notch, to
+the lower of the two flanking crest heights but at most 5 % of the height
+span, with the
+same smooth correction over a sixth of a patch (one pass).  Crests that
+descend along the ridge are left alone, so it stays local and modest.  It
+cannot make a crest out of a stroke painted across a slope: that is the
+synthesis's job (the ridge's feature patches).
+
+Cells locked by a local re-synthesis never change; cells farther than the
+half-widths from every corrected stroke keep their bytes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from scipy import ndimage
+from scipy.optimize import isotonic_regression
+
+from ..features.graph import FeatureGraph
+from .pins import smooth_correction
+
+#: Radius of the disc a floor (or crest) is sampled in, in patches.
+FLOOR_RADIUS = 0.1
+CREST_RADIUS = 0.05
+#: Distance over which a correction fades to zero, in patches.
+VALLEY_HALF_WIDTH = 1.0 / 3.0
+RIDGE_HALF_WIDTH = 1.0 / 6.0
+#: Least floor gradient, as a share of the terrain's height span per cell.
+MIN_SLOPE = 2e-5
+#: Most a crest is raised, as a share of the terrain's height span.
+RIDGE_MAX_RAISE = 0.05
+#: Spacing of the samples along a stroke, cells.
+STEP = 0.7
+#: Fit-and-correct passes.
+PASSES = 3
+
+
+def apply_drainage(heights: np.ndarray, valleys: FeatureGraph | None, ridges: FeatureGraph | None, *,
+                   patch_size: int, water: np.ndarray | None = None,
+                   locked: np.ndarray | None = None) -> np.ndarray:
+    """Make painted valleys drain to an outlet and painted ridges divide.
+
+    Parameters
+    ----------
+    heights : ndarray of float32, shape (rows, cols)
+        Finished heights, metres; not modified.
+    valleys, ridges : FeatureGraph or None
+        The sketch's networks in output cells.
+    patch_size : int
+        Sets the sampling disc and correction widths.
+    water : ndarray of bool, shape (rows, cols), optional
+        Painted water: a valley end touching it is an outlet.
+    locked : ndarray of bool, shape (rows, cols), optional
+        Cells that must not change (outside a local re-synthesis).
+
+    Returns
+    -------
+    ndarray of float32, shape (rows, cols)
+        Corrected heights; cells beyond the correction widths are
+        bit-identical to ``heights``.
+    """
+    out = np.array(heights, dtype=np.float32, copy=True)
+    span = float(np.ptp(out)) if out.size else 0.0
+    if span <= 0:
+        return out
+    locked = np.zeros(out.shape, bool) if locked is None else np.asarray(locked, bool)
+    eps = MIN_SLOPE * span
+    if ridges is not None and ridges.paths:
+        r_crest = max(1, int(round(CREST_RADIUS * patch_size)))
+        width = max(3.0, RIDGE_HALF_WIDTH * patch_size)
+        pins = _ridge_pins(out, ridges, r_crest, width, eps, RIDGE_MAX_RAISE * span)
+        _correct(out, pins, width, locked, tol=1e-4 * span, pin_zeros=False)
+    if valleys is not None and valleys.paths:
+        r_floor = max(1, int(round(FLOOR_RADIUS * patch_size)))
+        width = max(3.0, VALLEY_HALF_WIDTH * patch_size)
+        for n in range(PASSES):
+            pins = _valley_pins(out, valleys, r_floor, eps, water)
+            # The last pass on the full grid: the coarse solve leaves
+            # centimetres, enough for a pit in a floor fitted nearly flat.
+            if not _correct(out, pins, width, locked, tol=1e-5 * span, coarse=n < PASSES - 1):
+                break
+    return out
+
+
+# -- sampling -------------------------------------------------------------------
+
+def _disc(radius: int) -> np.ndarray:
+    y, x = np.mgrid[-radius:radius + 1, -radius:radius + 1]
+    return x * x + y * y <= radius * radius
+
+
+def _resample(points: np.ndarray) -> np.ndarray:
+    """``points`` (n, 2) resampled every :data:`STEP` cells, ends kept."""
+    seg = np.hypot(*np.diff(points, axis=0).T)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    n = max(int(np.ceil(s[-1] / STEP)), 1) + 1
+    t = np.linspace(0.0, s[-1], n)
+    return np.column_stack([np.interp(t, s, points[:, 0]), np.interp(t, s, points[:, 1])])
+
+
+def _cells(points: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    r = np.clip(np.rint(points[:, 0]).astype(np.int64), 0, shape[0] - 1)
+    c = np.clip(np.rint(points[:, 1]).astype(np.int64), 0, shape[1] - 1)
+    return r, c
+
+
+def _normals(points: np.ndarray) -> np.ndarray:
+    """Unit normals of a polyline, (n, 2) as (row, col)."""
+    tangent = np.gradient(points, axis=0) if len(points) > 1 else np.array([[0.0, 1.0]])
+    tangent = tangent / np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-9)[:, None]
+    return np.column_stack([-tangent[:, 1], tangent[:, 0]])
+
+
+def _lowest(h: np.ndarray, points: np.ndarray, radius: int, sign: float = 1.0):
+    """The lowest height (``sign=-1``: highest) on the cross-section of the
+    stroke within ``radius`` of each point, and its cell; ties go to the
+    cell nearest the stroke.  A cross-section, not a disc, so a dam
+    narrower than the disc still shows."""
+    t = np.arange(-radius, radius + 0.25, 0.5)
+    q = points[:, None, :] + t[None, :, None] * _normals(points)[:, None, :]
+    rr, cc = _cells(q.reshape(-1, 2), h.shape)
+    rr, cc = rr.reshape(q.shape[:2]), cc.reshape(q.shape[:2])
+    v = sign * h[rr, cc].astype(np.float64)
+    k = np.argmin(v + 1e-9 * (t * t)[None, :], axis=1)
+    i = np.arange(len(points))
+    return sign * v[i, k], np.column_stack([rr[i, k], cc[i, k]]).astype(float)
+
+
+def _arc_length(points: np.ndarray) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
+
+
+# -- valleys --------------------------------------------------------------------
+
+def _valley_pins(h: np.ndarray, graph: FeatureGraph, radius: int, eps: float,
+                 water: np.ndarray | None) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per chain of every network: its points and the change that makes its
+    floor descend to the outlet."""
+    rows, cols = h.shape
+    near_water = None
+    if water is not None and water.any():
+        near_water = ndimage.binary_dilation(water, structure=_disc(radius))
+
+    def floor(points):
+        return _lowest(h, points, radius)
+
+    def touches(node) -> bool:
+        r, c = node.row, node.col
+        if min(r, c, rows - 1 - r, cols - 1 - c) <= radius:
+            return True
+        if near_water is not None:
+            rr, cc = _cells(np.array([[r, c]]), h.shape)
+            return bool(near_water[rr[0], cc[0]])
+        return False
+
+    adj: dict[int, list[tuple[int, int]]] = {}
+    for i, p in enumerate(graph.paths):
+        adj.setdefault(p.start, []).append((i, p.end))
+        adj.setdefault(p.end, []).append((i, p.start))
+    dense = [_resample(np.asarray(p.points, float)) for p in graph.paths]
+    out = []
+    seen: set[int] = set()
+    for first in adj:
+        if first in seen:
+            continue
+        # One network: its nodes, breadth first.
+        comp, queue = [], [first]
+        seen.add(first)
+        while queue:
+            n = queue.pop()
+            comp.append(n)
+            for _, m in adj[n]:
+                if m not in seen:
+                    seen.add(m)
+                    queue.append(m)
+        ends = [n for n in comp if len(adj[n]) == 1] or comp
+        outlets = [n for n in ends if touches(graph.nodes[n])] or ends
+        node_floor = {n: float(floor(np.array([[graph.nodes[n].row, graph.nodes[n].col]]))[0][0]) for n in outlets}
+        outlet = min(outlets, key=lambda n: (node_floor[n], n))
+        out.extend(_fit_network(graph, adj, dense, outlet, floor, eps, radius))
+    return out
+
+
+def _fit_network(graph, adj, dense, outlet, floor, eps, radius):
+    """Root the network at ``outlet``, cut it into chains (longest route
+    first) and fit each chain's floor."""
+    children: dict[int, list[tuple[int, int]]] = {}
+    order, parent = [outlet], {outlet: None}
+    for n in order:
+        children[n] = []
+        for i, m in adj[n]:
+            if m not in parent:
+                parent[m] = n
+                children[n].append((i, m))
+                order.append(m)
+
+    def oriented(i, frm):
+        pts = dense[i]
+        return pts if graph.paths[i].start == frm else pts[::-1]
+
+    reach = {}
+    for n in reversed(order):
+        reach[n] = max((len(dense[i]) + reach[m] for i, m in children[n]), default=0)
+    pins = []
+    # A chain starts at a node (the outlet, or a junction on a chain already
+    # fitted, whose fitted height it starts from), leaves it by one path
+    # (None: the longest) and then follows the longest route to a source.
+    stack: list[tuple[int, tuple[int, int] | None, float | None]] = [(outlet, None, None)]
+    while stack:
+        node, first, start = stack.pop()
+        parts = [np.array([[graph.nodes[node].row, graph.nodes[node].col]], float)]
+        branches = []
+        cur = node
+        while children[cur]:
+            i, m = first if first is not None else max(children[cur],
+                                                        key=lambda im: len(dense[im[0]]) + reach[im[1]])
+            if first is None:
+                here = sum(len(p) for p in parts) - 1
+                branches.extend((cur, here, jk) for jk in children[cur] if jk != (i, m))
+            first = None
+            parts.append(oriented(i, cur)[1:])
+            cur = m
+        pts = np.concatenate(parts)
+        if len(pts) < 2:
+            continue
+        f, at = floor(pts)
+        s = _arc_length(pts)
+        g = _descending_fit(f, s, eps, start)
+        # Near its junction a tributary's cross-section reaches the trunk,
+        # whose floor the trunk's own fit sets: pinned from both, a trunk
+        # cell below the junction would be raised to the tributary's level.
+        keep = s > radius + 1 if start is not None else np.ones(len(s), bool)
+        pins.append((at[keep], (g - f)[keep]))
+        for b_node, index, jk in branches:
+            stack.append((b_node, jk, float(g[index])))
+    return pins
+
+
+def _descending_fit(floor: np.ndarray, s: np.ndarray, eps: float, start: float | None) -> np.ndarray:
+    """The profile nearest ``floor`` (least squares) that rises by at least
+    ``eps`` per cell along ``s``, is not below ``floor`` at its last point
+    (the source: lowered, it would be a pit at the valley's head) and,
+    given ``start``, begins there."""
+    tilted = floor - eps * s
+    fit = isotonic_regression(tilted, increasing=True).x
+    if fit[-1] < tilted[-1]:
+        # Under a lower bound on the last point: that point at its bound and
+        # the rest the unbounded fit clipped to it (isotonic regression under
+        # a constant bound is the clipped unbounded fit).
+        fit = np.minimum(isotonic_regression(tilted[:-1], increasing=True).x, tilted[-1]) \
+            if len(tilted) > 1 else fit
+        fit = np.append(fit, tilted[-1]) if len(tilted) > 1 else tilted.copy()
+    if start is not None:
+        fit = np.maximum(fit, start)
+        fit[0] = start
+    return fit + eps * s
+
+
+# -- ridges ---------------------------------------------------------------------
+
+def _ridge_pins(h: np.ndarray, graph: FeatureGraph, radius: int, width: float,
+                eps: float, cap: float) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per ridge path: its crest cells and the raise (at most ``cap``) that
+    closes its notches."""
+    hf = h.astype(np.float64)
+    pins = []
+    offsets = np.arange(radius + 1, int(np.ceil(width)) + 1, dtype=float)
+    for p in graph.paths:
+        pts = _resample(np.asarray(p.points, float))
+        if len(pts) < 3 or offsets.size == 0:
+            continue
+        crest, at = _lowest(h, pts, radius, sign=-1.0)
+        normal = _normals(pts)
+        side = np.full(len(pts), -np.inf)
+        for sign in (1.0, -1.0):
+            for d in offsets:
+                q = pts + sign * d * normal
+                inside = (q[:, 0] > -0.5) & (q[:, 0] < h.shape[0] - 0.5) & (q[:, 1] > -0.5) & (q[:, 1] < h.shape[1] - 0.5)
+                v = np.where(inside, hf[_cells(q, h.shape)], -np.inf)
+                side = np.maximum(side, v)
+        # A notch: below the crest on both sides along the ridge.
+        dam = np.minimum(np.maximum.accumulate(crest), np.maximum.accumulate(crest[::-1])[::-1])
+        want = np.where(side > crest, dam, crest)
+        # A smooth hump over the whole notch (no spike between two crest
+        # cells), never more than ``cap``.
+        raise_by = np.maximum(want - crest, 0.0)
+        raise_by = ndimage.maximum_filter1d(raise_by, size=int(width) | 1, mode="nearest")
+        raise_by = np.clip(ndimage.gaussian_filter1d(raise_by, width / 3, mode="nearest"), 0.0, cap)
+        if raise_by.any():
+            pins.append((at, raise_by))
+    return pins
+
+
+# -- the correction -------------------------------------------------------------
+
+def _correct(out: np.ndarray, chains: Sequence[tuple[np.ndarray, np.ndarray]], width: float,
+             locked: np.ndarray, *, tol: float, pin_zeros: bool = True, coarse: bool = True) -> bool:
+    """Add to ``out`` (in place) the smooth field that takes each chain's
+    values on its cells and fades to zero ``width`` cells from the changed
+    ones.  False when nothing needed changing.
+
+    The field is smooth on the scale of ``width``, so it is solved on a grid
+    coarser by ``width // 8`` (3 for an 80-cell patch: a ninth of the
+    unknowns, a twentieth of the time) and interpolated bilinearly; cells
+    whose coarse neighbours are all outside the solve get exactly zero.
+    ``pin_zeros`` False leaves unchanged cells free instead of holding them;
+    ``coarse`` False solves on the full grid.
+    """
+    shape = out.shape
+    k = max(1, int(width // 8)) if coarse else 1
+    cshape = (-(-shape[0] // k), -(-shape[1] // k))
+    total = np.zeros(cshape)
+    count = np.zeros(cshape)
+    for pts, change in chains:
+        r, c = _cells(pts, shape)
+        keep = ~locked[r, c] & (pin_zeros | (change != 0))
+        np.add.at(total, (r[keep] // k, c[keep] // k), change[keep])
+        np.add.at(count, (r[keep] // k, c[keep] // k), 1.0)
+    padded = np.zeros((cshape[0] * k, cshape[1] * k), bool)
+    padded[:shape[0], :shape[1]] = locked
+    coarse_locked = padded.reshape(cshape[0], k, cshape[1], k).any(axis=(1, 3))
+    pinned = (count > 0) & ~coarse_locked
+    value = np.divide(total, count, out=np.zeros(cshape), where=count > 0)
+    active = pinned & (np.abs(value) > tol)
+    if not active.any():
+        return False
+    region = (ndimage.distance_transform_edt(~active) < width / k) & ~coarse_locked
+    labels, _ = ndimage.label(region)
+    field = np.zeros(cshape)
+    for g, box in enumerate(ndimage.find_objects(labels), start=1):
+        free = labels[box] == g
+        sub_pins = pinned[box] & free
+        rr, cc = np.nonzero(sub_pins)
+        vals = value[box][sub_pins]
+        field[box] += smooth_correction(free, list(zip(rr.tolist(), cc.tolist(), vals.tolist())))
+    if k > 1:
+        grid = np.meshgrid((np.arange(shape[0]) + 0.5) / k - 0.5, (np.arange(shape[1]) + 0.5) / k - 0.5,
+                           indexing="ij")
+        field = ndimage.map_coordinates(field, grid, order=1, mode="nearest")
+    field[locked] = 0.0
+    out += field.astype(np.float32)
+    return True

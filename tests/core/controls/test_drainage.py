@@ -1,0 +1,175 @@
+"""Valleys drain, ridges divide (terrasynth_core.controls.drainage)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrasynth_core.controls.drainage import _descending_fit, apply_drainage
+from terrasynth_core.errors import ParamsError
+from terrasynth_core.features.graph import FeatureGraph, FeatureNode, FeaturePath
+from terrasynth_core.synthesis import SynthesisParams
+
+N = 160
+PATCH = 48
+STEPS = [(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)]
+
+
+def _graph(kind, nodes, paths):
+    """A FeatureGraph from ``[(row, col), ...]`` nodes and ``[(a, b)]`` straight paths."""
+    degree = [sum(n in p for p in paths) for n in range(len(nodes))]
+    fnodes = tuple(FeatureNode(i, float(r), float(c), "end" if degree[i] == 1 else "branch", degree[i])
+                   for i, (r, c) in enumerate(nodes))
+    fpaths = []
+    for a, b in paths:
+        (r0, c0), (r1, c1) = nodes[a], nodes[b]
+        n = int(max(abs(r1 - r0), abs(c1 - c0))) + 1
+        fpaths.append(FeaturePath(a, b, np.column_stack([np.linspace(r0, r1, n), np.linspace(c0, c1, n)])))
+    return FeatureGraph(kind, (N, N), fnodes, tuple(fpaths))
+
+
+def _trace(h, start, steps=2000):
+    """A D8 steepest-descent flow path from ``start`` until a border cell or
+    a pit (no lower neighbour)."""
+    r, c = start
+    path = [(r, c)]
+    for _ in range(steps):
+        if r in (0, N - 1) or c in (0, N - 1):
+            break
+        best, nxt = 0.0, None
+        for dr, dc in STEPS:
+            drop = (h[r, c] - h[r + dr, c + dc]) / np.hypot(dr, dc)
+            if drop > best:
+                best, nxt = drop, (r + dr, c + dc)
+        if nxt is None:
+            break
+        r, c = nxt
+        path.append(nxt)
+    return np.array(path)
+
+
+def _valley_terrain(dam=12.0):
+    """A V valley along row 80, its floor falling
+    to the right border, with a dam across it at column 70."""
+    r, c = np.mgrid[0:N, 0:N].astype(float)
+    h = 100.0 + 1.5 * np.abs(r - 80) + 0.2 * (N - c)
+    h += dam * np.exp(-((c - 70) ** 2) / (2 * 5.0 ** 2)) * np.exp(-((r - 80) ** 2) / (2 * 25.0 ** 2))
+    return h.astype(np.float32)
+
+
+def _floor(h, row, cols, radius=5):
+    """Lowest height on the cross-section (rows ``row`` +- ``radius``) of a
+    stroke along ``row``, at each of ``cols``."""
+    return h[row - radius:row + radius + 1, cols].min(axis=0)
+
+
+def test_descending_fit_is_the_least_change_and_keeps_a_gradient():
+    floor = np.array([0.0, 1.0, 5.0, 2.0, 3.0, 6.0])
+    s = np.arange(6.0)
+    fit = _descending_fit(floor, s, 0.01, None)
+    assert np.all(np.diff(fit) >= 0.01 - 1e-12)
+    # The dam (5) is cut and the lake behind it (2) filled to meet halfway:
+    # closer to the floor than filling the lake to the dam.
+    filled = np.maximum.accumulate(floor) + 0.01 * s
+    assert np.sum((fit - floor) ** 2) < np.sum((filled - floor) ** 2)
+    assert 2.0 < fit[3] < 5.0 and 2.0 < fit[2] < 5.0
+    pinned = _descending_fit(floor, s, 0.01, 4.0)
+    assert pinned[0] == 4.0 and np.all(pinned >= 4.0) and np.all(np.diff(pinned) > 0)
+
+
+def test_a_dammed_valley_drains_to_its_outlet_along_the_stroke():
+    h = _valley_terrain()
+    graph = _graph("valley", [(80, 12), (80, N - 1)], [(0, 1)])
+    # Before: the dam holds a lake, so the flow from the head stops in it.
+    before = _trace(h, (80, 12))
+    assert before[-1][1] < 70
+    out = apply_drainage(h, graph, None, patch_size=PATCH)
+    cols = np.arange(12, N)
+    floor = _floor(out, 80, cols)
+    # Non-increasing towards the outlet (the right border), to float32 round-off.
+    assert np.all(np.diff(floor) <= 0.05), np.diff(floor).max()   # 5 cm: the coarse solve
+    path = _trace(out, (80, 12))
+    assert path[-1][1] == N - 1, path[-1]
+    assert np.all(np.abs(path[:, 0] - 80) <= 5)
+    # A correction, not a trench: the dam is lowered, the rest of the valley
+    # barely moves, and the change is smooth.
+    assert out[80, 70] < h[80, 70] - 3.0
+    assert abs(float(out[80, 140] - h[80, 140])) < 0.5
+
+
+def test_far_cells_are_untouched_and_locked_cells_are_kept():
+    h = _valley_terrain()
+    graph = _graph("valley", [(80, 12), (80, N - 1)], [(0, 1)])
+    out = apply_drainage(h, graph, None, patch_size=PATCH)
+    far = np.abs(np.arange(N) - 80)[:, None] > PATCH / 3 + 8 + 2   # half-width + a coarse cell
+    assert np.array_equal(out[np.broadcast_to(far, h.shape)], h[np.broadcast_to(far, h.shape)])
+    locked = np.zeros(h.shape, bool)
+    locked[:, 60:80] = True
+    out_locked = apply_drainage(h, graph, None, patch_size=PATCH, locked=locked)
+    assert np.array_equal(out_locked[locked], h[locked])
+    assert not np.array_equal(out_locked, h)
+
+
+def test_a_tributary_meets_the_trunk_at_its_floor():
+    r, c = np.mgrid[0:N, 0:N].astype(float)
+    trunk = 100.0 + 1.5 * np.abs(r - 80) + 0.2 * (N - c)
+    # The tributary runs down column 100 from row 10 to the junction at row
+    # 80; a lip 15 cells above the junction dams it.
+    trib = 112.0 + 1.5 * np.abs(c - 100) + 0.2 * (80 - r)
+    trib += 10.0 * np.exp(-((r - 65) ** 2) / (2 * 3.0 ** 2))
+    h = np.minimum(trunk, np.where(r <= 80, trib, np.inf)).astype(np.float32)
+    graph = _graph("valley", [(80, 12), (80, 100), (80, N - 1), (10, 100)], [(0, 1), (1, 2), (3, 1)])
+    assert _trace(h, (12, 100))[-1][0] < 65          # held behind the lip
+    out = apply_drainage(h, graph, None, patch_size=PATCH)
+    path = _trace(out, (12, 100))
+    assert path[-1][1] == N - 1                      # through the junction to the outlet
+    assert np.all(np.abs(path[path[:, 0] < 70][:, 1] - 100) <= 5)   # down the tributary
+    # The tributary's floor descends to the trunk's floor at the junction.
+    trib_floor = np.array([out[rr, 95:106].min() for rr in range(12, 81)])
+    assert np.all(np.diff(trib_floor) <= 1e-3)
+    # ...and arrives at it: two cells above the junction it is within a
+    # metre above the trunk's floor there (no hanging step, no pit).
+    step = float(out[78, 98:103].min() - out[80, 100])
+    assert 0.0 <= step < 1.0, step
+
+
+def _crossing(h, row=80):
+    """Cells north of the ridge whose flow path ends south of it through the
+    ridge line (not around its ends)."""
+    crossed = 0
+    for c in range(30, 131, 4):
+        path = _trace(h, (60, c))
+        at = path[path[:, 0] == row]
+        if len(at) and 25 <= at[0][1] <= 135:
+            crossed += 1
+    return crossed
+
+
+def test_a_notched_ridge_is_closed_so_no_stream_crosses():
+    r, c = np.mgrid[0:N, 0:N].astype(float)
+    taper = np.clip((np.minimum(c, N - 1 - c) - 5) / 20.0, 0, 1)
+    crest = 30.0 * taper * (1 - 0.9 * np.exp(-((c - 80) ** 2) / (2 * 6.0 ** 2)))
+    h = 200.0 - 0.4 * r + crest * np.exp(-((r - 80) ** 2) / (2 * 8.0 ** 2))
+    # A summit far away sets the height span (1000 m; the raise is capped
+    # at a share of it).
+    h += 800.0 * np.exp(-(r ** 2 + c ** 2) / (2 * 6.0 ** 2))
+    # A gully running north to south through the notch.
+    h -= 3.0 * np.exp(-((c - 80) ** 2) / (2 * 3.0 ** 2))
+    h = h.astype(np.float32)
+    graph = _graph("ridge", [(80, 20), (80, 140)], [(0, 1)])
+    assert _crossing(h) > 0
+    out = apply_drainage(h, None, graph, patch_size=PATCH)
+    assert _crossing(out) == 0
+    # Raised, modestly: never more than 5 % of the height span plus the
+    # solve's smoothing, and nothing far away moves.
+    assert float((out - h).max()) <= 0.06 * float(np.ptp(h))
+    assert np.array_equal(out[:40], h[:40]) and np.array_equal(out[120:], h[120:])
+
+
+def test_no_strokes_no_change_and_the_switch_is_validated():
+    h = _valley_terrain()
+    empty = FeatureGraph("valley", (N, N), (), ())
+    assert np.array_equal(apply_drainage(h, empty, None, patch_size=PATCH), h)
+    assert SynthesisParams().drainage is True
+    with pytest.raises(ParamsError, match="drainage"):
+        SynthesisParams(drainage="yes")
