@@ -72,12 +72,12 @@ from scipy.stats import wasserstein_distance
 from eval_synthesis import _json_ready, high_frequency
 from terrasynth_core.cli.main import parse_size
 from terrasynth_core.examples import resolve_dem
-from terrasynth_core.synthesis import Controls, Session, SynthesisParams
+from terrasynth_core.synthesis import Controls, Session
 
 REPO = Path(__file__).resolve().parents[1]
 # The demo's reader lives with the script that draws it.
 sys.path.insert(0, str(REPO / "scripts"))
-from make_middle_earth import LOWLAND, STYLES, load_demo  # noqa: E402
+from make_middle_earth import LOWLAND, STYLES, demo_params, load_demo  # noqa: E402
 
 #: Values drawn from each distribution for the Wasserstein distances.
 SUBSAMPLE = 20_000
@@ -303,8 +303,10 @@ def evaluate(*, shape, patch: int | None, seed: int, log=print) -> dict:
     t0 = time.perf_counter()
     sketch, controls, scale = load_demo(shape=shape)
     shape = sketch.shape
-    patch = patch or max(32, round(SynthesisParams().patch_size * scale))
-    params = SynthesisParams(seed=seed, patch_size=patch)
+    params = demo_params(seed=seed, scale=scale)
+    if patch:
+        params = replace(params, patch_size=patch)
+    patch = params.patch_size
     names = [name for name, _, _ in STYLES]
     rng = np.random.default_rng(0)
     examples = example_statistics([dem for _, _, dem in STYLES], rng)

@@ -90,7 +90,7 @@ from scipy import ndimage
 
 from terrasynth_core.features import SketchMap, resize_nearest
 from terrasynth_core.presets import load_preset
-from terrasynth_core.synthesis import Controls
+from terrasynth_core.synthesis import Controls, SynthesisParams
 
 REPO = Path(__file__).resolve().parents[1]
 SHAPE = (768, 1024)
@@ -313,8 +313,9 @@ def load_demo(*, shape=None) -> tuple[SketchMap, Controls, float]:
     ----------
     shape : (rows, cols), optional
         Output size; default the map's own (768x1024).  Maps are resized by
-        nearest neighbour; the stamp's centre and scale and the pins scale
-        with the rows.
+        nearest neighbour; the stamp's centre and the pins scale with the
+        rows (the stamp keeps its ground size: the cell size of
+        :func:`demo_params` grows as the map shrinks).
 
     Returns
     -------
@@ -332,12 +333,21 @@ def load_demo(*, shape=None) -> tuple[SketchMap, Controls, float]:
     f = shape[0] / preset.shape[0]
     if shape == tuple(preset.shape):
         return preset.sketch, c, 1.0
-    stamps = tuple(replace(st, center=(st.center[0] * f, st.center[1] * f), scale=st.scale * f) for st in c.stamps)
+    stamps = tuple(replace(st, center=(st.center[0] * f, st.center[1] * f)) for st in c.stamps)
     pins = tuple(replace(p, row=min(round(p.row * f), shape[0] - 1), col=min(round(p.col * f), shape[1] - 1))
                  for p in c.pins)
     water = replace(c.water, mask=resize_nearest(c.water.mask, shape))
     controls = replace(c, style_map=resize_nearest(c.style_map, shape), water=water, stamps=stamps, pins=pins)
     return preset.sketch.resized(shape), controls, f
+
+
+def demo_params(*, seed: int, scale: float) -> SynthesisParams:
+    """Parameters of the demo at ``scale`` (output rows / map rows): the same
+    ground at any size, so the cell size grows and the patch shrinks (in
+    cells) as the map shrinks."""
+    preset = load_preset("middle-earth")
+    return SynthesisParams(seed=seed, patch_size=max(32, round(SynthesisParams().patch_size * scale)),
+                           cell_size=None if preset.cell_size is None else preset.cell_size / scale)
 
 
 def main(argv: list[str] | None = None) -> int:

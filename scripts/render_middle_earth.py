@@ -29,12 +29,12 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from make_middle_earth import STYLES, load_demo
+from make_middle_earth import STYLES, demo_params, load_demo
 from render_gallery import MARGIN, MAX_WIDTH, compose
 from terrasynth_app.views.render_3d import render_terrain
 from terrasynth_core.cli.main import parse_size
 from terrasynth_core.pictures import hillshade, lit, save_png, terrain_colours
-from terrasynth_core.synthesis import Session, SynthesisParams
+from terrasynth_core.synthesis import Session
 
 REPO = Path(__file__).resolve().parents[1]
 #: Cell size the pictures assume, metres (see the module docstring).
@@ -103,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
 
     sketch, controls, scale = load_demo(shape=args.size)
-    params = SynthesisParams(seed=args.seed, patch_size=max(32, round(SynthesisParams().patch_size * scale)))
+    params = demo_params(seed=args.seed, scale=scale)
     t = time.perf_counter()
     session = Session([], sketch, params=params, controls=controls)
     result = session.run()
