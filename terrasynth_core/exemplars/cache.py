@@ -76,19 +76,28 @@ class Memo(OrderedDict):
 
 def load(key: str):
     """The cached ``(features, samples, strong_mask, relief)`` or None."""
+
+    def read(z):
+        shape = tuple(int(v) for v in z["shape"])
+        graphs = [_graph_from(z, kind, shape) for kind in _KINDS]
+        samples = {kind: _samples_from(z, kind) for kind in _KINDS}
+        strong = np.unpackbits(z["strong"], count=shape[0] * shape[1]).reshape(shape).astype(bool)
+        return FeatureMaps(*graphs), samples, strong, float(z["relief"])
+
+    return _read(key, read)
+
+
+def _read(key: str, read):
+    """``read(z)`` of the file saved under ``key``, or None when there is
+    none, it is damaged, or it was saved under another key."""
     path = _path(key)
     if path is None or not path.is_file():
         return None
     try:
         with np.load(path, allow_pickle=False) as z:
             if not _same_key(z, key):
-                return None  # another example's file under this name (or one from before keys)
-            shape = tuple(int(v) for v in z["shape"])
-            graphs = [_graph_from(z, kind, shape) for kind in _KINDS]
-            samples = {kind: _samples_from(z, kind) for kind in _KINDS}
-            strong = np.unpackbits(z["strong"], count=shape[0] * shape[1]).reshape(shape).astype(bool)
-            relief = float(z["relief"])
-        return FeatureMaps(*graphs), samples, strong, relief
+                return None  # another grid's file under this name (or one from before keys)
+            return read(z)
     except Exception:  # a damaged or foreign file: recompute
         return None
 
@@ -125,17 +134,8 @@ def _write(path: Path, arrays: dict) -> None:
 
 def load_array(key: str) -> np.ndarray | None:
     """A cached float32 grid (an example resampled to a cell size) or None."""
-    path = _path(key)
-    if path is None or not path.is_file():
-        return None
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            if not _same_key(z, key):
-                return None  # another grid's file under this name (or one from before keys)
-            heights = z["heights"]
-        return heights if heights.ndim == 2 and heights.dtype == np.float32 else None
-    except Exception:  # a damaged or foreign file: recompute
-        return None
+    heights = _read(key, lambda z: z["heights"])
+    return heights if heights is not None and heights.ndim == 2 and heights.dtype == np.float32 else None
 
 
 def save_array(key: str, heights: np.ndarray) -> None:
