@@ -266,7 +266,7 @@ def _check_report_path(args, out: Path) -> None:
     report = Path(args.report)
     outs = [out]
     if getattr(args, "variations", 1) > 1:
-        outs = [out.with_name(f"{out.stem}_v{i + 1}{out.suffix}") for i in range(args.variations)]
+        outs = _variation_paths(out, args.variations)
     for o in outs:
         side = sidecar_of(o)
         if side is not None and report.resolve() == side.resolve():
@@ -311,13 +311,18 @@ def _summary(result, out: Path, said: list[str]) -> None:
             print(f"terrasynth-cli: note: {w}", file=sys.stderr)
 
 
+def _variation_paths(out: Path, n: int) -> list[Path]:
+    """Where ``--variations N`` writes: OUT_v1 .. OUT_vN beside OUT."""
+    return [out.with_name(f"{out.stem}_v{i}{out.suffix}") for i in range(1, n + 1)]
+
+
 def _variations(examples, sketch, size, params, controls, args, save: dict) -> int:
     """``--variations N``: seeds SEED..SEED+N-1, one per core at a time, OUT_v1.. OUT_vN."""
     from ..synthesis import run_variations
 
     out = Path(args.out)
     seeds = [params.seed + i for i in range(args.variations)]
-    paths = [out.with_name(f"{out.stem}_v{i + 1}{out.suffix}") for i in range(len(seeds))]
+    paths = _variation_paths(out, len(seeds))
     at_once = min(len(seeds), os.cpu_count() or 1)
     print(f"terrasynth-cli: {len(seeds)} variations (seeds {seeds[0]}-{seeds[-1]}), {at_once} at a time",
           file=sys.stderr)

@@ -13,13 +13,12 @@ example analysis.
 from __future__ import annotations
 
 import hashlib
-import math
 
 import numpy as np
 
 from ..errors import ParamsError
 from ..heightfield import HeightField
-from ..io.resample import ground_cell_size, to_square_cells
+from ..io.resample import already_square, ground_cell_size, to_square_cells
 from . import cache
 
 __all__ = ["UPSAMPLE_WARNING", "on_ground", "run_cell_size"]
@@ -84,11 +83,9 @@ def on_ground(field: HeightField | np.ndarray, cell_size: float | None, *,
     """
     if cell_size is None or not isinstance(field, HeightField) or field.cell_size is None:
         return field, []
+    if already_square(field, cell_size):  # projected or plain grid at the size: nothing to warp
+        return field, []
     dy, dx = field.cell_size
-    if math.isclose(dy, cell_size, rel_tol=1e-9) and math.isclose(dx, cell_size, rel_tol=1e-9):
-        square = to_square_cells(field, cell_size)
-        if square is field:  # projected or plain grid: nothing to warp
-            return field, []
     notes = []
     factor = max(dy, dx) / cell_size
     if factor > UPSAMPLE_WARNING:

@@ -63,7 +63,8 @@ from pathlib import Path
 from ..errors import DEMFormatError
 from ..heightfield import HeightField
 from . import esri_ascii, gdal, hgt, mesh, npy, png, raw, terragen, usgs_dem
-from ._common import atomic_outputs, check_sidecar_free, open_new, sidecar_path, wrap_errors, write_sidecar
+from ._common import (SIDECAR_EXTENSIONS, atomic_outputs, check_sidecar_free, open_new, sidecar_path, wrap_errors,
+                      write_sidecar)
 
 __all__ = [
     "MESH_EXTENSIONS",
@@ -138,7 +139,7 @@ _WRITERS = {
 _PATH_WRITERS = {"geotiff": gdal.write_geotiff}
 
 #: Formats written with a JSON sidecar (see :func:`._common.make_sidecar`).
-_SIDECAR_FORMATS = {"png", "npy", "r16", "r32"}
+_SIDECAR_FORMATS = {_FORMAT_NAMES[ext] for ext in SIDECAR_EXTENSIONS}
 
 _MESH_WRITERS = {".obj": mesh.write_obj, ".stl": mesh.write_stl, ".ply": mesh.write_ply}
 

@@ -186,13 +186,15 @@ def _georef_json(georef: GeoReference | None) -> dict | None:
     return content
 
 
-def _is_our_sidecar(path: Path) -> bool:
-    """Whether the existing file ``path`` is a sidecar TerraSynth wrote."""
+def _our_sidecar(path: Path) -> dict | None:
+    """The content of ``path`` when it is a sidecar TerraSynth wrote (marked
+    ``"format": "terrasynth-heightmap"``), else None (unreadable, not JSON,
+    or someone else's JSON)."""
     try:
         content = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return False
-    return isinstance(content, dict) and content.get("format") == SIDECAR_FORMAT
+        return None
+    return content if isinstance(content, dict) and content.get("format") == SIDECAR_FORMAT else None
 
 
 def check_sidecar_free(path: Path, content: dict) -> None:
@@ -213,12 +215,13 @@ def check_sidecar_free(path: Path, content: dict) -> None:
     """
     side = sidecar_path(path)
     if side.exists():
-        if not _is_our_sidecar(side):
+        existing = _our_sidecar(side)
+        if existing is None:
             raise DEMFormatError(
                 f"cannot write {path}: its sidecar {side} would replace an existing file that is not a "
                 "TerraSynth sidecar; move that file away or choose another output name"
             )
-        if json.loads(side.read_text(encoding="utf-8")) == json.loads(json.dumps(content)):
+        if existing == json.loads(json.dumps(content)):
             return
     # One sidecar serves every heightmap of its stem: another one would be read
     # through the new content (a PNG's levels as another range, an .npy's nodata).
@@ -239,7 +242,7 @@ def check_not_sidecar(path: Path, what: str = "JSON") -> None:
         When ``path`` exists and is a TerraSynth sidecar (overwriting it
         would make its heightmap read as raw levels).
     """
-    if path.is_file() and _is_our_sidecar(path):
+    if path.is_file() and _our_sidecar(path) is not None:
         raise DEMFormatError(
             f"cannot write the {what} {path}: it is the sidecar of a heightmap beside it "
             "(its metres and cell size); choose another name"

@@ -263,13 +263,18 @@ def field_crs(georef: GeoReference | None) -> CRS | None:
     return None
 
 
+def georef_transform(geo: GeoReference) -> Affine:
+    """The affine map from (col, row) cell corners to map coordinates, north up."""
+    return Affine(geo.x_step, 0.0, geo.x_origin, 0.0, -geo.y_step, geo.y_origin)
+
+
 def _profile(field: HeightField) -> tuple[dict, dict]:
     """Creation profile (driver-independent part) and GDAL metadata tags."""
     rows, cols = field.shape
     geo = field.georef
     tags = {}
     if geo is not None:
-        transform = Affine(geo.x_step, 0.0, geo.x_origin, 0.0, -geo.y_step, geo.y_origin)
+        transform = georef_transform(geo)
     elif field.cell_size is not None:
         dy, dx = field.cell_size
         transform = Affine(dx, 0.0, 0.0, 0.0, -dy, 0.0)

@@ -41,9 +41,9 @@ from scipy import sparse
 from ..errors import ParamsError
 from ..heightfield import GeoReference, HeightField
 from ._common import looks_geographic
-from .gdal import field_crs
+from .gdal import field_crs, georef_transform
 
-__all__ = ["ground_cell_size", "local_projection", "output_georeference", "to_square_cells"]
+__all__ = ["already_square", "ground_cell_size", "local_projection", "output_georeference", "to_square_cells"]
 
 
 def ground_cell_size(field: HeightField) -> float | None:
@@ -157,28 +157,48 @@ def to_square_cells(field: HeightField, cell_size: float) -> HeightField:
     if field.cell_size is None:
         return replace(field, cell_size=(size, size), metadata={**field.metadata, "cell_size_assumed": True})
 
+    if already_square(field, size):
+        return field
     dy, dx = field.cell_size
     method = Resampling.average if size >= max(dy, dx) * (1 - 1e-9) else Resampling.bilinear
     metadata = {**field.metadata, "resampled_from": (dy, dx), "resampling": method.name}
+    crs, assumed = _source_crs(field)
+    if assumed:
+        metadata["crs_assumed"] = "EPSG:4326"
+    if crs is None:
+        return _zoom(field, size, method, metadata)
+    return _warp(field, crs, size, method, metadata)
+
+
+def already_square(field: HeightField, cell_size: float) -> bool:
+    """Whether ``field`` already has square cells of ``cell_size`` metres on
+    a grid that needs no projection (:func:`to_square_cells` returns it as
+    is); cheap, nothing is resampled."""
+    if field.cell_size is None:
+        return False
+    dy, dx = field.cell_size
+    if not (math.isclose(dy, cell_size, rel_tol=1e-9) and math.isclose(dx, cell_size, rel_tol=1e-9)):
+        return False
+    crs, _ = _source_crs(field)
+    return crs is None or not crs.is_geographic
+
+
+def _source_crs(field: HeightField) -> tuple[CRS | None, bool]:
+    """The field's CRS, and whether it was assumed: geographic-looking
+    coordinates without a CRS are taken as WGS 84."""
     geo = field.georef
     crs = field_crs(geo)
     if geo is not None and crs is None and looks_geographic(geo.x_origin, geo.y_origin - field.shape[0] * geo.y_step,
                                                              geo.y_step):
-        crs = CRS.from_epsg(4326)
-        metadata["crs_assumed"] = "EPSG:4326"
-    if crs is None or not crs.is_geographic:
-        if math.isclose(dy, size, rel_tol=1e-9) and math.isclose(dx, size, rel_tol=1e-9):
-            return field
-        if crs is None:
-            return _zoom(field, size, method, metadata)
-    return _warp(field, crs, size, method, metadata)
+        return CRS.from_epsg(4326), True
+    return crs, False
 
 
 def _warp(field: HeightField, crs: CRS, size: float, method: Resampling, metadata: dict) -> HeightField:
     """Warp with GDAL: geographic grids into a local TM, projected ones in their CRS."""
     geo = field.georef
     rows, cols = field.shape
-    src_transform = Affine(geo.x_step, 0.0, geo.x_origin, 0.0, -geo.y_step, geo.y_origin)
+    src_transform = georef_transform(geo)
     left, top = geo.x_origin, geo.y_origin
     right, bottom = left + cols * geo.x_step, top - rows * geo.y_step
     if crs.is_geographic:

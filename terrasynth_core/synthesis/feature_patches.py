@@ -64,8 +64,7 @@ def pool_for(pools: dict, layout: StyleLayout, sample: FeatureSample, warnings: 
 
 def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.ndarray], *,
                     shape: tuple[int, int], patch_size: int, count: int, rng: np.random.Generator,
-                    usage: UsageRegistry | None = None,
-                    cap: int | None = None) -> tuple[tuple, list[tuple[Candidate, np.ndarray]]]:
+                    usage: UsageRegistry, cap: int) -> tuple[tuple, list[tuple[Candidate, np.ndarray]]]:
     """Rank candidates for a sample and warp them onto its window.
 
     Reads only the examples, never the output, so it can run ahead on
@@ -84,11 +83,11 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
         Candidates to rank.
     rng : numpy.random.Generator
         Random tie-breaks of the ranking.
-    usage : UsageRegistry, optional
+    usage : UsageRegistry
         A snapshot of the windows used so far (taken when this preparation
         was asked for, so the result does not depend on thread timing):
         windows over ``cap`` or used by a neighbour are ranked last.
-    cap : int, optional
+    cap : int
         Most feature patches one example window may supply.
 
     Returns
@@ -101,7 +100,7 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
     r0, r1, c0, c1 = bbox
     if r1 - r0 < 4 or c1 - c0 < 4:
         return bbox, []
-    exclude = None if usage is None else usage.exclusion(bbox, sample.center, cap)
+    exclude = usage.exclusion(bbox, sample.center, cap)
     warped = []
     for cand in pool.rank(sample, count, rng, exclude=exclude):
         tps = ThinPlateSpline.fit(cand.target, cand.control, regularization=1e-3)
@@ -112,8 +111,8 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
 
 
 def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: StyleLayout, *, index: int,
-                  radius: float, k: int, feature_weight: float, usage: UsageRegistry | None = None,
-                  cap: int | None = None) -> PatchRecord | None:
+                  radius: float, k: int, feature_weight: float, usage: UsageRegistry,
+                  cap: int) -> PatchRecord | None:
     """Choose among prepared candidates by match cost, deformation and seam
     cost, and merge the best into ``canvas`` (blended).
 
@@ -134,12 +133,12 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
         Candidates (best by cost) for which the seam is computed.
     feature_weight : float
         Weight of the deformation cost.
-    usage : UsageRegistry, optional
+    usage : UsageRegistry
         Every feature patch placed so far: prepared candidates whose window
         is over ``cap`` or used by a neighbour are dropped (all but the
         least used when every one is).  The placed patch is not recorded
         here; the caller does that.
-    cap : int, optional
+    cap : int
         Most feature patches one example window may supply.
 
     Returns
@@ -150,8 +149,7 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
     bbox, warped = prepared
     if not warped:
         return None
-    if usage is not None:
-        warped = allowed(warped, usage, bbox, sample.center, cap)
+    warped = allowed(warped, usage, bbox, sample.center, cap)
     r0, r1, c0, c1 = bbox
     filled = canvas.filled[r0:r1, c0:c1]
     level = layout.level[r0:r1, c0:c1]

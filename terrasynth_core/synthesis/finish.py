@@ -15,8 +15,7 @@ from ..features import FeatureMaps
 
 
 def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout, *, locked: np.ndarray | None,
-                   bank_width: float, sketch: FeatureMaps | None = None,
-                   patch_size: int = 80) -> tuple[np.ndarray, tuple[PinError, ...], list[str]]:
+                   patch_size: int, sketch: FeatureMaps | None = None) -> tuple[np.ndarray, tuple[PinError, ...], list[str]]:
     """Apply the height range, drainage, water and pins to synthesized heights.
 
     Parameters
@@ -30,13 +29,12 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
     locked : ndarray of bool, shape (rows, cols), or None
         Cells of a local re-synthesis that keep their previous heights;
         None for a full run (the height range applies only then).
-    bank_width : float
-        Cells over which land slopes down to the water.
+    patch_size : int
+        Sets the widths of the drainage step and of the water's banks (half
+        a patch).
     sketch : FeatureMaps, optional
         The sketch's ridges and valleys in output cells: given, valleys are
         made to drain and ridges to divide (None: no drainage step).
-    patch_size : int
-        Sets the drainage step's widths.
 
     Returns
     -------
@@ -55,7 +53,7 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
         heights = apply_drainage(heights, sketch.valleys, sketch.ridges, patch_size=patch_size,
                                  water=None if controls.water is None else controls.water.mask, locked=locked)
     if controls.water is not None:
-        heights = apply_water(heights, controls.water, bank_width=bank_width, locked=locked)
+        heights = apply_water(heights, controls.water, bank_width=patch_size / 2, locked=locked)
         flooded = flooded_land(heights, controls.water)
         if flooded:
             notes.append(f"{flooded} land cells lie below the water level {controls.water.level:g} m "

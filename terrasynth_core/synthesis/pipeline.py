@@ -230,9 +230,8 @@ def finish_stage(state: RunState, t_start: float):
     heights, patch_id, seams = state.canvas.finish()
     locked = state.canvas.locked if c.resynthesis else None
     p = state.params
-    heights, pin_errors, notes = finish_heights(heights, c, state.layout, locked=locked, bank_width=p.patch_size / 2,
-                                                sketch=state.session.sketch_maps if p.drainage else None,
-                                                patch_size=p.patch_size)
+    heights, pin_errors, notes = finish_heights(heights, c, state.layout, locked=locked, patch_size=p.patch_size,
+                                                sketch=state.session.sketch_maps if p.drainage else None)
     state.warnings.extend(notes)
     state.timings["finish"] = time.perf_counter() - t
     yield StageFinished("finish", state.timings["finish"])
