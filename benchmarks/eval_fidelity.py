@@ -78,11 +78,11 @@ from fidelity_measures import (
     height_percentile,
     relief,
     share_out_of_range,
-    source_reuse,
 )
 from terrasynth_core.examples import builtin_example
 from terrasynth_core.features import read_sketch
 from terrasynth_core.features.network import graph_mask
+from terrasynth_core.matching.usage import FEATURE_KINDS, source_reuse
 from terrasynth_core.measures import feature_tpi_score
 from terrasynth_core.pictures import compose, fit_panel, height_range, save_png, shaded_relief
 from terrasynth_core.synthesis import SynthesisParams
@@ -93,8 +93,6 @@ QUICK_EXAMPLES = ("white-mountains", "gabon-plateau")
 ORDERS = ("bfs", "raster")
 #: Valley cells this close to a stream count as drained; ridge cells this close as crossed.
 DRAIN_DISTANCE, CROSS_DISTANCE = 5, 2
-#: Sources of feature patches this close count as one example window.
-REUSE_RADIUS = 20.0
 #: Side of the Welch tiles (cells), unless the example is smaller.
 SPECTRUM_TILE = 256
 #: Contact sheets: pixels per panel and the file budget.
@@ -152,8 +150,9 @@ def measure(heights: np.ndarray, sketch_maps, example: np.ndarray, ex: dict, pat
     out["drainage"] = _share_within(cells["valley"], streams, DRAIN_DISTANCE)
     out["drain_chance"] = _share_within(np.ones(heights.shape, bool), streams, DRAIN_DISTANCE)
     out["crossing"] = _share_within(cells["ridge"], streams, CROSS_DISTANCE)
-    out["reuse"] = source_reuse(patches, radius=REUSE_RADIUS)
-    out["feature_patches"] = sum(1 for p in patches if p.feature is not None and p.kind not in ("fill", "stamp"))
+    out["feature_patches"] = sum(1 for p in patches if p.kind in FEATURE_KINDS)
+    # The core's measure (sources of one example within 20 cells are one window); NaN without feature patches.
+    out["reuse"] = source_reuse(patches) if out["feature_patches"] else float("nan")
     out["relief_ratio"] = relief(heights) / ex["relief"]
     out["out_of_range"] = share_out_of_range(heights, example)
     out["hf_ratio"] = high_frequency(heights) / ex["hf"]

@@ -89,37 +89,6 @@ def d8_streams(heights: np.ndarray, *, area_share: float = 1 / 2000) -> np.ndarr
     return d8_accumulation(heights) >= area_share * heights.size
 
 
-def source_reuse(records, *, radius: float = 20.0) -> float:
-    """Largest share of a run's feature patches that came from one example window.
-
-    Parameters
-    ----------
-    records : sequence of PatchRecord-like objects
-        With ``kind``, ``feature``, ``example`` and ``source`` (row, col);
-        feature patches are those with a ``feature`` and a kind other than
-        ``fill`` or ``stamp``.
-    radius : float
-        Sources of the same example at most this many cells apart
-        (Euclidean) count as one window: for every feature patch, the
-        patches whose source lies within ``radius`` of its own are counted.
-
-    Returns
-    -------
-    float
-        The largest such count over the number of feature patches (1 = every
-        patch from one place, ``1/n`` = all apart); NaN without feature
-        patches.
-    """
-    feats = [r for r in records if r.feature is not None and r.kind not in ("fill", "stamp")]
-    if not feats:
-        return float("nan")
-    example = np.array([r.example for r in feats])
-    source = np.array([r.source for r in feats], dtype=np.float64)
-    distance = np.hypot(*(source[:, None, :] - source[None, :, :]).transpose(2, 0, 1))
-    near = (distance <= radius) & (example[:, None] == example[None, :])
-    return float(near.sum(axis=1).max() / len(feats))
-
-
 def relief(heights: np.ndarray, *, tail: float = 0.5) -> float:
     """Height span between the ``tail`` and ``100 - tail`` percentiles."""
     low, high = np.percentile(heights, [tail, 100.0 - tail])

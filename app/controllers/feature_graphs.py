@@ -36,6 +36,8 @@ class FeatureGraphController(QObject):
         super().__init__(parent)
         self.graph = graph
         self.wanted = False
+        #: Generation being computed: a second request for it waits for that one.
+        self._computing: int | None = None
         self._timer = QTimer(self, singleShot=True, interval=delay_ms)
         self._timer.timeout.connect(self.request)
         graph.invalidated.connect(self._invalidated)
@@ -59,6 +61,9 @@ class FeatureGraphController(QObject):
         if job is None:
             return
         generation, compute = job
+        if generation == self._computing:
+            return
+        self._computing = generation
         run_in_background(lambda: (generation, compute()), self._computed, self._failed)
 
     def _invalidated(self) -> None:
@@ -67,9 +72,11 @@ class FeatureGraphController(QObject):
 
     def _computed(self, value) -> None:
         generation, maps = value
+        self._computing = None
         if self.graph.deliver(generation, maps):
             self.ready.emit(maps)
         # else the source changed meanwhile; a newer request is queued
 
     def _failed(self, message: str) -> None:
+        self._computing = None
         self.failed.emit(message)

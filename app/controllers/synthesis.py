@@ -20,7 +20,7 @@ from PySide6.QtCore import QObject, QTimer, Signal
 from terrasynth_core.errors import TerraSynthError
 from terrasynth_core.synthesis import PatchPlaced, StageStarted, SynthesisFinished
 
-from ..model import (MAX_SEED, Document, RunInfo, RunStarted, TerrainResult, VariationMade, synthesis_events,
+from ..model import (MAX_SEED, Document, RunStarted, TerrainResult, VariationMade, synthesis_events,
                      variation_events)
 from ..workers import LatestRunner
 
@@ -124,7 +124,6 @@ class SynthesisController(_RunController):
 
     def __init__(self, document: Document, parent: QObject | None = None, *, progress_ms: int = PROGRESS_MS) -> None:
         super().__init__(document, parent, wait_ms=10_000)
-        self._info: RunInfo | None = None
         self._started_at = 0.0
         self._progress: tuple[int, int] | None = None  # (done, total) not sent yet
         self._progress_timer = QTimer(self, singleShot=True, interval=progress_ms)
@@ -168,7 +167,6 @@ class SynthesisController(_RunController):
             handler(event)
 
     def _run_started(self, event: RunStarted) -> None:
-        self._info = event.info
         self._started_at = time.perf_counter()
         self.run_started.emit(event.info)
 
@@ -193,8 +191,7 @@ class SynthesisController(_RunController):
     def _synthesis_finished(self, event: SynthesisFinished) -> None:
         self._stop_progress()
         result = event.result
-        cell_size = self._info.cell_size if self._info is not None else None
-        terrain = TerrainResult.from_synthesis(result, cell_size=cell_size)
+        terrain = TerrainResult.from_synthesis(result)
         self.document.set_result(terrain)
         self.stage_changed.emit("Done")
         self.finished.emit(result)

@@ -16,7 +16,6 @@ from typing import Callable, Iterator, Sequence
 
 import numpy as np
 
-from terrasynth_core.exemplars.ground import run_cell_size
 from terrasynth_core.features import SketchMap
 from terrasynth_core.pictures import height_range
 from terrasynth_core.synthesis import Controls, Pin, Session, SynthesisParams, Water, run_variations
@@ -98,14 +97,6 @@ class SynthesisRequest:
         """The height fields of the plain examples, then of the styles (slow)."""
         return [ref.load() for ref in self.examples] + [spec.example.load() for spec in self.styles]
 
-    def cell_size(self) -> tuple[float, float] | None:
-        """Ground size of an output cell, metres, square: the parameters' cell
-        size, else the finest example's, style's or stamp's (slow: reads
-        them); None when none knows its cell size."""
-        fields = self.source_fields() + [spec.example.load() for spec in self.stamps]
-        cell = run_cell_size(self.params.cell_size, fields)
-        return None if cell is None else (cell, cell)
-
     def make_variations(self, seeds: Sequence[int], *, progress: Callable | None = None,
                         cancel: Callable[[], bool] | None = None, workers: int | None = None) -> list[TerrainResult]:
         """One terrain per seed, made in parallel processes.
@@ -127,13 +118,12 @@ class SynthesisRequest:
             In the order of ``seeds``.
         """
         fields = [ref.load() for ref in self.examples]
-        cell_size = self.cell_size()
         terrains: dict[int, TerrainResult] = {}
 
         def finished(index: int, result) -> None:
             # The core reports every variation here, so the objects handed to
             # ``progress`` are the ones returned.
-            terrains[index] = TerrainResult.from_synthesis(result, cell_size=cell_size)
+            terrains[index] = TerrainResult.from_synthesis(result)
             if progress is not None:
                 progress(index, terrains[index])
 
@@ -163,20 +153,20 @@ class RunInfo:
     base: np.ndarray | None = None
 
 
-def run_info(request: SynthesisRequest) -> RunInfo:
-    """Cell size of the run and the colour range of the run: the
-    terrain being re-synthesized, or the examples' and styles' joint height
-    range (slow: reads the examples)."""
-    fields = request.source_fields()
+def run_info(request: SynthesisRequest, cell_size: tuple[float, float] | None) -> RunInfo:
+    """The run's cell size (the session's) and colour range: the terrain
+    being re-synthesized, or the examples' and styles' joint height range
+    (slow: reads the examples)."""
     if request.previous is not None:
-        return RunInfo(request.shape, request.cell_size(), height_range(request.previous), request.previous)
+        return RunInfo(request.shape, cell_size, height_range(request.previous), request.previous)
+    fields = request.source_fields()
     bases = [s.base for s in request.styles if s.base is not None]
     low = min([f.min for f in fields] + bases)
     high = max([f.max for f in fields] + bases)
     # Patches are shifted to match their neighbours, so the output may leave
     # the examples' range a little; a margin keeps its tints from clipping.
     margin = 0.1 * (high - low)
-    return RunInfo(request.shape, request.cell_size(), (low - margin, high + margin))
+    return RunInfo(request.shape, cell_size, (low - margin, high + margin))
 
 
 @dataclass(frozen=True, eq=False)
@@ -202,7 +192,8 @@ def synthesis_events(request: SynthesisRequest) -> Iterator:
     thread; closing it stops the run at the next patch.
     """
     session = request.make_session()
-    yield RunStarted(run_info(request))
+    cell = session.cell_size
+    yield RunStarted(run_info(request, None if cell is None else (cell, cell)))
     yield from session.iter_run()
 
 

@@ -264,8 +264,9 @@ class StylePanel(QWidget):
         current = self.current_style
         self._syncing = True
         self.list.clear()
+        square = self.document.cell_size()
         for spec in self.document.styles:
-            item = QListWidgetItem(swatch(spec.color), f"{spec.name}\n{describe_style(spec, self.document.cell_size())}")
+            item = QListWidgetItem(swatch(spec.color), f"{spec.name}\n{describe_style(spec, square)}")
             item.setData(_ID_ROLE, spec.id)
             item.setToolTip(spec.example.path or spec.example.label)
             self.list.addItem(item)

@@ -57,16 +57,6 @@ def _record(source, example=0, feature="ridge", kind="path"):
     return SimpleNamespace(kind=kind, feature=feature, example=example, source=source)
 
 
-def test_source_reuse():
-    same = [_record((50.0, 60.0)) for _ in range(5)]
-    assert fm.source_reuse(same) == 1.0
-    apart = [_record((100.0 * i, 0.0)) for i in range(4)]
-    assert fm.source_reuse(apart) == 0.25
-    mixed = apart + [_record((5.0, 5.0)), _record((0.0, 0.0), example=1), _record((0.0, 0.0), kind="fill")]
-    assert fm.source_reuse(mixed) == pytest.approx(2 / 6)
-    assert np.isnan(fm.source_reuse([_record((0.0, 0.0), feature=None, kind="fill")]))
-
-
 def test_sinusoid_power_in_its_octave():
     r, c = np.mgrid[0:512, 0:512]
     wave = 10.0 * np.sin(2 * np.pi * c / 24.0)  # 24 cells per cycle: the 16-32 octave

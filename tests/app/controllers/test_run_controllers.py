@@ -24,7 +24,7 @@ class _Result:
     warnings = ["a warning"]
     selection = None
     params = SynthesisParams(seed=3)
-    cell_size = None  # the examples knew none: the run info's is kept
+    cell_size = 30.0  # the session's, as in the run info
 
     def report(self):
         return {"params": {"seed": 3}}
