@@ -27,7 +27,7 @@ from ..workers import LatestRunner
 #: Shortest period between progress updates, in ms.
 PROGRESS_MS = 100
 #: What the status shows while each core stage runs.
-STAGE_TEXT = {"analyse": "Analysing the sketch", "features": "Placing feature patches",
+STAGE_TEXT = {"landform": "Shaping the landforms", "analyse": "Analysing the sketch", "features": "Placing feature patches",
               "fill": "Filling the rest", "finish": "Finishing"}
 
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exemplars.ground import on_ground, run_cell_size
+from ..matching.costs import anchor_weight, level_spread
 from ..exemplars.prepare import ExampleAnalysis, prepare_example
 from .levels import level_field, steer_level
 from .options import Controls
@@ -56,6 +57,9 @@ class StyleLayout:
     cell_size : float or None
         The run's square cell size in metres (None: unknown, examples used
         cell for cell).
+    anchor : ndarray of float, shape (n_examples,)
+        Each example's shift weight in match costs
+        (:func:`~terrasynth_core.matching.costs.anchor_weight`).
     """
 
     examples: list
@@ -69,6 +73,7 @@ class StyleLayout:
     remap: tuple | None
     notes: list
     cell_size: float | None = None
+    anchor: np.ndarray | None = None
 
     def group_at(self, row: float, col: float) -> int:
         rows, cols = self.group_map.shape
@@ -155,5 +160,11 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
     for st in controls.stamps:
         r = render_stamp(st, shape, patch_size, cell_size=cell, notes=notes)
         stamps.append(RenderedStamp(r.bbox, (r.detail * np.float32(factor)).astype(np.float32), r.valid, r.core))
-    return StyleLayout(examples, detail, relief, members, names, group_map, level, stamps, remap, notes, cell)
+    return StyleLayout(examples, detail, relief, members, names, group_map, level, stamps, remap, notes, cell,
+                       anchors(detail, relief, patch_size))
+
+
+def anchors(detail: list, relief: np.ndarray, patch_size: int) -> np.ndarray:
+    """Each example's shift weight (see :class:`StyleLayout`)."""
+    return np.array([anchor_weight(float(r), level_spread(d, patch_size)) for d, r in zip(detail, relief)])
 

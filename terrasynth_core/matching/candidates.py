@@ -14,7 +14,13 @@ deformation cost is
 
 Rotation itself is free: heights do not care which way a ridge runs, and the
 sketch may ask for any direction, so every candidate is turned to the sketch's
-direction by the warp.  Mirrors double the pool (paper §4.1.1).  All of it is
+direction by the warp.
+
+A painted stroke should become one of the example's main features, not a
+minor crest: candidates are also ranked by their *prominence*, how far
+above (ridges) or below (valleys) their surroundings within a patch they
+stand, as a rank among the pool's samples (:func:`prominence_ranks`); the
+least prominent pay :data:`PROMINENCE_WEIGHT` more.  Mirrors double the pool (paper §4.1.1).  All of it is
 batched over candidates with numpy.
 """
 
@@ -27,6 +33,10 @@ import numpy as np
 
 from ..features.samples import FeatureSample
 from ..warping.thin_plate import bending_energies
+
+#: Ranking cost of the pool's least prominent sample over its most
+#: prominent one, in the deformation cost's units.
+PROMINENCE_WEIGHT = 0.15
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,6 +58,8 @@ class Candidate:
     mirrored : bool
     deformation : float
         Cost described in the module docstring.
+    prominence : float, default 1
+        The sample's prominence rank in its pool, 0 (least) to 1 (most).
     """
 
     example: int
@@ -56,6 +68,12 @@ class Candidate:
     target: np.ndarray
     mirrored: bool
     deformation: float
+    prominence: float = 1.0
+
+    @property
+    def plainness(self) -> float:
+        """The ranking cost of being a minor feature."""
+        return PROMINENCE_WEIGHT * (1.0 - self.prominence)
 
 
 class FeaturePool:
@@ -68,21 +86,32 @@ class FeaturePool:
         Inscribed-circle radius in cells, used to normalise coordinates.
     mirror : bool
         Also offer the mirror image of every sample.
+    prominence : list of ndarray of float, optional
+        Per entry of ``samples``, each sample's prominence (how far it
+        stands above its surroundings for ridges, below for valleys; any
+        unit); ranked over the whole pool.  None: every sample counts as most prominent.
     """
 
-    def __init__(self, samples: list[tuple[int, list[FeatureSample]]], radius: float, *, mirror: bool):
+    def __init__(self, samples: list[tuple[int, list[FeatureSample]]], radius: float, *, mirror: bool,
+                 prominence: list[np.ndarray] | None = None):
         self.radius = float(radius)
         self.mirror = mirror
-        by_degree: dict[int, list[tuple[int, FeatureSample]]] = {}
-        for ex, lst in samples:
-            for s in lst:
-                by_degree.setdefault(s.degree, []).append((ex, s))
+        if prominence is None:
+            ranks = [np.ones(len(lst)) for _, lst in samples]
+        else:
+            ranks = np.split(prominence_ranks(np.concatenate([np.asarray(p, float) for p in prominence] or [[]])),
+                             np.cumsum([len(lst) for _, lst in samples])[:-1])
+        by_degree: dict[int, list[tuple[int, FeatureSample, float]]] = {}
+        for (ex, lst), rk in zip(samples, ranks):
+            for s, r in zip(lst, rk):
+                by_degree.setdefault(s.degree, []).append((ex, s, float(r)))
         self._groups = {}
         for d, items in by_degree.items():
             self._groups[d] = (
-                np.array([ex for ex, _ in items], dtype=np.int32),
-                np.array([s.center for _, s in items], dtype=float),
-                np.array([s.crossings for _, s in items], dtype=float),  # (N, d, 2)
+                np.array([ex for ex, _, _ in items], dtype=np.int32),
+                np.array([s.center for _, s, _ in items], dtype=float),
+                np.array([s.crossings for _, s, _ in items], dtype=float),  # (N, d, 2)
+                np.array([r for _, _, r in items], dtype=float),
             )
 
     @property
@@ -119,7 +148,7 @@ class FeaturePool:
         degree = self.nearest_degree(sample.degree)
         if degree is None:
             return []
-        ex_idx, centers, crossings = self._groups[degree]
+        ex_idx, centers, crossings, prominence = self._groups[degree]
         src = (sample.crossings - sample.center) / self.radius  # (d_s, 2)
         rel = (crossings - centers[:, None, :]) / self.radius  # (N, d, 2)
         if degree != sample.degree:
@@ -143,18 +172,44 @@ class FeaturePool:
             centre = np.zeros((len(flat), 1, 2))
             cost = cost + bending_energies(np.vstack([[0.0, 0.0], src]), np.concatenate([centre, flat], axis=1))
         cost = cost + rng.random(cost.shape) * 1e-6  # random tie-break, seeded
+        ranked = cost + PROMINENCE_WEIGHT * (1.0 - np.repeat(prominence, n_align))
         if exclude is None:
-            take = np.argsort(cost, kind="stable")[:count]
+            take = np.argsort(ranked, kind="stable")[:count]
         else:
             penalty = np.repeat(np.asarray(exclude(ex_idx, centers)), n_align)
-            take = np.lexsort((cost, penalty))[:count]
+            take = np.lexsort((ranked, penalty))[:count]
         target = np.vstack([[0.0, 0.0], src]) * self.radius + sample.center
         out = []
         for t in take:
             ci, ai = divmod(int(t), n_align)
             ctrl = np.vstack([[0.0, 0.0], flat[t]]) * self.radius + centers[ci]
-            out.append(Candidate(int(ex_idx[ci]), centers[ci].copy(), ctrl, target, bool(mflat[t]), float(cost[t])))
+            out.append(Candidate(int(ex_idx[ci]), centers[ci].copy(), ctrl, target, bool(mflat[t]), float(cost[t]),
+                                 float(prominence[ci])))
         return out
+
+
+def prominence_ranks(prominence: np.ndarray) -> np.ndarray:
+    """Each value's rank among ``prominence``, 0 (least) to 1 (most); ties
+    share their mean rank.
+
+    Parameters
+    ----------
+    prominence : ndarray of float, shape (N,)
+
+    Returns
+    -------
+    ndarray of float, shape (N,)
+    """
+    n = len(prominence)
+    if n < 2:
+        return np.ones(n)
+    order = np.argsort(prominence, kind="stable")
+    ranks = np.empty(n)
+    ranks[order] = np.arange(n)
+    # Ties: the mean rank of their run.
+    _, inverse = np.unique(prominence, return_inverse=True)
+    ranks = np.bincount(inverse, ranks)[inverse] / np.bincount(inverse)[inverse]
+    return ranks / (n - 1)
 
 
 def _match_counts(src: np.ndarray, rel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -10,9 +10,16 @@ compare, and the graph-cut cost (also relief-normalised) adds to them.
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
 
-#: Weight of the squared height shift (in reliefs) against the overlap SSD.
+#: Weight of the squared height shift (in reliefs) against the overlap SSD
+#: when the examples' spread of window levels is not known.
 OFFSET_WEIGHT = 0.2
+
+#: Weight of the squared level of a placed window, in units of the spread of
+#: the example's window levels (:func:`level_spread`), against the overlap
+#: SSD in reliefs.
+ANCHOR_WEIGHT = 1.0
 
 #: Weight of a fill window's roughness prior (``ln(rho / rho_50)**2``, see
 #: :func:`~.fill_search.roughness_prior`) against the match cost: without
@@ -49,12 +56,51 @@ def overlap_ssd(existing: np.ndarray, patch: np.ndarray, filled: np.ndarray) -> 
     return float(((diff - offset) ** 2).mean()), offset
 
 
-def settle(ssd: float, offset: float, mean: float = 0.0) -> tuple[float, float]:
+def level_spread(detail: np.ndarray, patch_size: int) -> float:
+    """How far a window's mean level strays in an example.
+
+    Parameters
+    ----------
+    detail : ndarray of float32, shape (H, W)
+        The example's detail heights, metres.
+    patch_size : int
+        Window side, cells.
+
+    Returns
+    -------
+    float
+        Standard deviation of the means of every ``patch_size`` window,
+        metres (at least a millimetre).
+    """
+    h = detail.astype(np.float64)
+    p = min(patch_size, *h.shape)
+    means = ndimage.uniform_filter(h, p, mode="reflect")[p // 2: h.shape[0] - p // 2 or None,
+                                                          p // 2: h.shape[1] - p // 2 or None]
+    return max(float(means.std()), 1e-3)
+
+
+def anchor_weight(relief: float, spread: float) -> float:
+    """The shift weight of :func:`settle` and :func:`match_cost` for an
+    example: :data:`ANCHOR_WEIGHT` times ``(relief / spread)**2``, at least
+    :data:`OFFSET_WEIGHT`.
+
+    A placed window's level (its mean relative to the level field) then
+    costs as much as it is unusual among the example's own windows: where
+    window levels vary a lot (a coarse pass, an example of massifs and
+    plains) a massif may be copied, and where they hardly vary (detail above
+    a landform) patches stay on the level field and cannot drift.  The
+    floor keeps the drift bounded however much window levels vary.
+    """
+    return max(OFFSET_WEIGHT, ANCHOR_WEIGHT * (relief / spread) ** 2)
+
+
+def settle(ssd: float, offset: float, mean: float = 0.0,
+           weight: float = OFFSET_WEIGHT) -> tuple[float, float]:
     """The height shift that minimises the match cost, and the SSD it leaves.
 
-    The cost is the overlap SSD plus ``OFFSET_WEIGHT * (shift + mean)**2``
-    (both over the relief squared), where ``mean`` is the candidate's mean
-    detail (0 to anchor the shift alone): its minimiser is
+    The cost is the overlap SSD plus ``weight * (shift + mean)**2`` (both
+    over the relief squared), where ``mean`` is the candidate's mean detail
+    (0 to anchor the shift alone): its minimiser is
     ``(offset - w mean) / (1 + w)`` for the SSD-optimal ``offset``.
 
     Parameters
@@ -65,6 +111,8 @@ def settle(ssd: float, offset: float, mean: float = 0.0) -> tuple[float, float]:
         That shift, metres.
     mean : float, default 0
         The candidate's mean detail height, metres.
+    weight : float, default OFFSET_WEIGHT
+        The shift weight (:func:`anchor_weight`).
 
     Returns
     -------
@@ -82,11 +130,11 @@ def settle(ssd: float, offset: float, mean: float = 0.0) -> tuple[float, float]:
     the drift bounded; the small step it leaves in the overlap is what the
     seam solve removes.
     """
-    settled = (offset - OFFSET_WEIGHT * mean) / (1.0 + OFFSET_WEIGHT)
+    settled = (offset - weight * mean) / (1.0 + weight)
     return ssd + (offset - settled) ** 2, settled
 
 
-def match_cost(ssd: float, offset: float, relief: float) -> float:
+def match_cost(ssd: float, offset: float, relief: float, weight: float = OFFSET_WEIGHT) -> float:
     """Overlap mismatch and level shift of a candidate, in reliefs squared.
 
     Parameters
@@ -97,12 +145,14 @@ def match_cost(ssd: float, offset: float, relief: float) -> float:
         The candidate's height shift away from the level field, metres.
     relief : float
         The examples' relief, metres (the cost unit).
+    weight : float, default OFFSET_WEIGHT
+        The shift weight (:func:`anchor_weight`).
 
     Returns
     -------
     float
-        ``ssd / relief**2 + OFFSET_WEIGHT * (offset / relief)**2``.  The
+        ``ssd / relief**2 + weight * (offset / relief)**2``.  The
         shift penalty keeps the shifts from random-walking: without it the
         terrain drifts far outside the examples' heights over many patches.
     """
-    return ssd / relief**2 + OFFSET_WEIGHT * (offset / relief) ** 2
+    return ssd / relief**2 + weight * (offset / relief) ** 2

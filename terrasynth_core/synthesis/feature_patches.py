@@ -10,6 +10,7 @@ placed.
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
 
 from ..controls.layout import StyleLayout
 from ..features.samples import FeatureSample
@@ -40,11 +41,51 @@ def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
     pools = {}
     everyone = list(range(len(layout.examples)))
     for kind in ("ridge", "valley"):
+        standing = [sample_prominence(ex.heights, ex.samples[kind], kind, 2 * radius) for ex in layout.examples]
         for g, members in enumerate(layout.members + [everyone]):
             key = (kind, g if g < len(layout.members) else None)
             pools[key] = FeaturePool([(i, layout.examples[i].samples[kind]) for i in members], radius,
-                                     mirror=mirror)
+                                     mirror=mirror, prominence=[standing[i] for i in members])
     return pools
+
+
+def sample_prominence(heights: np.ndarray, samples: list[FeatureSample], kind: str, size: float) -> np.ndarray:
+    """How far each sample's centre stands above (ridges) or below
+    (valleys) the mean of the ``size`` x ``size`` cells around it, in
+    standard deviations of those cells.
+
+    In units of the surroundings' own spread, a main ridge of gentle
+    country ranks with one of rugged country: strokes get their
+    neighbourhood's main features without every stroke taking the
+    example's most rugged ground.
+
+    Parameters
+    ----------
+    heights : ndarray of float32, shape (H, W)
+        The example, metres.
+    samples : list of FeatureSample
+    kind : {"ridge", "valley"}
+    size : float
+        Neighbourhood side, cells (a patch).
+
+    Returns
+    -------
+    ndarray of float, shape (len(samples),)
+        Standard deviations; larger is more prominent for either kind.
+    """
+    if not samples:
+        return np.zeros(0)
+    h = heights.astype(np.float64)
+    around = ndimage.uniform_filter(h, int(size) | 1, mode="reflect")
+    spread = np.sqrt(np.maximum(ndimage.uniform_filter(h * h, int(size) | 1, mode="reflect") - around**2, 1e-6))
+    # The centre's own height is read over a small disc so that a sample a
+    # cell off its crest or floor is not demoted.
+    local = ndimage.uniform_filter(h, max(3, int(size) // 16 | 1), mode="reflect")
+    rows, cols = h.shape
+    at = np.array([[min(max(int(round(s.center[0])), 0), rows - 1), min(max(int(round(s.center[1])), 0), cols - 1)]
+                   for s in samples])
+    above = (local[at[:, 0], at[:, 1]] - around[at[:, 0], at[:, 1]]) / spread[at[:, 0], at[:, 1]]
+    return above if kind == "ridge" else -above
 
 
 def pool_for(pools: dict, layout: StyleLayout, sample: FeatureSample, warnings: list[str], *,
@@ -156,9 +197,10 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
     existing = canvas.heights[r0:r1, c0:c1] - level
     relief = float(layout.relief[warped[0][0].example])
     evaluated = []
+    weight = float(layout.anchor[warped[0][0].example])
     for cand, patch in warped:
-        ssd, offset = settle(*overlap_ssd(existing, patch, filled))
-        score = match_cost(ssd, offset, relief) + feature_weight * cand.deformation
+        ssd, offset = settle(*overlap_ssd(existing, patch, filled), weight=weight)
+        score = match_cost(ssd, offset, relief, weight) + feature_weight * cand.deformation + cand.plainness
         evaluated.append((score, ssd, offset, patch, cand))
     evaluated.sort(key=lambda t: t[0])
     rr, cc = np.ogrid[r0:r1, c0:c1]

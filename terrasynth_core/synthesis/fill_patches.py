@@ -34,7 +34,7 @@ def window_examples(layout: StyleLayout, bbox) -> tuple[list[int], float]:
     return members, float(max(layout.relief[i] for i in members))
 
 
-def search_fill(searches: list, detail: list[np.ndarray], members: list[int], relief: float,
+def search_fill(searches: list, detail: list[np.ndarray], anchor: np.ndarray, members: list[int], relief: float,
                 target: np.ndarray, filled: np.ndarray, rng: np.random.Generator, *,
                 patch_size: int, k: int) -> list[tuple]:
     """Candidate example windows for one output window, best first.
@@ -45,6 +45,8 @@ def search_fill(searches: list, detail: list[np.ndarray], members: list[int], re
         Per example (see :func:`fill_searches`).
     detail : list of ndarray of float32
         Each example's detail heights, metres.
+    anchor : ndarray of float, shape (n_examples,)
+        Each example's shift weight (``StyleLayout.anchor``).
     members : list of int
         Examples to search.
     relief : float
@@ -72,8 +74,9 @@ def search_fill(searches: list, detail: list[np.ndarray], members: list[int], re
             # sketched ridges still stand above their surroundings.
             er, ec = pos
             mean = float(detail[ei][er:er + patch_size, ec:ec + patch_size].mean())
-            ssd, offset = settle(ssd, offset, mean)
-            cost = match_cost(ssd, offset + mean, relief) + ROUGHNESS_WEIGHT * prior
+            weight = float(anchor[ei])
+            ssd, offset = settle(ssd, offset, mean, weight)
+            cost = match_cost(ssd, offset + mean, relief, weight) + ROUGHNESS_WEIGHT * prior
             options.append((cost, ssd, offset, ei, pos, relief))
     options.sort(key=lambda t: t[0])
     return options[:k]

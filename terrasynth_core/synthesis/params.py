@@ -59,6 +59,11 @@ class SynthesisParams:
         Shape the finished heights so painted valleys drain to an outlet
         (the border, water or their lowest end) and painted ridges are not
         cut by a stream (:mod:`~terrasynth_core.controls.drainage`).
+    landform : bool, default True
+        First synthesize the problem on a grid four times coarser, where a
+        patch spans whole landforms, and build the detail on that terrain
+        (:mod:`~terrasynth_core.synthesis.landform`); False: one pass on a
+        flat level per style region, as in the paper.
     """
 
     patch_size: int = 80
@@ -74,6 +79,7 @@ class SynthesisParams:
     feature_weight: float = 1.0
     cell_size: float | None = None
     drainage: bool = True
+    landform: bool = True
 
     def __post_init__(self):
         def bad(name, expected):
@@ -108,6 +114,8 @@ class SynthesisParams:
             bad("cell_size", "a positive number of metres or None (the finest example's)")
         if not isinstance(self.drainage, bool):
             bad("drainage", "True or False")
+        if not isinstance(self.landform, bool):
+            bad("landform", "True or False")
 
     @property
     def overlap_cells(self) -> int:

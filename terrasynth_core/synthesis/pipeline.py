@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
@@ -28,6 +28,7 @@ from .events import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 from .feature_patches import feature_pools, place_feature, place_stamp, pool_for, prepare_feature
 from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
 from .finish import finish_heights
+from .landform import landform_pass
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
 
@@ -81,10 +82,28 @@ def run_pipeline(state: RunState) -> Iterator[object]:
         A fresh state (:meth:`RunState.start`) of a validated session.
     """
     t_start = time.perf_counter()
+    yield from landform_stage(state)
     samples, pools = yield from analyse_stage(state)
     yield from feature_stage(state, samples, pools)
     yield from fill_stage(state)
     yield from finish_stage(state, t_start)
+
+
+def landform_stage(state: RunState):
+    """The coarse pass (:mod:`.landform`): its terrain becomes the level
+    field and the examples' detail is taken above the same low-pass."""
+    if not state.params.landform:
+        return
+    t = time.perf_counter()
+    yield StageStarted("landform", 0)
+    landform, note = landform_pass(state.session)
+    if note:
+        state.warnings.append(note)
+    if landform is not None:
+        detail, anchor = state.session.detail_above(landform.sigma)
+        state.layout = replace(state.layout, level=landform.level, detail=detail, anchor=anchor)
+    state.timings["landform"] = time.perf_counter() - t
+    yield StageFinished("landform", state.timings["landform"])
 
 
 def analyse_stage(state: RunState):
@@ -188,8 +207,8 @@ def fill_stage(state: RunState):
             filled = canvas.filled[r0:r1, c0:c1].copy()
             members, relief = window_examples(lay, bbox)
             rng = np.random.default_rng([p.seed, 1, n])
-            return bbox, pre.submit(search_fill, searches, lay.detail, members, relief, target, filled, rng,
-                                    **options)
+            return bbox, pre.submit(search_fill, searches, lay.detail, lay.anchor, members, relief, target, filled,
+                                    rng, **options)
 
         # A style region no feature reached starts from a window of its
         # own terrain: grown only from its neighbours, it would copy
@@ -199,7 +218,7 @@ def fill_stage(state: RunState):
             r0, r1, c0, c1 = bbox
             rng = np.random.default_rng([p.seed, 2, g])
             members = lay.members[g]
-            found = search_fill(searches, lay.detail, members, float(max(lay.relief[members])),
+            found = search_fill(searches, lay.detail, lay.anchor, members, float(max(lay.relief[members])),
                                 canvas.heights[r0:r1, c0:c1] - level[r0:r1, c0:c1],
                                 canvas.filled[r0:r1, c0:c1].copy(), rng, **options)
             rec = choose_fill(canvas, bbox, found, lay, index=len(state.records), patch_size=p.patch_size)

@@ -21,7 +21,7 @@ from typing import Callable, Iterator, Sequence
 
 import numpy as np
 
-from ..controls.layout import build_layout
+from ..controls.layout import anchors, build_layout
 from ..controls.options import Controls, check_heights
 from ..errors import ParamsError, SynthesisCancelled
 from ..features import FeatureMaps
@@ -29,6 +29,7 @@ from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
 from ..io.resample import output_georeference
 from .events import SynthesisFinished
+from .landform import detail_above
 from .params import SynthesisParams
 from .pipeline import RunState, run_pipeline
 from .result import SynthesisResult
@@ -104,6 +105,9 @@ class Session:
         self.georef = None if self.cell_size is None else output_georeference(
             [*examples, *(s.example for s in self.controls.styles)], self.shape, self.cell_size)
         self.examples = self.layout.examples
+        #: How many of the layout's examples are plain ones (the rest are styles').
+        self.n_plain = len(examples)
+        self._detail_above: dict[float, list] = {}
         self.warnings: list[str] = list(self.layout.notes)
         self.sketch_maps = self._sketch_maps()
         self._check_features()
@@ -134,6 +138,14 @@ class Session:
                     f"from its border for a {self.params.patch_size}-cell patch: choose a larger or more "
                     "rugged example, or a smaller patch size"
                 )
+
+    def detail_above(self, sigma: float) -> tuple[list[np.ndarray], np.ndarray]:
+        """Each example's detail above its low-pass and its shift weight
+        (memoised: a session may run again), see :func:`.landform.detail_above`."""
+        if sigma not in self._detail_above:
+            detail = [detail_above(d, sigma) for d in self.layout.detail]
+            self._detail_above[sigma] = detail, anchors(detail, self.layout.relief, self.params.patch_size)
+        return self._detail_above[sigma]
 
     # -- running --------------------------------------------------------------
     def run(self, *, progress: Callable[[object], None] | None = None,

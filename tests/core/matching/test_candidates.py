@@ -128,3 +128,21 @@ def test_excluded_samples_rank_after_every_allowed_one_least_used_first():
     assert len(ranked) == 8  # as many as asked, the excluded at the end
     # A path has two alignments (a half turn apart, which rotation makes equal).
     assert ranked == [110, 110, 150, 150, 70, 70, 30, 30]
+
+
+def test_prominence_ranks_share_ties_and_span_zero_to_one():
+    from terrasynth_core.matching.candidates import prominence_ranks
+
+    ranks = prominence_ranks(np.array([5.0, -1.0, 5.0, 2.0]))
+    assert ranks.tolist() == pytest.approx([(2 + 3) / 2 / 3, 0.0, (2 + 3) / 2 / 3, 1 / 3])
+    assert prominence_ranks(np.array([7.0])).tolist() == [1.0]
+
+
+def test_equally_shaped_candidates_rank_by_prominence():
+    # Two identical straight samples: the more prominent one comes first.
+    same = [_sample((100, 100), [0, 180])]
+    pool = FeaturePool([(0, same), (1, list(same))], RADIUS, mirror=False,
+                       prominence=[np.array([0.5]), np.array([2.0])])
+    ranked = pool.rank(_sample((50, 50), [0, 180]), 4, _rng())
+    assert ranked[0].example == 1 and ranked[0].prominence == 1.0
+    assert ranked[-1].prominence == 0.0 and ranked[-1].plainness > 0

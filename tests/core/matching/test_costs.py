@@ -6,7 +6,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terrasynth_core.matching.costs import OFFSET_WEIGHT, match_cost, overlap_ssd, settle
+from terrasynth_core.matching.costs import (
+    ANCHOR_WEIGHT,
+    OFFSET_WEIGHT,
+    anchor_weight,
+    level_spread,
+    match_cost,
+    overlap_ssd,
+    settle,
+)
 
 
 def test_overlap_ssd_removes_the_best_shift_and_ignores_empty_cells():
@@ -54,3 +62,25 @@ def test_match_cost_is_in_units_of_the_relief():
     assert match_cost(0.0, 20.0, 20.0) == pytest.approx(OFFSET_WEIGHT)
     # Same mismatch, twice the relief: a quarter of the cost.
     assert match_cost(90.0, 6.0, 40.0) == pytest.approx(match_cost(90.0, 6.0, 20.0) / 4)
+
+
+def test_level_spread_is_the_spread_of_window_means():
+    rng = np.random.default_rng(0)
+    flat_noise = rng.normal(0, 50, (300, 300)).astype(np.float32)
+    # Means of 60x60 windows of white noise spread by sigma / 60.
+    assert level_spread(flat_noise, 60) == pytest.approx(50 / 60, rel=0.25)
+    rr = np.mgrid[0:300, 0:300][0].astype(np.float32)
+    assert level_spread(rr * 2.0, 60) > 100  # a slope's windows sit at many levels
+
+
+def test_anchor_weight_grows_as_window_levels_vary_less():
+    assert anchor_weight(40.0, 10.0) == pytest.approx(ANCHOR_WEIGHT * 16)
+    assert anchor_weight(40.0, 20.0) < anchor_weight(40.0, 10.0)
+    # Never weaker than the flat-level anchor that bounds the drift.
+    assert anchor_weight(10.0, 1000.0) == OFFSET_WEIGHT
+
+
+def test_settle_and_match_cost_take_the_weight():
+    _, shift = settle(0.0, 60.0, 0.0, weight=5.0)
+    assert shift == pytest.approx(10.0)
+    assert match_cost(0.0, 20.0, 20.0, weight=5.0) == pytest.approx(5.0)

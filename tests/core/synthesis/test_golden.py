@@ -70,11 +70,13 @@ CASES = {
 #: size (issue 16: the White Mountains' 93 x 66 m cells resampled to 66 m,
 #: the styles case run at St. Helens' 30 m), with the usage-aware choice
 #: of feature candidates (issue 10, "Variety"), with the fill windows'
-#: roughness prior and with drainage shaping (on by default).
+#: roughness prior, with drainage shaping (on by default), and with the
+#: landform pass, the level anchor scaled by the examples' spread of window
+#: levels and the prominence ranking of feature candidates.
 GOLDEN = {
-    "y_junction": "2fe815e7bc3f0887ca2462f3c2fe44b160a9af45c81e0f277a60216f9372d13c",
-    "ring_cross_raster": "5fa6e6bbc07052012c1c482f3298e194c330e41c37cbd355ec023a7079205f8f",
-    "styles_stamp_water_pin": "9f77a106a9f05a2473d46f006366d6b2b6caa5ce480164dd5ce1c3501cf6e96e",
+    "y_junction": "1d06994e5fc133566961baf9fec005aee0250e2ff979e0c6bccddb274a4c8274",
+    "ring_cross_raster": "74d2423d543cfcbcd057b6fdb888eb940fe7593443e23385f0e88bcb6ef29d1f",
+    "styles_stamp_water_pin": "7d19db5f81580504f5e36d1b9361bf6fe44fef62f07128c10b7b799b3ed114de",
 }
 
 

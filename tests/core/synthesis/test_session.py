@@ -79,7 +79,7 @@ def test_events_come_in_order(white_mountains, y_sketch):
     kinds = [type(e) for e in events]
     assert kinds[0] is StageStarted and kinds[-1] is SynthesisFinished
     stages = [e.stage for e in events if isinstance(e, StageStarted)]
-    assert stages == ["analyse", "features", "fill", "finish"]
+    assert stages == ["landform", "analyse", "features", "fill", "finish"]
     placed = [e for e in events if isinstance(e, PatchPlaced)]
     assert [e.index for e in placed] == list(range(len(placed)))
     # Feature patches (breadth-first from the branch) come before the fill.
@@ -94,7 +94,7 @@ def test_events_come_in_order(white_mountains, y_sketch):
     # The last patch's window shows the final heights.
     r0, r1, c0, c1 = placed[-1].bbox
     assert np.array_equal(placed[-1].heights, result.heights[r0:r1, c0:c1])
-    assert sum(isinstance(e, StageFinished) for e in events) == 4
+    assert sum(isinstance(e, StageFinished) for e in events) == 5
 
 
 def test_cancel_stops_at_a_patch(white_mountains, y_sketch):

@@ -1,0 +1,325 @@
+"""The landform pass: structure bigger than a patch, coarse to fine.
+
+A patch of the full-resolution pass spans one hillside; on its own it
+cannot place the example's main ridges and valleys, many patches long, with
+their spurs and tributaries.  So a run first synthesizes the same problem
+(the sketch, the styles, the same method) on a grid two to four times
+coarser (:data:`FACTORS`), where a patch spans whole landforms and the strokes are matched to
+the example's main features.  That coarse terrain, brought back to the
+output's size and low-passed, becomes the level field: the full-resolution
+pass copies only the examples' detail *above* that level (each example minus
+the same low-pass of itself), so the two passes add up to every scale of the
+example, like two levels of a Laplacian pyramid.
+
+References
+----------
+Zhou et al. 2007 synthesize at one scale; multi-resolution synthesis of this
+kind follows Wei and Levoy, "Fast Texture Synthesis using Tree-structured
+Vector Quantization", SIGGRAPH 2000, and Lefebvre and Hoppe, "Parallel
+Controllable Texture Synthesis", SIGGRAPH 2005.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy import ndimage
+
+from ..controls.levels import steer_level
+from ..controls.options import Controls
+from ..errors import ParamsError
+from ..heightfield import HeightField
+
+if TYPE_CHECKING:
+    from .session import Session
+
+#: Down-samplings of the landform pass (output and examples alike), most
+#: preferred first: the largest one the examples are big enough for.
+FACTORS = (4, 3, 2)
+
+#: Ground a coarse patch spans, in full-resolution patch sizes.
+COARSE_SPAN = 2.0
+
+#: Smallest coarse patch, in coarse cells: below it a coarse patch holds too
+#: little of a landform to be matched.
+MIN_COARSE_PATCH = 24
+
+#: Smallest example side at the coarse grid, in coarse patches: the coarse
+#: pass needs a few windows to choose from.
+MIN_EXAMPLE_PATCHES = 1.5
+
+#: Fewest landform-scale feature samples (of each kind the sketch has) the
+#: coarse examples must hold.
+MIN_COARSE_SAMPLES = 4
+
+#: Standard deviation of the low-pass that splits landform from detail, in
+#: full-resolution patch sizes.  Its half-power wavelength is about 5.3
+#: sigma, a little more than a patch: wavelengths a patch cannot hold come
+#: from the landform pass, shorter ones from the patches.
+SPLIT_SIGMA = 0.2
+
+
+@dataclass(frozen=True)
+class Landform:
+    """The landform pass's outcome.
+
+    Parameters
+    ----------
+    level : ndarray of float32, shape (rows, cols)
+        Coarse terrain at the output's size, low-passed
+        (:func:`landform_lowpass`), metres (pins already steer it).
+    sigma : float
+        The low-pass's standard deviation, output cells: the examples'
+        detail is each example minus the same low-pass of itself.
+    coarse : SynthesisResult
+        The coarse run (for debugging and the report).
+    factor : int
+        The coarse grid's down-sampling.
+    """
+
+    level: np.ndarray
+    sigma: float
+    coarse: object
+    factor: int
+
+
+def split_sigma(patch_size: int) -> float:
+    """The landform/detail split's Gaussian standard deviation, cells."""
+    return SPLIT_SIGMA * patch_size
+
+
+def coarse_patch(patch_size: int, factor: int) -> int:
+    """The landform pass's patch size in coarse cells."""
+    return max(MIN_COARSE_PATCH, int(round(COARSE_SPAN * patch_size / factor)))
+
+
+def coarse_factor(patch_size: int, smallest: int) -> int | None:
+    """The landform pass's down-sampling for examples whose smallest side
+    is ``smallest`` cells: the largest of :data:`FACTORS` at which that side
+    still holds :data:`MIN_EXAMPLE_PATCHES` coarse patches (None: none)."""
+    for f in FACTORS:
+        if smallest // f >= MIN_EXAMPLE_PATCHES * coarse_patch(patch_size, f):
+            return f
+    return None
+
+
+def landform_pass(session: Session) -> tuple[Landform | None, str | None]:
+    """Synthesize the session's problem on a coarse grid.
+
+    Parameters
+    ----------
+    session : Session
+        The full-resolution session (its examples already at the run's
+        cell size).
+
+    Returns
+    -------
+    landform : Landform or None
+        None when the pass cannot serve: the output or an example is too
+        small for coarse patches, or the coarse examples lack a feature
+        kind the sketch has.
+    note : str or None
+        Why the pass was skipped, for the run's warnings.
+    """
+    p, lay = session.params, session.layout
+    rows, cols = session.shape
+    smallest = min(min(ex.heights.shape) for ex in lay.examples)
+    f = coarse_factor(p.patch_size, smallest)
+    if f is None:
+        need = int(np.ceil(MIN_EXAMPLE_PATCHES * coarse_patch(p.patch_size, FACTORS[-1]) * FACTORS[-1]))
+        return None, (f"landform pass skipped: an example is only {smallest} cells across at "
+                      f"{_cells(lay.cell_size)}; structure larger than a patch needs {need}: a larger example, "
+                      "a coarser --cell-size or a smaller patch would help")
+    pc = coarse_patch(p.patch_size, f)
+    shape = (-(-rows // f), -(-cols // f))
+    if min(shape) < pc:
+        return None, None  # the whole output is about one landform: nothing to structure
+    cell = None if lay.cell_size is None else lay.cell_size * f
+    fields = [_coarsened(ex.heights, f, cell) for ex in lay.examples]
+    c = session.controls
+    n_plain = session.n_plain
+    styles = tuple(replace(s, example=fields[n_plain + i]) for i, s in enumerate(c.styles))
+    style_map = None if c.style_map is None else c.style_map[::f, ::f]
+    controls = Controls(styles=styles, style_map=style_map, height_range=c.height_range)
+    params = replace(p, patch_size=pc, overlap=None, cell_size=cell, drainage=False, landform=False)
+    sketch = None if session.sketch is None else session.sketch.resized(shape)
+    from .session import Session  # the pass is a session of its own
+    try:
+        coarse_session = Session(fields[:n_plain], sketch, shape=shape, params=params, controls=controls)
+    except ParamsError as exc:
+        return None, f"landform pass skipped: {exc}"
+    for graph in (session.sketch_maps.ridges, session.sketch_maps.valleys):
+        have = sum(len(ex.samples[graph.kind]) for ex in coarse_session.examples)
+        if graph.paths and have < MIN_COARSE_SAMPLES:
+            # Every stroke would be built from the same one or two
+            # landforms, chained patch after patch: a repeated, drifting
+            # cross-section rather than structure.
+            return None, (f"landform pass skipped: the examples hold only {have} {graph.kind}(s) at the landform "
+                          f"scale ({pc * f} cells); a larger or more varied example would give structure "
+                          "larger than a patch")
+    coarse = coarse_session.run()
+    heights = coarse.heights
+    if c.height_range is None:  # (a height range maps the result onto itself at the end)
+        heights = within_range(heights, float(lay.level.min()) + min(float(d.min()) for d in lay.detail),
+                               float(lay.level.max()) + max(float(d.max()) for d in lay.detail))
+    sigma = split_sigma(p.patch_size)
+    up = _upsampled(heights, f, (rows, cols))
+    level = landform_lowpass(up, sigma)
+    if c.selection is not None:
+        # A re-synthesis keeps the landforms it does not select: the level
+        # follows the previous terrain outside the selection and moves to
+        # the new landforms over about a patch inside it.
+        previous = ndimage.gaussian_filter(c.previous.astype(np.float64), sigma, mode="reflect")
+        weight = ndimage.gaussian_filter(c.selection.astype(np.float64), p.patch_size / 4, mode="constant")
+        weight = np.where(c.selection, weight, 0.0)
+        level = (previous + weight * (level - previous)).astype(np.float32)
+    else:
+        level = steer_level(level, c.pins, p.patch_size)
+    return Landform(level_under_stamps(level, lay.stamps, p.patch_size), sigma, coarse, f), None
+
+
+def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray:
+    """The level field made flat under each stamp's core.
+
+    A stamp is a landmark the artist placed as it is: it stands on the
+    landform's mean height there instead of being tilted by it; the level
+    returns to the landform over about an eighth of a patch around it.
+
+    Parameters
+    ----------
+    level : ndarray of float32, shape (rows, cols)
+    stamps : sequence of RenderedStamp
+    patch_size : int
+
+    Returns
+    -------
+    ndarray of float32, shape (rows, cols)
+    """
+    for st in stamps:
+        r0, r1, c0, c1 = st.bbox
+        core = np.zeros(level.shape, bool)
+        core[r0:r1, c0:c1] = st.core
+        if not core.any():
+            continue
+        weight = np.maximum(ndimage.gaussian_filter(core.astype(np.float64), patch_size / 8), core)
+        level = (level + weight * (float(level[core].mean()) - level)).astype(np.float32)
+    return level
+
+
+#: Share of the coarse terrain's cells allowed outside the examples' heights
+#: at either end (as a percentile).
+RANGE_TAIL = 0.5
+
+
+def within_range(heights: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """The coarse terrain squeezed about its median into the examples'
+    heights, where it strayed out of them.
+
+    Chained patches can carry the terrain up or down a little at each step
+    (a ridge that climbs in its example climbs again in the next patch);
+    over a long stroke that adds up to heights no example has.  At the
+    landform scale the terrain is smooth, so a uniform squeeze of its
+    spread about the median (and a shift when the median itself is out)
+    fixes that without bending any feature.
+
+    Parameters
+    ----------
+    heights : ndarray of float32, shape (h, w)
+        The coarse terrain, metres.
+    lo, hi : float
+        The examples' lowest and highest heights, metres.
+
+    Returns
+    -------
+    ndarray of float32, shape (h, w)
+        ``heights`` itself when its :data:`RANGE_TAIL` percentiles lie in
+        ``[lo, hi]``.
+    """
+    p_lo, med, p_hi = np.percentile(heights, [RANGE_TAIL, 50, 100 - RANGE_TAIL])
+    if lo <= p_lo and p_hi <= hi:
+        return heights
+    centre = min(max(float(med), lo), hi)
+    scale = 1.0
+    if p_hi > centre:
+        scale = min(scale, (hi - centre) / (p_hi - med + 1e-9))
+    if p_lo < centre:
+        scale = min(scale, (centre - lo) / (med - p_lo + 1e-9))
+    return (centre + max(scale, 0.0) * (heights - med)).astype(np.float32)
+
+
+def detail_above(heights: np.ndarray, sigma: float) -> np.ndarray:
+    """An example's detail above its landform: the heights less their
+    Gaussian low-pass (transfer ``g(f) = exp(-2 pi^2 sigma^2 f^2)``).
+
+    The plain complement ``1 - g`` is local and exact on planes: a
+    regional slope leaves no detail.
+
+    Parameters
+    ----------
+    heights : ndarray of float32, shape (H, W)
+        Example heights (or detail), metres.
+    sigma : float
+        The split's standard deviation, cells (:func:`split_sigma`).
+
+    Returns
+    -------
+    ndarray of float32, shape (H, W)
+        Zero-mean detail, metres.
+    """
+    h = heights.astype(np.float64)
+    return (h - ndimage.gaussian_filter(h, sigma, mode="reflect")).astype(np.float32)
+
+
+def landform_lowpass(heights: np.ndarray, sigma: float) -> np.ndarray:
+    """The coarse terrain's share of the output: low-passed by
+    ``l(f) = sqrt(1 - (1 - g(f))**2)``.
+
+    The detail keeps ``(1 - g)**2`` of the examples' power at each
+    wavelength and this keeps the rest, so the two bands, synthesized
+    independently, add up to the examples' power everywhere (with ``g`` for
+    the level the power would sag to half where the bands cross, just where
+    a landform meets a hillside).  ``l`` is smooth at ``f = 0`` and falls
+    like a Gaussian of ``sigma / sqrt(2)``: a local filter.
+
+    Parameters
+    ----------
+    heights : ndarray of float, shape (rows, cols)
+        The coarse terrain at the output's size, metres.
+    sigma : float
+        The split's standard deviation, cells.
+
+    Returns
+    -------
+    ndarray of float32, shape (rows, cols)
+    """
+    pad = int(np.ceil(4 * sigma))
+    h = np.pad(heights.astype(np.float64), pad, mode="reflect")
+    fy = np.fft.fftfreq(h.shape[0])[:, None]
+    fx = np.fft.rfftfreq(h.shape[1])[None, :]
+    g = np.exp(-2 * np.pi**2 * sigma**2 * (fy**2 + fx**2))
+    out = np.fft.irfft2(np.fft.rfft2(h) * np.sqrt(1.0 - (1.0 - g) ** 2), s=h.shape)
+    return out[pad:pad + heights.shape[0], pad:pad + heights.shape[1]].astype(np.float32)
+
+
+def _coarsened(heights: np.ndarray, f: int, cell: float | None) -> HeightField:
+    """Block means of f x f cells (area-correct, no aliasing of the fine
+    detail into the coarse grid)."""
+    h = heights[: heights.shape[0] // f * f, : heights.shape[1] // f * f]
+    blocks = h.reshape(h.shape[0] // f, f, h.shape[1] // f, f).astype(np.float64)
+    coarse = blocks.mean(axis=(1, 3)).astype(np.float32)
+    return HeightField(coarse, cell_size=None if cell is None else (cell, cell))
+
+
+def _upsampled(coarse: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
+    """Cubic interpolation of the coarse grid at the output's cell centres."""
+    rows, cols = shape
+    r = (np.arange(rows) + 0.5) / f - 0.5
+    c = (np.arange(cols) + 0.5) / f - 0.5
+    rr, cc = np.meshgrid(r, c, indexing="ij")
+    return ndimage.map_coordinates(coarse.astype(np.float64), [rr, cc], order=3, mode="nearest")
+
+
+def _cells(cell_size: float | None) -> str:
+    return "the example's own cells" if cell_size is None else f"{cell_size:g} m cells"

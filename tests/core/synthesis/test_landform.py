@@ -1,0 +1,126 @@
+"""The landform pass: a coarse synthesis of the same problem becomes the
+level field, and the full-resolution pass copies only the detail above it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from terrasynth_core.features import read_sketch
+from terrasynth_core.synthesis import Session, SynthesisParams
+from terrasynth_core.synthesis.landform import (
+    FACTORS,
+    coarse_factor,
+    coarse_patch,
+    detail_above,
+    landform_lowpass,
+    landform_pass,
+    split_sigma,
+    within_range,
+)
+
+P = SynthesisParams(patch_size=32, k=2, seed=1)
+
+
+@pytest.fixture(scope="module")
+def y_sketch(sketch_dir):
+    return read_sketch(sketch_dir / "y_junction_512.png").resized((256, 256))
+
+
+def test_detail_and_level_bands_add_up_to_the_example_power():
+    # Red noise has every wavelength, most power at the long ones, like a
+    # terrain: the detail keeps (1 - g)^2 of its power and the level's
+    # low-pass the rest, so together they keep all of it (a plain g for
+    # the level would lose up to half where the bands cross).
+    rng = np.random.default_rng(0)
+    f = np.hypot(np.fft.fftfreq(512)[:, None], np.fft.fftfreq(512)[None, :])
+    noise = np.fft.ifft2(np.fft.fft2(rng.normal(0, 1, (512, 512))) / np.maximum(f, 1 / 512)).real
+    noise = noise.astype(np.float32)
+    sigma = 6.0
+    high, low = detail_above(noise, sigma), landform_lowpass(noise, sigma)
+    assert high.var() + low.var() == pytest.approx(noise.var(), rel=0.05)
+    plain = ndimage.gaussian_filter(noise.astype(np.float64), sigma, mode="reflect")
+    assert high.var() + plain.var() < 0.97 * noise.var()
+    assert abs(float(high.mean())) < 0.01 * noise.std()
+
+
+def test_both_bands_are_local_and_exact_on_planes():
+    rr, cc = np.mgrid[0:200, 0:300].astype(np.float32)
+    plane = 3.0 * rr - 2.0 * cc + 500.0
+    assert np.abs(detail_above(plane, 8.0)[30:-30, 30:-30]).max() < 0.05
+    assert np.abs(landform_lowpass(plane, 8.0) - plane)[40:-40, 40:-40].max() < 0.05
+
+
+def test_within_range_squeezes_only_what_strays():
+    rng = np.random.default_rng(1)
+    inside = rng.uniform(200, 800, (64, 64)).astype(np.float32)
+    assert within_range(inside, 100.0, 900.0) is inside
+    drifted = inside * 3.0 - 900.0  # -300 .. 1500 m, median 600 m
+    fixed = within_range(drifted, 100.0, 900.0)
+    lo, hi = np.percentile(fixed, [0.5, 99.5])
+    assert lo >= 100.0 - 1e-3 and hi <= 900.0 + 1e-3
+    # A uniform squeeze about the median: the order of heights is kept.
+    assert np.array_equal(np.argsort(fixed, axis=None), np.argsort(drifted, axis=None))
+    # A median outside the range is brought inside.
+    sunk = inside - 2000.0
+    assert np.median(within_range(sunk, 100.0, 900.0)) == pytest.approx(100.0, abs=1e-3)
+
+
+def test_coarse_factor_is_the_largest_the_examples_allow():
+    assert coarse_factor(80, 1200) == FACTORS[0]
+    # 32-cell patches: coarse patches are at least 24 cells, so 120 cells
+    # hold 1.5 of them at 3x but not at 4x.
+    f = coarse_factor(32, 120)
+    assert f == 3 and 120 // f >= 1.5 * coarse_patch(32, f)
+    assert coarse_factor(32, 90) is None
+    assert coarse_factor(80, 239) is None
+
+
+def test_the_pass_makes_the_level_and_detail_above_it(white_mountains, y_sketch):
+    session = Session([white_mountains], y_sketch, params=P)
+    landform, note = landform_pass(session)
+    assert note is None and landform is not None
+    assert landform.level.shape == (256, 256)
+    assert landform.sigma == split_sigma(32)
+    assert landform.coarse.heights.shape == tuple(-(-n // landform.factor) for n in (256, 256))
+    # The coarse run follows the sketch too: it placed feature patches.
+    assert landform.coarse.counts()["branch"] >= 1
+    # The level field is smooth (nothing shorter than the split) and stays
+    # in the example's heights.
+    ex = white_mountains.heights
+    assert ex.min() - 1 <= landform.level.min() and landform.level.max() <= ex.max() + 1
+    assert np.abs(np.diff(landform.level, 2, axis=0)).max() < 0.05 * float(np.ptp(ex))
+
+
+def test_a_run_puts_its_detail_on_the_landform(white_mountains, y_sketch):
+    on = Session([white_mountains], y_sketch, params=P).run()
+    off = Session([white_mountains], y_sketch, params=SynthesisParams(patch_size=32, k=2, seed=1,
+                                                                       landform=False)).run()
+    assert "landform" in on.timings and "landform" not in off.timings
+    assert not np.array_equal(on.heights, off.heights)
+    # Same seed, same bytes.
+    again = Session([white_mountains], y_sketch, params=P).run()
+    assert np.array_equal(on.heights, again.heights)
+
+
+def test_too_small_or_one_landform_examples_skip_it_with_a_reason(helens, y_sketch):
+    small = helens.with_heights(helens.heights[:60, :60].copy())
+    session = Session([small], None, shape=(256, 256), params=P)
+    landform, note = landform_pass(session)
+    assert landform is None
+    assert "landform pass skipped" in note and "60 cells" in note and "larger example" in note
+    result = session.run()
+    assert any("landform pass skipped" in w for w in result.warnings)
+
+
+def test_stamps_stand_on_a_flat_level(white_mountains, helens):
+    from terrasynth_core.synthesis import Controls, Stamp
+
+    stamp = Stamp(helens, (128, 128), scale=0.4)
+    session = Session([white_mountains], None, shape=(256, 256), params=P, controls=Controls(stamps=(stamp,)))
+    landform, _ = landform_pass(session)
+    st = session.layout.stamps[0]
+    r0, r1, c0, c1 = st.bbox
+    under = landform.level[r0:r1, c0:c1][st.core]
+    assert np.ptp(under) < 1e-3
