@@ -19,7 +19,7 @@ from terrasynth_core.controls.options import check_height_range
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.examples import DEFAULT_EXAMPLE, DEFAULT_SKETCH, resource_path
 from terrasynth_core.features import read_sketch
-from terrasynth_core.project import painted_styles, resize_pins, resize_stamps, run_spec
+from terrasynth_core.project import resize_pins, resize_stamps, run_spec
 from terrasynth_core.synthesis import Pin, SynthesisParams
 
 from .control_specs import STYLE_PALETTE, StampSpec, StyleSpec

@@ -34,7 +34,6 @@ from __future__ import annotations
 import io
 import json
 import os
-import secrets
 import zipfile
 import zlib
 from dataclasses import dataclass, field
@@ -45,6 +44,7 @@ import numpy as np
 from ..errors import ProjectError, TerraSynthError
 from ..features import FeatureGraph, FeatureMaps
 from ..heightfield import GeoReference
+from ..io import atomic_outputs, open_new
 from ..synthesis import Pin, SynthesisParams
 from .refs import ExampleRef
 from .run import RunSpec, run_spec
@@ -204,15 +204,11 @@ def write_project(data: ProjectData, path: str | os.PathLike) -> Path:
 
 
 def _write_zip(path: Path, meta: dict, arrays: dict[str, np.ndarray]) -> None:
-    directory = path.parent if str(path.parent) else Path(".")
-    tmp = directory / f".{path.name}.{secrets.token_hex(6)}.tmp"
     try:
-        # Not mkstemp: its files are 0600; a project gets the mode any file the user makes gets (umask).
-        fh = open(tmp, "xb")
-    except OSError as exc:
-        raise ProjectError(f"cannot write project {path}: {exc.strerror or exc}") from None
-    try:
-        with fh:
+        # The core's atomic write: a temporary beside the target (mode from the
+        # umask, not mkstemp's 0600), removed on any failure or interruption and
+        # listed for io.remove_unfinished (the app's signal handler).
+        with atomic_outputs(path) as (tmp,), open_new(tmp) as fh:
             # Level 1: strokes and seam masks shrink a lot, heights little, and
             # speed matters more (autosave runs while the user works).
             with zipfile.ZipFile(fh, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=1) as zf:
@@ -223,14 +219,8 @@ def _write_zip(path: Path, meta: dict, arrays: dict[str, np.ndarray]) -> None:
                     zf.writestr(f"{name}.npy", buf.getvalue())
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, path)
     except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
         raise ProjectError(f"cannot write project {path}: {exc.strerror or exc}") from None
-    except BaseException:
-        # KeyboardInterrupt (Ctrl-C, or SIGTERM as the CLI and the app turn it) included.
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _example_entry(ref: ExampleRef, folder: Path) -> dict:
