@@ -264,7 +264,10 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
 
     from ..synthesis import PatchPlaced, Session, StageStarted, SynthesisFinished
 
+    from ..project import check_stamp_footprints
+
     out = _check_output(args)
+    check_stamp_footprints(controls, examples, params.cell_size)
     session = Session(examples, sketch, shape=size, params=params, controls=controls)
     for w in session.warnings:
         print(f"terrasynth-cli: note: {w}", file=sys.stderr)

@@ -12,11 +12,13 @@ same :class:`RunSpec` the app's *Synthesize* builds.
 - :mod:`.run`: :func:`stroke_map`, :func:`painted_styles`, :class:`RunSpec`, :func:`run_spec`
 - :mod:`.file`: :class:`ProjectData`, :func:`read_project`, :func:`write_project`
 - :mod:`.resize`: pins and stamps following a resized sketch
+- :mod:`.footprints`: stamps too thin to place, refused with the scale that would do
 """
 
 from ..errors import ProjectError
 from .file import (FORMAT_VERSION, MAX_LAYER_CELLS, MAX_SIDE, PROJECT_EXTENSION, ProjectData, ProjectResult, read_project,
                    write_project)
+from .footprints import MIN_STAMP_CELLS, check_stamp_footprints
 from .refs import ExampleRef
 from .resize import resize_pins, resize_stamps
 from .run import STROKE_THRESHOLD, RunSpec, painted_styles, run_spec, stroke_map
@@ -26,6 +28,7 @@ __all__ = [
     "FORMAT_VERSION",
     "MAX_LAYER_CELLS",
     "MAX_SIDE",
+    "MIN_STAMP_CELLS",
     "PROJECT_EXTENSION",
     "RELIEF_SCALE_RANGE",
     "STROKE_THRESHOLD",
@@ -36,6 +39,7 @@ __all__ = [
     "RunSpec",
     "StampSpec",
     "StyleSpec",
+    "check_stamp_footprints",
     "painted_styles",
     "read_project",
     "resize_pins",

@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import ParamsError
 from ..features import SketchMap
 from ..synthesis import Controls, Pin, Session, SynthesisParams, Water
+from .footprints import check_stamp_footprints
 from .refs import ExampleRef
 from .specs import StampSpec, StyleSpec
 
@@ -146,8 +147,9 @@ class RunSpec:
         TerraSynthError
             For an unreadable DEM or inconsistent inputs.
         """
-        return Session(self.example_fields(), self.sketch_map, shape=self.shape, params=self.params,
-                       controls=self.make_controls())
+        examples, controls = self.example_fields(), self.make_controls()
+        check_stamp_footprints(controls, examples, self.params.cell_size)
+        return Session(examples, self.sketch_map, shape=self.shape, params=self.params, controls=controls)
 
 
 def run_spec(*, ridge: np.ndarray, valley: np.ndarray, style: np.ndarray, water: np.ndarray,
