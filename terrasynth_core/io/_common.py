@@ -13,11 +13,13 @@
 
 from __future__ import annotations
 
+import errno
 import glob
 import json
 import math
 import os
 import secrets
+import shutil
 import struct
 import threading
 import zlib
@@ -109,11 +111,36 @@ def atomic_outputs(*paths: Path) -> Iterator[list[Path]]:
         yield temps
         for temp, target in zip(temps, paths):
             os.replace(temp, target)
+    except Exception as exc:
+        _raise_if_disk_full(exc, temps[0].parent if temps else Path("."))
+        raise
     finally:
         for temp in temps:
             temp.unlink(missing_ok=True)
         with _UNFINISHED_LOCK:
             _UNFINISHED.difference_update(temps)
+
+
+#: A failed write with less than this free beside it failed for want of space.
+FULL_DISK_BYTES = 1 << 20
+
+
+def _raise_if_disk_full(exc: Exception, folder: Path) -> None:
+    """Say "No space left on device" when a write failed on a (nearly) full disk.
+
+    Libraries report a full disk in their own words, or none: numpy's
+    ``tofile`` says "65536 requested and 14304 written", GDAL "Write failed.
+    See previous exception for details".  Measured before the temporary
+    files are removed (they hold the space that ran out).
+    """
+    if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        return
+    try:
+        free = shutil.disk_usage(folder).free
+    except OSError:
+        return
+    if free < FULL_DISK_BYTES:
+        raise OSError(errno.ENOSPC, f"No space left on device ({free} bytes free in {folder})") from exc
 
 
 def remove_unfinished() -> list[Path]:
