@@ -56,9 +56,14 @@ def _temporaries(folder: Path) -> list[str]:
 
 
 def _drawn_valley():
-    from conftest import small_document
+    """The valley the child draws, on the same document (the app tests' conftest,
+    loaded by path: ``conftest`` alone may name another folder's in a full run)."""
+    import importlib.util
 
-    doc = small_document()
+    spec = importlib.util.spec_from_file_location("app_tests_conftest", Path(__file__).with_name("conftest.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    doc = module.small_document()
     doc.sketch.draw_polyline([(5, 5), (5, 150)], "valley", radius=2, hardness=1.0)
     return doc.sketch.valley.copy()
 

@@ -82,3 +82,17 @@ def test_a_project_keeps_the_georeference_and_the_selection(qtbot, window, tmp_p
     assert not doc.dirty
     # Re-synthesis works on the reopened selection at once.
     assert doc.resynthesis_request(seed=9).selection.sum() == 40 * 60
+
+
+def test_a_sketch_too_long_for_the_canvas_is_one_error_and_keeps_the_sketch(qtbot, window, dialogs, tmp_path):
+    """16000x2 pixels pass the reader's pixel limit but not the canvas's 8000-cell side."""
+    from PIL import Image
+
+    rgb = np.full((2, 16000, 3), 255, np.uint8)
+    rgb[:, 100:200] = (255, 0, 0)
+    Image.fromarray(rgb).save(tmp_path / "long.png")
+    ridge = window.document.sketch.ridge.copy()
+    window.files.open_sketch(str(tmp_path / "long.png"))
+    [message] = dialogs.messages("critical")
+    assert "8000" in message
+    np.testing.assert_array_equal(window.document.sketch.ridge, ridge)
