@@ -64,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     from .views.main_window import MainWindow
 
     window = MainWindow(recovery=RecoveryStore(recovery_directory()))
+    window.autosave.handle_termination()  # SIGTERM/SIGINT: no temporary left, unsaved work kept
     window.show()
     if not window.files.offer_recovery() and args.file is not None:
         if args.file.suffix.lower() == PROJECT_EXTENSION:

@@ -31,3 +31,8 @@ class SynthesisCancelled(Exception):
 
     Not a :class:`TerraSynthError`: cancelling is not a mistake.
     """
+
+
+class ProjectError(TerraSynthError):
+    """A project file (``.tsproj``) cannot be read or written: missing,
+    damaged, of a newer version, or holding layers too large to read."""

@@ -1,10 +1,17 @@
-"""Autosave of unsaved work and recovery after a crash."""
+"""Autosave of unsaved work, recovery after a crash, and a clean end on
+SIGTERM or SIGINT."""
 
 from __future__ import annotations
 
-from PySide6.QtCore import QObject, QTimer, Signal
+import os
+import signal
+import socket
+import sys
+
+from PySide6.QtCore import QObject, QSocketNotifier, QTimer, Signal
 
 from terrasynth_core.errors import TerraSynthError
+from terrasynth_core.io import remove_unfinished
 
 from ..model import Document, RecoveryStore
 from ..workers import run_in_background
@@ -86,3 +93,43 @@ class AutosaveController(QObject):
 
     def stop(self) -> None:
         self._timer.stop()
+
+    # -- SIGTERM and SIGINT ------------------------------------------------------------------
+    def handle_termination(self, signals=(signal.SIGTERM, signal.SIGINT)) -> None:
+        """End the process cleanly on ``signals`` (call once, from the GUI thread).
+
+        Without this, SIGTERM ends Python at once and Ctrl-C waits for the next
+        Python code: a save, autosave or export running on a pool thread
+        leaves its hidden ``.NAME.HEX.tmp`` beside the target.  Here the signal
+        wakes the event loop (a socket the C-level handler writes to, so an
+        idle window reacts at once), and :meth:`terminate` runs.
+        """
+        reader, writer = socket.socketpair()
+        reader.setblocking(False)
+        writer.setblocking(False)
+        self._wakeup = (reader, writer)
+        signal.set_wakeup_fd(writer.fileno())
+        self._notifier = QSocketNotifier(reader.fileno(), QSocketNotifier.Read, self)
+        # Reading drains the byte; the Python-level handler below has run by then.
+        self._notifier.activated.connect(lambda *_: reader.recv(64))
+        for signum in signals:
+            signal.signal(signum, lambda signum, _frame: self.terminate(signum))
+
+    def terminate(self, signum: int) -> None:
+        """Remove every unfinished temporary file, keep unsaved work in the
+        recovery file, and end the process with status 128 + ``signum``.
+
+        Writes still running on other threads never reach their rename (the
+        process ends first), so the user's files stay as they were.
+        """
+        remove_unfinished()
+        kept = ""
+        if self.recovery is not None and self.document.dirty:
+            try:
+                self.recovery.save(self.document.snapshot())
+                kept = "; unsaved work kept for recovery"
+            except (TerraSynthError, OSError) as exc:
+                kept = f"; unsaved work could not be kept: {exc}"
+            remove_unfinished()
+        print(f"terrasynth: stopped by {signal.Signals(signum).name}{kept}", file=sys.stderr, flush=True)
+        os._exit(128 + signum)

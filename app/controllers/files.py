@@ -133,11 +133,12 @@ class FilesController(QObject):
 
     def open_sketch(self, path: str) -> None:
         try:
-            sketch_map = read_sketch(path)
+            # Replacing checks the app's side limit too (a 16000x4000 sketch
+            # passes the reader's pixel limit): both errors keep the sketch.
+            self.document.sketch.replace_with_map(read_sketch(path))
         except TerraSynthError as exc:
             self.error.emit("Cannot open sketch", str(exc))
             return
-        self.document.sketch.replace_with_map(sketch_map)
         self.status.emit(f"Opened sketch {path}", 5000)
 
     def save_sketch(self, path: str) -> None:

@@ -19,6 +19,7 @@ from terrasynth_core.controls.options import check_height_range
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.examples import DEFAULT_EXAMPLE, DEFAULT_SKETCH, resource_path
 from terrasynth_core.features import read_sketch
+from terrasynth_core.project import resize_pins, resize_stamps, run_spec
 from terrasynth_core.synthesis import Pin, SynthesisParams
 
 from .control_specs import STYLE_PALETTE, StampSpec, StyleSpec
@@ -27,6 +28,7 @@ from .observable import Observable
 from .result import TerrainResult
 from .run_request import SynthesisRequest
 from .brushes import capsule_coverage
+from .history import DocumentEdit
 from .sketch_layers import MAX_STYLE_ID, Sketch
 
 #: Marks "keep the current value" for keyword arguments that accept None.
@@ -66,8 +68,15 @@ class Document:
         ``"result"``, ``"styles"``, ``"water_level"``, ``"height_range"``,
         ``"pins"``, ``"stamps"``, ``"selection"``, ``"path"`` or ``"dirty"``
         (the unsaved-changes flag).  Sketch edits are announced by
-        ``document.sketch.changed``.  The selection is not saved and does
-        not make the document dirty.
+        ``document.sketch.changed``.  The selection is saved in projects
+        but changing it does not make the document dirty.
+
+    Notes
+    -----
+    Removing a style is undoable with the strokes (one step in the
+    sketch's history), and when the sketch changes size the pins and
+    stamps move (and stamps scale) with it, in the same undo step
+    (:func:`terrasynth_core.project.resize_pins`, ``resize_stamps``).
     """
 
     def __init__(self, sketch: Sketch, examples: list[ExampleRef], *, params: SynthesisParams | None = None,
@@ -87,6 +96,8 @@ class Document:
         self._stamps = list(stamps)
         self._next_style_id = int(next_style_id)
         self._selection: np.ndarray | None = None
+        # The grid pins and stamps are placed on: they follow the sketch when it changes size.
+        self._shape = sketch.shape
         self.changed = Observable()
         # Every change bumps the generation; the document is dirty while it
         # differs from the generation last saved.
@@ -254,8 +265,18 @@ class Document:
         """Remove a style; its painted cells fall back to the plain examples
         (ids are never reused, so they never turn into another style)."""
         spec = self.style(style_id)
-        self._styles.remove(spec)
-        self._touch("styles")
+        index = self._styles.index(spec)
+
+        def remove() -> None:
+            self._styles.remove(spec)
+            self._touch("styles")
+
+        def put_back() -> None:
+            self._styles.insert(min(index, len(self._styles)), spec)
+            self._touch("styles")
+
+        remove()
+        self.sketch.record(DocumentEdit(undo=put_back, redo=remove))
 
     # -- water and height range ------------------------------------------------------
     def set_water_level(self, level: float) -> None:
@@ -381,6 +402,10 @@ class Document:
         ``other`` was dirty.
         """
         s = other.sketch
+        # Set before the layers change, so the pins are not moved as for a resize.
+        self._shape = s.shape
+        self._pins = other.pins
+        self._stamps = other.stamps
         self.sketch.reset(s.ridge, s.valley, style=s.style, water=s.water)
         self._examples = other.examples
         self._params = other.params
@@ -392,7 +417,7 @@ class Document:
         self._pins = other.pins
         self._stamps = other.stamps
         self._next_style_id = other.next_style_id
-        self._selection = None
+        self._selection = None if other.selection is None else np.array(other.selection)
         self._generation += 1
         self._saved_generation = self._generation if not other.dirty else -1
         for what in ("examples", "params", "styles", "water_level", "height_range", "pins", "stamps", "result",
@@ -410,6 +435,7 @@ class Document:
                         params=self._params, result=self._result, path=self._path if path is _KEEP else path,
                         styles=self._styles, water_level=self._water_level, height_range=self._height_range,
                         pins=self._pins, stamps=self._stamps, next_style_id=self.next_style_id)
+        copy._selection = None if self._selection is None else self._selection.copy()
         if self.dirty:
             copy.mark_unsaved()
         return copy
@@ -423,15 +449,13 @@ class Document:
         ParamsError
             When no example is chosen and styles do not cover the sketch.
         """
-        styles, style_map = self._style_map()
-        if not self._examples and (style_map is None or (style_map < 0).any()):
-            raise ParamsError("no example DEM chosen: add one from the example library"
-                              + (" or paint every cell with a style" if styles else ""))
-        sketch_map = self.sketch.to_sketch_map() if self.sketch.has_strokes else None
-        return SynthesisRequest(
-            tuple(self._examples), sketch_map, self.output_shape, self._params, styles=styles, style_map=style_map,
-            water=np.array(self.sketch.water) if self.sketch.has_water else None, water_level=self._water_level,
-            height_range=self._height_range, pins=tuple(self._pins), stamps=tuple(self._stamps))
+        s = self.sketch
+        # The core's rule (terrasynth_core.project.run_spec), which
+        # ``terrasynth-cli synth --project`` follows too.
+        spec = run_spec(ridge=s.ridge, valley=s.valley, style=s.style, water=s.water, examples=self._examples,
+                        params=self._params, styles=self._styles, water_level=self._water_level,
+                        height_range=self._height_range, pins=self._pins, stamps=self._stamps)
+        return SynthesisRequest(**{f.name: getattr(spec, f.name) for f in dataclasses.fields(spec)})
 
     def resynthesis_request(self, seed: int) -> SynthesisRequest:
         """What to synthesize to replace the selected cells of the current
@@ -456,19 +480,6 @@ class Document:
                                    previous=result.heights, selection=self._selection.copy())
 
     # -- internals --------------------------------------------------------------------
-    def _style_map(self) -> tuple[tuple[StyleSpec, ...], np.ndarray | None]:
-        """The styles painted somewhere, and the core's label map (index
-        into them per cell, -1 elsewhere); ``((), None)`` when none is."""
-        labels = self.sketch.style.astype(np.int32) + 1  # 0 = no style
-        counts = np.bincount(labels.ravel(), minlength=1)
-        used = tuple(s for s in self._styles if s.id + 1 < counts.size and counts[s.id + 1])
-        if not used:
-            return (), None
-        lut = np.full(counts.size, -1, np.int16)
-        for index, spec in enumerate(used):
-            lut[spec.id + 1] = index
-        return used, lut[labels]
-
     def _touch(self, what: str) -> None:
         was_dirty = self.dirty
         self._generation += 1
@@ -486,6 +497,30 @@ class Document:
             self.changed.emit("dirty")
         if bbox is None and self._selection is not None and self._selection.shape != self.output_shape:
             self.set_selection(None)
+        if bbox is None and self.sketch.shape != self._shape:
+            old, self._shape = self._shape, self.sketch.shape
+            if not self.sketch.replaying:  # an undo or redo puts pins and stamps back itself
+                self._follow_resize(old, self._shape)
+
+    def _follow_resize(self, old: tuple[int, int], new: tuple[int, int]) -> None:
+        """Move pins and stamps from the ``old`` grid to the ``new`` one, in the
+        resize's undo step."""
+        before = (list(self._pins), list(self._stamps))
+        after = (resize_pins(self._pins, old, new), resize_stamps(self._stamps, old, new))
+        if after == before:
+            return
+
+        def put(state) -> None:
+            pins, stamps = state
+            if pins != self._pins:
+                self._pins = list(pins)
+                self._touch("pins")
+            if stamps != self._stamps:
+                self._stamps = list(stamps)
+                self._touch("stamps")
+
+        put(after)
+        self.sketch.record_with_last(DocumentEdit(undo=lambda: put(before), redo=lambda: put(after)))
 
 
 def _finite(value: float, what: str) -> float:

@@ -1,13 +1,18 @@
-"""Undo and redo of sketch edits: one stroke is one step.
+"""Undo and redo of document edits: one stroke is one step.
 
-An edit records only the layers it changed and only the window it touched,
-as ``(bbox, old, new)`` (napari's Labels layer does the same), so a long
-history of small strokes on a large sketch stays small.
+A sketch edit records only the layers it changed and only the window it
+touched, as ``(bbox, old, new)`` (napari's Labels layer does the same), so a
+long history of small strokes on a large sketch stays small.  Edits of the
+document outside the layers (a style removed, pins and stamps following a
+resized sketch) are :class:`DocumentEdit` s in the same history, so Ctrl+Z
+undoes them in order with the strokes; a step may hold several edits (a
+resize and the pins it moved are one step).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable, Union
 
 import numpy as np
 
@@ -41,8 +46,32 @@ class SketchEdit:
         return sum(a.nbytes for a in self.old.values()) + sum(a.nbytes for a in self.new.values())
 
 
+@dataclass(frozen=True, eq=False)
+class DocumentEdit:
+    """One undoable change of the document outside the sketch layers.
+
+    Parameters
+    ----------
+    undo : callable()
+        Puts the document back as it was before the change.
+    redo : callable()
+        Makes the change again.
+    """
+
+    undo: Callable[[], None]
+    redo: Callable[[], None]
+
+    @property
+    def nbytes(self) -> int:
+        return 0
+
+
+Edit = Union[SketchEdit, DocumentEdit]
+
+
 class SketchHistory:
-    """A linear undo/redo stack of :class:`SketchEdit`.
+    """A linear undo/redo stack of steps, each a list of :class:`SketchEdit`
+    and :class:`DocumentEdit` applied in order (undone in reverse).
 
     Parameters
     ----------
@@ -51,7 +80,7 @@ class SketchHistory:
     """
 
     def __init__(self, *, max_bytes: int = 256 * 2**20) -> None:
-        self._edits: list[SketchEdit] = []
+        self._edits: list[list[Edit]] = []
         self._index = 0  # edits[:index] are done, edits[index:] undone
         self._max_bytes = max_bytes
 
@@ -63,24 +92,37 @@ class SketchHistory:
     def can_redo(self) -> bool:
         return self._index < len(self._edits)
 
-    def push(self, edit: SketchEdit) -> None:
-        """Record a new edit; the undone steps after the current one are dropped."""
+    def push(self, edit: Edit) -> None:
+        """Record a new step of one edit; the undone steps after the current one are dropped."""
         del self._edits[self._index:]
-        self._edits.append(edit)
-        total = sum(e.nbytes for e in self._edits)
+        self._edits.append([edit])
+        self._trim()
+
+    def join(self, edit: Edit) -> None:
+        """Add ``edit`` to the last step done (a consequence of it, undone with
+        it); a new step when there is none."""
+        if self._index == 0 or self._index != len(self._edits):
+            self.push(edit)
+            return
+        self._edits[-1].append(edit)
+        self._trim()
+
+    def _trim(self) -> None:
+        total = sum(_step_bytes(step) for step in self._edits)
         while total > self._max_bytes and len(self._edits) > 1:
-            total -= self._edits.pop(0).nbytes
+            total -= _step_bytes(self._edits.pop(0))
         self._index = len(self._edits)
 
-    def undo(self) -> SketchEdit | None:
-        """The edit to revert, or None when there is nothing to undo."""
+    def undo(self) -> list[Edit] | None:
+        """The step to revert (its edits in the order they were made), or
+        None when there is nothing to undo."""
         if not self.can_undo:
             return None
         self._index -= 1
         return self._edits[self._index]
 
-    def redo(self) -> SketchEdit | None:
-        """The edit to apply again, or None when there is nothing to redo."""
+    def redo(self) -> list[Edit] | None:
+        """The step to apply again, or None when there is nothing to redo."""
         if not self.can_redo:
             return None
         self._index += 1
@@ -89,3 +131,7 @@ class SketchHistory:
     def clear(self) -> None:
         self._edits.clear()
         self._index = 0
+
+
+def _step_bytes(step: list[Edit]) -> int:
+    return sum(edit.nbytes for edit in step)

@@ -7,6 +7,8 @@ import os
 from datetime import datetime
 from pathlib import Path
 
+from terrasynth_core.io import atomic_outputs, open_new
+
 from .document import Document
 from .project import load_project, save_project
 
@@ -34,9 +36,8 @@ class RecoveryStore:
         save_project(document, self.path, mark_saved=False)
         info = {"original": str(document.path) if document.path is not None else None,
                 "saved_at": datetime.now().isoformat(timespec="seconds")}
-        tmp = self._info.with_suffix(".tmp")
-        tmp.write_text(json.dumps(info))
-        os.replace(tmp, self._info)
+        with atomic_outputs(self._info) as (tmp,), open_new(tmp) as fh:
+            fh.write(json.dumps(info).encode("utf-8"))
 
     def exists(self) -> bool:
         return self.path.is_file()

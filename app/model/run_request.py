@@ -16,12 +16,10 @@ from typing import Callable, Iterator, Sequence
 
 import numpy as np
 
-from terrasynth_core.features import SketchMap
 from terrasynth_core.pictures import height_range
-from terrasynth_core.synthesis import Controls, Pin, Session, SynthesisParams, Water, run_variations
+from terrasynth_core.project import RunSpec
+from terrasynth_core.synthesis import run_variations
 
-from .control_specs import StampSpec, StyleSpec
-from .example_library import ExampleRef
 from .result import TerrainResult
 
 #: Largest seed the app hands out or shows (its seed box holds a 32-bit int).
@@ -29,73 +27,13 @@ MAX_SEED = 2**31 - 1
 
 
 @dataclass(frozen=True, eq=False)
-class SynthesisRequest:
+class SynthesisRequest(RunSpec):
     """Immutable inputs of one run, taken from the document on the GUI thread.
 
-    :meth:`make_session` does the slow part (reading and analysing the
-    examples) and is meant to be called on a worker thread.
-
-    Parameters
-    ----------
-    examples : tuple of ExampleRef
-    sketch_map : SketchMap or None
-    shape : (rows, cols)
-    params : SynthesisParams
-    styles : tuple of StyleSpec
-        The styles painted somewhere, in ``style_map`` index order.
-    style_map : ndarray of int16, shape (rows, cols), or None
-        Index into ``styles`` per cell, -1 for the plain examples.
-    water : ndarray of bool, shape (rows, cols), or None
-    water_level : float
-    height_range : (low, high) or None
-    pins : tuple of Pin
-    stamps : tuple of StampSpec
-    previous : ndarray of float32, shape (rows, cols), or None
-        For a re-synthesis: the terrain to keep outside ``selection``.
-    selection : ndarray of bool, shape (rows, cols), or None
+    The core's :class:`~terrasynth_core.project.RunSpec` (fields, and
+    :meth:`make_session`, the slow part, meant for a worker thread), plus
+    variations that come back as the app's :class:`TerrainResult` s.
     """
-
-    examples: tuple[ExampleRef, ...]
-    sketch_map: SketchMap | None
-    shape: tuple[int, int]
-    params: SynthesisParams
-    styles: tuple[StyleSpec, ...] = ()
-    style_map: np.ndarray | None = None
-    water: np.ndarray | None = None
-    water_level: float = 0.0
-    height_range: tuple[float, float] | None = None
-    pins: tuple[Pin, ...] = ()
-    stamps: tuple[StampSpec, ...] = ()
-    previous: np.ndarray | None = None
-    selection: np.ndarray | None = None
-
-    def make_controls(self) -> Controls:
-        """The core controls, style and stamp DEMs read (slow)."""
-        return Controls(
-            styles=tuple(spec.to_core() for spec in self.styles),
-            style_map=self.style_map,
-            water=Water(self.water, self.water_level) if self.water is not None else None,
-            stamps=tuple(spec.to_core() for spec in self.stamps),
-            pins=self.pins,
-            height_range=self.height_range,
-            previous=self.previous,
-            selection=self.selection,
-        )
-
-    def make_session(self) -> Session:
-        """Load the examples and build the validated core session.
-
-        Raises
-        ------
-        TerraSynthError
-            For an unreadable example or inconsistent inputs.
-        """
-        fields = [ref.load() for ref in self.examples]
-        return Session(fields, self.sketch_map, shape=self.shape, params=self.params, controls=self.make_controls())
-
-    def source_fields(self) -> list:
-        """The height fields of the plain examples, then of the styles (slow)."""
-        return [ref.load() for ref in self.examples] + [spec.example.load() for spec in self.styles]
 
     def make_variations(self, seeds: Sequence[int], *, progress: Callable | None = None,
                         cancel: Callable[[], bool] | None = None, workers: int | None = None) -> list[TerrainResult]:
@@ -117,7 +55,7 @@ class SynthesisRequest:
         list of TerrainResult
             In the order of ``seeds``.
         """
-        fields = [ref.load() for ref in self.examples]
+        fields = self.example_fields()
         terrains: dict[int, TerrainResult] = {}
 
         def finished(index: int, result) -> None:

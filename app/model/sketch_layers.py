@@ -20,10 +20,13 @@ import numpy as np
 
 from terrasynth_core.errors import SketchError
 from terrasynth_core.features import SketchMap, resize_nearest
+from terrasynth_core.project import STROKE_THRESHOLD, stroke_map
+# Largest sketch side accepted, in cells (the core's output limit is 64 M cells).
+from terrasynth_core.project import MAX_SIDE
 
 from .observable import Observable
 from .brushes import capsule_coverage
-from .history import BBox, SketchEdit, SketchHistory
+from .history import BBox, DocumentEdit, SketchEdit, SketchHistory
 
 Tool = Literal["ridge", "valley", "erase", "style", "style_erase", "water", "water_erase"]
 #: Tools that paint ridge and valley strokes.
@@ -35,10 +38,6 @@ TOOLS: tuple[str, ...] = STROKE_TOOLS + REGION_TOOLS
 _TOOL_LAYERS = {"ridge": ("ridge", "valley"), "valley": ("ridge", "valley"), "erase": ("ridge", "valley"),
                 "style": ("style",), "style_erase": ("style",), "water": ("water",), "water_erase": ("water",)}
 
-#: Intensity from which a cell counts as stroked.
-STROKE_THRESHOLD = 128
-#: Largest sketch side accepted, in cells (the core's output limit is 64 M cells).
-MAX_SIDE = 8000
 #: Style label of cells no style region claims.
 NO_STYLE = -1
 #: Largest style id (the style layer is int16).
@@ -103,6 +102,7 @@ class Sketch:
         self.changed = Observable()
         self.history_changed = Observable()
         self._stroke: _Stroke | None = None
+        self._replaying = False
 
     # -- construction -----------------------------------------------------------
     @classmethod
@@ -139,11 +139,10 @@ class Sketch:
         return bool(self._layers["water"].any())
 
     def to_sketch_map(self) -> SketchMap:
-        """The core sketch map: cells at half intensity or more, ridge winning ties."""
-        ridge, valley = self._layers["ridge"], self._layers["valley"]
-        ridge_mask = (ridge >= STROKE_THRESHOLD) & (ridge >= valley)
-        valley_mask = (valley >= STROKE_THRESHOLD) & ~ridge_mask
-        return SketchMap(ridge_mask, valley_mask)
+        """The core sketch map: cells at half intensity or more, ridge winning
+        ties (:func:`terrasynth_core.project.stroke_map`, the rule projects
+        rendered by the CLI follow too)."""
+        return stroke_map(self._layers["ridge"], self._layers["valley"])
 
     def to_rgb(self, bbox: BBox | None = None) -> np.ndarray:
         """Strokes drawn like a sketch PNG: red ridges, blue valleys on white.
@@ -325,6 +324,24 @@ class Sketch:
 
     # -- undo -------------------------------------------------------------------
     @property
+    def replaying(self) -> bool:
+        """True while an undo or redo puts layers back (listeners that follow
+        sketch edits with their own, recorded in the same step, skip them)."""
+        return self._replaying
+
+    def record(self, edit: DocumentEdit) -> None:
+        """Record a change of the document outside the layers as its own undo step."""
+        self.end_stroke()
+        self.history.push(edit)
+        self.history_changed.emit()
+
+    def record_with_last(self, edit: DocumentEdit) -> None:
+        """Record ``edit`` as part of the last step (a change that follows
+        from it, such as pins moved by a resize)."""
+        self.history.join(edit)
+        self.history_changed.emit()
+
+    @property
     def can_undo(self) -> bool:
         return self.history.can_undo
 
@@ -341,12 +358,20 @@ class Sketch:
         return self._replay(self.history.redo, "new")
 
     def _replay(self, step, side: str) -> bool:
-        """Put back the ``side`` (``"old"`` or ``"new"``) layers of the edit ``step()`` returns."""
+        """Put back the ``side`` (``"old"``: undo, ``"new"``: redo) of the step ``step()`` returns."""
         self.end_stroke()
-        edit = step()
-        if edit is None:
+        edits = step()
+        if edits is None:
             return False
-        self._apply(edit.bbox, getattr(edit, side))
+        self._replaying = True
+        try:
+            for edit in (reversed(edits) if side == "old" else edits):
+                if isinstance(edit, DocumentEdit):
+                    (edit.undo if side == "old" else edit.redo)()
+                else:
+                    self._apply(edit.bbox, getattr(edit, side))
+        finally:
+            self._replaying = False
         self.history_changed.emit()
         return True
 

@@ -25,17 +25,17 @@ def add_control_arguments(p: argparse.ArgumentParser) -> None:
     """Add the artist-control options to the ``synth`` parser."""
     g = p.add_argument_group("artist controls")
     g.add_argument("--styles", metavar="REGIONS.png", help="style regions: one flat colour per style")
-    g.add_argument("--style", action="append", default=[], metavar='"#RRGGBB=DEM[,relief=S][,base=M]"',
+    g.add_argument("--style", action="append", metavar='"#RRGGBB=DEM[,relief=S][,base=M]"',
                    help="the example DEM for one colour of --styles (repeatable); relief scales its height "
                         "variation, base sets its level in metres")
     g.add_argument("--water", metavar="MASK.png", help="sea, lakes and rivers: dark paint on white")
     g.add_argument("--water-level", type=float, metavar="H", help="water level in metres (needed with --water)")
     g.add_argument("--water-depth", type=float, metavar="M", help="bed depth of wide water below the level, metres")
     g.add_argument("--bank-width", type=float, metavar="CELLS", help="cells over which land eases down to water")
-    g.add_argument("--stamp", action="append", default=[], metavar="DEM@ROW,COL[,ROT_DEG,SCALE]",
+    g.add_argument("--stamp", action="append", metavar="DEM@ROW,COL[,ROT_DEG,SCALE]",
                    help="place a DEM (or DEM[r0:r1,c0:c1], a window of it) centred at ROW,COL, rotated "
                         "counter-clockwise and scaled (repeatable)")
-    g.add_argument("--pin", action="append", default=[], metavar="ROW,COL,HEIGHT",
+    g.add_argument("--pin", action="append", metavar="ROW,COL,HEIGHT",
                    help="make the output exactly HEIGHT metres at ROW,COL (repeatable)")
     g.add_argument("--pin-radius", type=float, metavar="CELLS", help="how far a pin's correction reaches")
     g.add_argument("--height-range", metavar="LO,HI", help="map the output's heights onto LO..HI metres")

@@ -172,6 +172,9 @@ def cmd_synth(args: argparse.Namespace) -> int:
 
     from .controls import controls_from_args
 
+    if args.project:
+        return _synth_project(args)
+    _fill_run_defaults(args)
     if not args.example and not args.styles:
         raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY), or --styles with --style")
     if not args.sketch and not args.styles and not args.size:
@@ -189,6 +192,55 @@ def cmd_synth(args: argparse.Namespace) -> int:
     )
     controls = controls_from_args(args, have_examples=bool(examples))
     return _synthesize(examples, sketch, args.size, params, args, controls)
+
+
+#: ``synth`` options that set up a run, and their defaults; given with
+#: ``--project`` they would contradict the project (which holds them all).
+_RUN_OPTIONS = {"example": None, "sketch": None, "patch_size": 80, "overlap": None, "order": "bfs", "seam": "cut",
+                "blend": "c1", "cell_size": None, "no_drainage": None, "band": None, "styles": None, "style": None,
+                "water": None, "water_level": None, "water_depth": None, "bank_width": None, "stamp": None,
+                "pin": None, "pin_radius": None, "height_range": None}
+
+
+def _fill_run_defaults(args: argparse.Namespace) -> None:
+    """The defaults of the run options (None in the parser, so ``--project`` can tell what was given)."""
+    for name, default in _RUN_OPTIONS.items():
+        if getattr(args, name) is None:
+            setattr(args, name, [] if name in ("style", "stamp", "pin") else default)
+    args.no_drainage = bool(args.no_drainage)
+    if args.seed is None:
+        args.seed = 0
+
+
+def _synth_project(args: argparse.Namespace) -> int:
+    """``synth --project FILE.tsproj``: render a saved project as the app's
+    *Synthesize* would (its examples, sketch, styles, water, stamps, pins and
+    parameters), optionally at another ``--size`` and ``--seed``."""
+    import dataclasses
+
+    from ..project import read_project, resize_pins, resize_stamps
+
+    given = [name for name in _RUN_OPTIONS if getattr(args, name) not in (None, [])]
+    if given:
+        option = "--" + given[0].replace("_", "-")
+        raise TerraSynthError(f"{option} cannot be combined with --project {args.project}: the project holds the "
+                              "examples, sketch, controls and parameters (with it give only --out, --size, --seed, "
+                              "--variations, --cog, --report, --debug-dir)")
+    from ..synthesis.variations import MAX_VARIATIONS
+
+    if not 1 <= args.variations <= MAX_VARIATIONS:
+        raise TerraSynthError(f"--variations must be 1 to {MAX_VARIATIONS}, got {args.variations}")
+    _check_output(args)
+    project = read_project(args.project)
+    spec = project.run_spec()
+    if args.seed is not None:
+        spec = dataclasses.replace(spec, params=dataclasses.replace(spec.params, seed=args.seed))
+    size = tuple(args.size) if args.size else project.shape
+    if size != project.shape:
+        # Pins and stamps follow the sketch to the new size, as in the app.
+        spec = dataclasses.replace(spec, pins=tuple(resize_pins(spec.pins, project.shape, size)),
+                                   stamps=tuple(resize_stamps(spec.stamps, project.shape, size)))
+    return _synthesize(spec.example_fields(), spec.sketch_map, size, spec.params, args, spec.make_controls())
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
@@ -210,20 +262,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
 def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     from tqdm import tqdm
 
-    from ..io import MESH_EXTENSIONS, WRITE_EXTENSIONS
     from ..synthesis import PatchPlaced, Session, StageStarted, SynthesisFinished
 
-    out = Path(args.out)
-    if out.suffix.lower() not in WRITE_EXTENSIONS + MESH_EXTENSIONS:
-        raise TerraSynthError(
-            f"cannot write {out}: unknown extension {out.suffix!r}; expected one of "
-            + ", ".join(WRITE_EXTENSIONS + MESH_EXTENSIONS)
-        )
-    # Checked before the run so a typo in the path does not cost a whole synthesis.
-    if not out.parent.is_dir():
-        raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
-    _check_cog(args, out)
-    _check_report_path(args, out)
+    from ..project import check_stamp_footprints
+
+    out = _check_output(args)
+    check_stamp_footprints(controls, examples, params.cell_size)
     session = Session(examples, sketch, shape=size, params=params, controls=controls)
     for w in session.warnings:
         print(f"terrasynth-cli: note: {w}", file=sys.stderr)
@@ -254,6 +298,24 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
         _after_output(out, f"the debug folder {args.debug_dir}", lambda: _write_debug(result, Path(args.debug_dir)))
     _summary(result, out, session.warnings)
     return EXIT_OK
+
+
+def _check_output(args) -> Path:
+    """``--out`` (and ``--report``), checked before the run so a typo in the
+    path does not cost a whole synthesis."""
+    from ..io import MESH_EXTENSIONS, WRITE_EXTENSIONS
+
+    out = Path(args.out)
+    if out.suffix.lower() not in WRITE_EXTENSIONS + MESH_EXTENSIONS:
+        raise TerraSynthError(
+            f"cannot write {out}: unknown extension {out.suffix!r}; expected one of "
+            + ", ".join(WRITE_EXTENSIONS + MESH_EXTENSIONS)
+        )
+    if not out.parent.is_dir():
+        raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
+    _check_cog(args, out)
+    _check_report_path(args, out)
+    return out
 
 
 def _check_report_path(args, out: Path) -> None:
@@ -407,20 +469,25 @@ def build_parser() -> argparse.ArgumentParser:
     _add_band(p)
     p.set_defaults(func=cmd_features)
 
-    p = sub.add_parser("synth", help="synthesize a terrain from example DEMs and a sketch")
+    p = sub.add_parser("synth", help="synthesize a terrain from example DEMs and a sketch, or a saved project")
+    p.add_argument("--project", metavar="FILE.tsproj",
+                   help="render a project saved by the app, as its Synthesize would (examples, sketch, styles, "
+                        "water, stamps, pins, parameters); with --size the sketch, pins and stamps are scaled")
     p.add_argument("--example", action="append", metavar="DEM",
                    help="example DEM (repeatable); with --styles, the style of unlisted colours")
     p.add_argument("--sketch", help="sketch PNG: red ridges, blue valleys")
     p.add_argument("--out", required=True, help="output file; the format follows the extension")
     p.add_argument("--size", type=parse_size, help="output ROWSxCOLS (default: the sketch's; it is scaled)")
-    p.add_argument("--patch-size", type=int, default=80)
+    # Run options default to None here (their defaults: _RUN_OPTIONS), so
+    # --project can tell which were given.
+    p.add_argument("--patch-size", type=int, help="patch side in cells (default 80)")
     p.add_argument("--overlap", type=int, default=None, help="overlap in cells (default a third of the patch)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--order", choices=("bfs", "raster"), default="bfs")
-    p.add_argument("--seam", choices=("cut", "paste"), default="cut")
-    p.add_argument("--no-drainage", action="store_true",
+    p.add_argument("--seed", type=int, help="random seed (default 0; with --project, the project's)")
+    p.add_argument("--order", choices=("bfs", "raster"), help="patch order (default bfs)")
+    p.add_argument("--seam", choices=("cut", "paste"), help="seams (default cut)")
+    p.add_argument("--no-drainage", action="store_true", default=None,
                    help="leave the finished heights as synthesized (default: painted valleys drain, ridges divide)")
-    p.add_argument("--blend", choices=("poisson", "c1", "none"), default="c1")
+    p.add_argument("--blend", choices=("poisson", "c1", "none"), help="seam blend (default c1)")
     p.add_argument("--cell-size", type=positive_metres, metavar="M",
                    help="output cell size in metres, square (default: the finest example's)")
     _add_band(p, "band of every --example DEM (1-based; needed for multi-band files)")

@@ -63,8 +63,8 @@ from pathlib import Path
 from ..errors import DEMFormatError
 from ..heightfield import HeightField
 from . import esri_ascii, gdal, hgt, mesh, npy, png, raw, terragen, usgs_dem
-from ._common import (SIDECAR_EXTENSIONS, atomic_outputs, check_sidecar_free, open_new, sidecar_path, wrap_errors,
-                      write_sidecar)
+from ._common import (SIDECAR_EXTENSIONS, atomic_outputs, check_sidecar_free, open_new, remove_unfinished,
+                      sidecar_path, wrap_errors, write_sidecar)
 
 __all__ = [
     "MESH_EXTENSIONS",
@@ -72,6 +72,7 @@ __all__ = [
     "WRITE_EXTENSIONS",
     "format_name",
     "load_dem",
+    "remove_unfinished",
     "save_dem",
     "save_mesh",
     "sidecar_of",

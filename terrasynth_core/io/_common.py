@@ -2,7 +2,9 @@
 
 * atomic output: every file is first written under a temporary name in the
   destination directory and moved into place with :func:`os.replace`, so a
-  crash never leaves a half-written DEM behind;
+  crash never leaves a half-written DEM behind; the temporary files being
+  written are known (:func:`remove_unfinished`), so a process stopped by a
+  signal removes them even when the writes run on other threads (the app);
 * the JSON sidecar that gives heightmaps without a header (PNG, RAW, NPY)
   their height range, cell size and georeference;
 * the 16-bit level encoding of heights used by PNG and ``.r16``;
@@ -11,12 +13,15 @@
 
 from __future__ import annotations
 
+import errno
 import glob
 import json
 import math
 import os
 import secrets
+import shutil
 import struct
+import threading
 import zlib
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -84,23 +89,83 @@ def wrap_errors(path: Path, action: str) -> Iterator[None]:
         raise DEMFormatError(f"cannot {action} {path}: {detail}") from exc
 
 
+#: Temporary files of atomic writes not finished yet, in every thread.
+_UNFINISHED: set[Path] = set()
+_UNFINISHED_LOCK = threading.Lock()
+
+
 @contextmanager
 def atomic_outputs(*paths: Path) -> Iterator[list[Path]]:
     """Temporary paths beside ``paths``, moved onto them if the block succeeds.
 
     The temporary files are created by the caller (use :func:`open_new`).  On
     success each one replaces its target with :func:`os.replace` (atomic on
-    POSIX and Windows within one file system); on failure they are removed and
-    the targets are left untouched.
+    POSIX and Windows within one file system); on failure (an exception,
+    KeyboardInterrupt included) they are removed and the targets are left
+    untouched.  Until then they are listed for :func:`remove_unfinished`.
     """
-    temps = [p.with_name(f".{p.name}.{secrets.token_hex(6)}.tmp") for p in paths]
+    temps = [Path(p).with_name(f".{Path(p).name}.{secrets.token_hex(6)}.tmp") for p in paths]
+    with _UNFINISHED_LOCK:
+        _UNFINISHED.update(temps)
     try:
         yield temps
         for temp, target in zip(temps, paths):
             os.replace(temp, target)
+    except Exception as exc:
+        _raise_if_disk_full(exc, temps[0].parent if temps else Path("."))
+        raise
     finally:
         for temp in temps:
             temp.unlink(missing_ok=True)
+        with _UNFINISHED_LOCK:
+            _UNFINISHED.difference_update(temps)
+
+
+#: A failed write with less than this free beside it failed for want of space.
+FULL_DISK_BYTES = 1 << 20
+
+
+def _raise_if_disk_full(exc: Exception, folder: Path) -> None:
+    """Say "No space left on device" when a write failed on a (nearly) full disk.
+
+    Libraries report a full disk in their own words, or none: numpy's
+    ``tofile`` says "65536 requested and 14304 written", GDAL "Write failed.
+    See previous exception for details".  Measured before the temporary
+    files are removed (they hold the space that ran out).
+    """
+    if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        return
+    try:
+        free = shutil.disk_usage(folder).free
+    except OSError:
+        return
+    if free < FULL_DISK_BYTES:
+        raise OSError(errno.ENOSPC, f"No space left on device ({free} bytes free in {folder})") from exc
+
+
+def remove_unfinished() -> list[Path]:
+    """Delete the temporary files of every atomic write still in progress.
+
+    For a process about to end on a signal while writes run on other threads
+    (the app's saves, autosaves and exports): their targets stay as they were
+    (a write that had not reached :func:`os.replace` never does), and no
+    ``.NAME.HEX.tmp`` is left behind.
+
+    Returns
+    -------
+    list of Path
+        The temporary files that existed and were removed.
+    """
+    with _UNFINISHED_LOCK:
+        temps = list(_UNFINISHED)
+    removed = []
+    for temp in temps:
+        try:
+            temp.unlink()
+            removed.append(temp)
+        except OSError:  # not created yet, or already moved into place
+            pass
+    return removed
 
 
 def open_new(path: Path):
