@@ -28,6 +28,7 @@ from ..model.document import Document
 from ..model.sketch_layers import TOOLS, Sketch
 from .controls_overlay import ControlsOverlay
 from .feature_overlay import FeatureGraphOverlay, legend_text
+from .overlay_widgets import note_label, pin_overlay
 from .style_panel import swatch
 
 #: Delay after the last edit before the feature graph is recomputed, in ms.
@@ -110,8 +111,6 @@ class SketchCanvas(QWidget):
 
         self._build_toolbar()
         self.region_bars = self._build_region_bars() if document is not None else []
-        self.legend = QLabel(legend_text())
-        self.legend.setVisible(False)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.toolbar)
@@ -119,7 +118,9 @@ class SketchCanvas(QWidget):
             layout.addWidget(bar)
         layout.addWidget(self.options_bar)
         layout.addWidget(self.view, 1)
-        layout.addWidget(self.legend)
+        # Floats over the image: showing it must not move the canvas under the brush.
+        self.legend = pin_overlay(note_label(legend_text()), self.view, "bottom_left")
+        self.legend.setVisible(False)
 
         self._refresh_timer = QTimer(self, singleShot=True, interval=REFRESH_MS)
         self._refresh_timer.timeout.connect(self._refresh_image)

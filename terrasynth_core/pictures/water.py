@@ -1,0 +1,72 @@
+"""Water drawn over terrain: blues by depth below a water level, and the shoreline.
+
+The app's 2D and 3D views, and the README's map pictures, draw water with
+these colours, so a lake looks the same wherever it is shown.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+#: Water colour at the shore (shallow) and at full depth, RGB.
+SHALLOW_RGB = np.array((120, 170, 215), np.float64)
+DEEP_RGB = np.array((30, 70, 140), np.float64)
+#: The line where the level meets the land, RGB.
+SHORE_RGB = (235, 245, 255)
+
+
+def depth_colours(depth: np.ndarray, *, full_depth: float | None = None) -> np.ndarray:
+    """Blues from shallow to deep.
+
+    Parameters
+    ----------
+    depth : ndarray of float, shape (n,) or (rows, cols)
+        Metres below the water level (0 at the shore; negative counts as 0).
+    full_depth : float or None
+        Depth that takes the deepest blue; None takes the 95th percentile of
+        ``depth`` (so a few deep holes do not wash out the rest).
+
+    Returns
+    -------
+    ndarray of float64, shape ``depth.shape + (3,)``
+        RGB from 0 to 255.
+    """
+    depth = np.clip(np.asarray(depth, np.float64), 0.0, None)
+    if full_depth is None:
+        full_depth = float(np.percentile(depth, 95)) if depth.size else 1.0
+    t = (depth / max(full_depth, 1e-6)).clip(0.0, 1.0)[..., None]
+    return (1.0 - t) * SHALLOW_RGB + t * DEEP_RGB
+
+
+def water_rgba(heights: np.ndarray, level: float, *, alpha: int = 230) -> np.ndarray:
+    """Every cell below ``level`` as water, blue by depth, with a shoreline.
+
+    What an artist will get: once the terrain is exported, a water surface
+    at ``level`` covers every cell below it, painted or not.
+
+    Parameters
+    ----------
+    heights : ndarray of float, shape (rows, cols)
+        Metres; NaN (not synthesized yet) is dry.
+    level : float
+        Water surface height, metres.
+    alpha : int, default 230
+        Opacity of the water, 0 to 255 (the hillshade shows through a little).
+
+    Returns
+    -------
+    ndarray of uint8, shape (rows, cols, 4)
+        RGBA; dry cells transparent, water cells next to dry land drawn in
+        :data:`SHORE_RGB`, opaque.
+    """
+    with np.errstate(invalid="ignore"):
+        wet = heights < level  # NaN compares False: dry
+    rgba = np.zeros(heights.shape + (4,), np.uint8)
+    if not wet.any():
+        return rgba
+    rgba[wet, :3] = np.rint(depth_colours(level - heights[wet]))
+    rgba[wet, 3] = alpha
+    shore = wet & ~ndimage.binary_erosion(wet, border_value=1)
+    rgba[shore] = (*SHORE_RGB, 255)
+    return rgba
