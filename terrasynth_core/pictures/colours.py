@@ -48,10 +48,12 @@ def height_ticks(low: float, high: float, *, count: int = 5) -> list[float]:
     span = high - low
     if not (np.isfinite(span) and span > 0):
         return [float(low)]
-    raw = span / max(count - 1, 1)
+    # A step a little under span / (count - 1) rounds to 1-2-5 without
+    # falling to half the ticks wanted.
+    raw = span / max(count - 1, 1) / 1.5
     power = 10.0 ** np.floor(np.log10(raw))
     step = next(m * power for m in (1, 2, 5, 10) if m * power >= raw)
-    ticks = np.arange(np.ceil(low / step) * step, high + step * 1e-9, step)
+    ticks = np.arange(np.ceil(low / step) * step, high + step * 1e-9, step) + 0.0  # no -0.0
     return [float(t) for t in ticks] if len(ticks) >= 2 else [float(low), float(high)]
 
 
