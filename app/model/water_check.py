@@ -39,10 +39,15 @@ class Drowning:
     level: float
     safe_level: float
 
-    def message(self) -> str:
-        """One line for the banner."""
-        return (f"{self.share:.0%} of the map ({self.cells} land cells not painted as water) lies below the "
-                f"water level {self.level:g} m and will read as water.")
+    def message(self, *, connected_only: bool = False) -> str:
+        """One line for the banner; ``connected_only``: the views draw only
+        water connected to the painted water."""
+        head = (f"{self.share:.1%} of the map ({self.cells} land cells not painted as water) lies below the "
+                f"water level {self.level:g} m")
+        if connected_only:
+            return head + ("; drawn dry where no painted water reaches it, but a water surface at the level "
+                           "in another program would cover it.")
+        return head + " and will read as water."
 
 
 def drowned_land(heights: np.ndarray, water: np.ndarray, level: float) -> Drowning | None:

@@ -54,7 +54,7 @@ class HeightmapView(QWidget):
         The mouse is over cell ``(row, col)``; ``(-1, -1)`` when it left
         the terrain.
     water_fix_requested()
-        The banner's button: lower the water level so no land drowns.
+        The banner's first button: lower the water level so no land drowns.
     """
 
     refreshed = Signal()
@@ -73,6 +73,7 @@ class HeightmapView(QWidget):
         self._vrange = (0.0, 1.0)
         self._result: TerrainResult | None = None
         self.water_level: float | None = None  # None: no painted water, none drawn
+        self._painted: np.ndarray | None = None  # given: only water connected to it is drawn
         self._dirty = False
         # Bumped by every new result or run; late images of an older one are
         # dropped.
@@ -120,6 +121,10 @@ class HeightmapView(QWidget):
             self.overlay_checks[name] = check
             bar.addWidget(check)
         bar.addStretch(1)
+        self.connected_water_check = QCheckBox(
+            "Connected water", toolTip="Draw as water only the cells below the level that connect to painted "
+                                       "water (else every cell below the level)")
+        bar.addWidget(self.connected_water_check)
         self.link_check = QCheckBox("Link to sketch", checked=True,
                                     toolTip="Zoom and pan the sketch and the 2D terrain together")
         bar.addWidget(self.link_check)
@@ -133,7 +138,7 @@ class HeightmapView(QWidget):
         self.legend.setVisible(False)
         self.height_legend = pin_overlay(HeightLegend(), self.view, "bottom_right")
         self.banner = pin_overlay(WarningBanner(), self.view, "top")
-        self.banner.fix_clicked.connect(self.water_fix_requested)
+        self.banner.fix_clicked.connect(self._banner_fix)
 
         self._timer = QTimer(self, interval=REFRESH_MS)
         self._timer.timeout.connect(self._refresh)
@@ -264,17 +269,27 @@ class HeightmapView(QWidget):
         self.result_shown.emit()
 
     # -- water, hover ----------------------------------------------------------------------
-    def set_water(self, level: float | None, drowning=None) -> None:
+    def set_water(self, level: float | None, drowning=None, *, painted: np.ndarray | None = None) -> None:
         """Draw water below ``level`` metres (None: no painted water, no
-        water drawn) and warn about ``drowning``, a
+        water drawn), only where it connects to ``painted`` when given,
+        and warn about ``drowning``, a
         :class:`~terrasynth_app.model.water_check.Drowning` or None."""
         self.water_level = level
+        self._painted = painted
         self._draw_water()
         if drowning is None:
             self.banner.show_warning(None)
+            return
+        fixes = (f"Lower the level to {drowning.safe_level:g} m and synthesize",)
+        if painted is None:
+            fixes += ("Draw only water connected to the painted water",)
+        self.banner.show_warning(drowning.message(connected_only=painted is not None), fixes)
+
+    def _banner_fix(self, index: int) -> None:
+        if index == 0:
+            self.water_fix_requested.emit()
         else:
-            self.banner.show_warning(drowning.message(), f"Lower the level to {drowning.safe_level:g} m "
-                                                         "and synthesize")
+            self.connected_water_check.setChecked(True)
 
     def _draw_water(self) -> None:
         finished = self._result is not None and not self._timer.isActive()
@@ -282,8 +297,8 @@ class HeightmapView(QWidget):
             self.water_image.clear()
             self.water_image.setVisible(False)
         else:
-            self.water_image.setImage(water_rgba(self._result.heights, self.water_level), autoLevels=False,
-                                      levels=None)
+            self.water_image.setImage(water_rgba(self._result.heights, self.water_level, painted=self._painted),
+                                      autoLevels=False, levels=None)
             self.water_image.setVisible(True)
         if self.heights is not None:
             self.height_legend.set_range(self._vrange, self.water_level)

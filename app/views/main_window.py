@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import logging
 
+import numpy as np
+
 from PySide6.QtCore import QSettings, Qt, QTimer, Signal
 from PySide6.QtWidgets import (QDockWidget, QFileDialog, QFrame, QInputDialog, QMainWindow, QMessageBox, QScrollArea,
                                QSplitter, QTabWidget)
@@ -177,6 +179,7 @@ class MainWindow(QMainWindow):
         self.heightmap.hovered.connect(self._hovered)
         self.heightmap.water_fix_requested.connect(self.lower_water_level)
         self.heightmap.link_check.toggled.connect(self.view_link.set_enabled)
+        self.heightmap.connected_water_check.toggled.connect(lambda _on: self._show_water())
         self.document.sketch.changed.connect(lambda _bbox: self._water_timer.start())
 
         self.file_controller.example_map_opened.connect(self._example_map_opened)
@@ -207,8 +210,9 @@ class MainWindow(QMainWindow):
         nothing otherwise)."""
         doc = self.document
         level = doc.water_level if doc.sketch.has_water else None
-        self.heightmap.set_water(level, document_drowning(doc))
-        self.view3d.set_water_level(level)
+        painted = np.asarray(doc.sketch.water) if self.heightmap.connected_water_check.isChecked() else None
+        self.heightmap.set_water(level, document_drowning(doc), painted=painted)
+        self.view3d.set_water_level(level, painted=painted)
 
     def lower_water_level(self) -> None:
         """The banner's fix: the highest level that drowns no land of the

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from PySide6.QtCore import QEvent, QObject, QRect, QSize, Qt, Signal
 from PySide6.QtGui import QColor, QFont, QImage, QPainter, QPen
-from PySide6.QtWidgets import QFrame, QHBoxLayout, QLabel, QPushButton, QSizePolicy, QWidget
+from PySide6.QtWidgets import QFrame, QHBoxLayout, QLabel, QPushButton, QSizePolicy, QVBoxLayout, QWidget
 
 from terrasynth_core.pictures import height_ticks, ramp_strip
 
@@ -37,7 +37,9 @@ class ElidedLabel(QFrame):
         super().__init__(parent)
         self._text = ""
         self._width_hint = width_hint
-        self.setSizePolicy(QSizePolicy.Ignored, QSizePolicy.Fixed)
+        # Preferred, not Ignored: a box layout gives an Ignored widget no room,
+        # even with a fixed width.  The hints (not the text) bound it.
+        self.setSizePolicy(QSizePolicy.Preferred, QSizePolicy.Fixed)
         self.setText(text)
 
     def text(self) -> str:
@@ -121,14 +123,15 @@ def note_label(text: str = "") -> QLabel:
 
 
 class WarningBanner(QFrame):
-    """A warning across the top of a view with a button that fixes it.
+    """A warning across the top of a view with buttons that fix it.
 
     Signals
     -------
-    fix_clicked()
+    fix_clicked(int)
+        The index of the fix chosen.
     """
 
-    fix_clicked = Signal()
+    fix_clicked = Signal(int)
 
     def __init__(self, parent: QWidget | None = None) -> None:
         super().__init__(parent)
@@ -136,22 +139,30 @@ class WarningBanner(QFrame):
         self.setStyleSheet("#warning_banner { background: rgba(170, 40, 20, 225); border-radius: 3px; } "
                            "QLabel { color: white; font-weight: bold; }")
         self.label = QLabel(wordWrap=True)
-        self.fix_button = QPushButton()
-        self.fix_button.clicked.connect(self.fix_clicked)
+        self.fix_buttons: list[QPushButton] = []
+        self._buttons = QVBoxLayout()
         layout = QHBoxLayout(self)
         layout.setContentsMargins(8, 4, 8, 4)
         layout.addWidget(self.label, 1)
-        layout.addWidget(self.fix_button)
+        layout.addLayout(self._buttons)
         self.setVisible(False)
 
-    def show_warning(self, text: str | None, fix: str = "") -> None:
-        """Show ``text`` with a ``fix`` button; None hides the banner."""
+    def show_warning(self, text: str | None, fixes: tuple[str, ...] = ()) -> None:
+        """Show ``text`` with a button per fix; None hides the banner."""
         if text is None:
             self.setVisible(False)
             return
         self.label.setText(text)
-        self.fix_button.setText(fix)
-        self.fix_button.setVisible(bool(fix))
+        while len(self.fix_buttons) < len(fixes):
+            button = QPushButton()
+            index = len(self.fix_buttons)
+            button.clicked.connect(lambda _checked=False, i=index: self.fix_clicked.emit(i))
+            self._buttons.addWidget(button)
+            self.fix_buttons.append(button)
+        for i, button in enumerate(self.fix_buttons):
+            button.setVisible(i < len(fixes))
+            if i < len(fixes):
+                button.setText(fixes[i])
         self.setVisible(True)
 
 

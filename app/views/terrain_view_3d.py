@@ -23,7 +23,7 @@ from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtGui import QGuiApplication
 from PySide6.QtWidgets import QDoubleSpinBox, QHBoxLayout, QLabel, QStackedLayout, QVBoxLayout, QWidget
 
-from terrasynth_core.pictures import SHALLOW_RGB, TERRAIN_LUT, height_range
+from terrasynth_core.pictures import SHALLOW_RGB, TERRAIN_LUT, height_range, water_cells
 
 from ..model.result import TerrainResult
 from .overlay_widgets import ElidedLabel
@@ -76,6 +76,7 @@ class TerrainView3D(QWidget):
         self._actor = None
         self._water_actor = None
         self.water_level: float | None = None
+        self._painted: np.ndarray | None = None
         self._dirty = False
         self.redraws = 0
 
@@ -232,11 +233,12 @@ class TerrainView3D(QWidget):
         self.plotter.render()  # changes since the last frame (water, camera) may be waiting for a repaint
         self.plotter.screenshot(str(path))
 
-    def set_water_level(self, level: float | None) -> None:
-        """Show a water plane at ``level`` metres (None: no plane)."""
-        if level == self.water_level:
-            return
+    def set_water_level(self, level: float | None, *, painted: np.ndarray | None = None) -> None:
+        """Show water at ``level`` metres (None: none) over the cells below
+        it, only those connected to ``painted`` (bool, the terrain's shape)
+        when given."""
         self.water_level = level
+        self._painted = painted
         self._place_water()
 
     def water_plane_height(self) -> float | None:
@@ -263,14 +265,19 @@ class TerrainView3D(QWidget):
             self._water_actor = None
         if self.water_level is None:
             return
-        heights = np.asarray(self._grid["elevation"])
-        if not (heights < self.water_level).any():
+        (rows, cols), step = self._grid_key[0], self._grid_key[1]
+        heights = np.asarray(self._grid["elevation"]).reshape(rows, cols)
+        painted = None
+        if self._painted is not None and self._painted.shape == self.heights.shape:
+            painted = self._painted[::step, ::step]
+        wet = water_cells(heights, self.water_level, painted=painted)
+        if not wet.any():
             return
         water = self._grid.copy(deep=True)
         points = water.points
         points[:, 2] = self.water_level * self.scale_spin.value()
         water.points = points
-        water["wet"] = (heights < self.water_level).astype(np.float32)
+        water["wet"] = wet.ravel().astype(np.float32)
         # A cell is water if any corner is below the level: the surface
         # reaches the shore, and the terrain hides the overlap above it.
         surface = water.threshold(0.5, scalars="wet", all_scalars=False)

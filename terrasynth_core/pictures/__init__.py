@@ -30,7 +30,7 @@ from .overlay import RIDGE_COLOUR, VALLEY_COLOUR, render_overlay
 from .shading import grey_hillshade, hillshade, lit
 from .sheet import compose, fit_panel
 from .terrain_3d import camera_direction, surface_grid, trim_background
-from .water import DEEP_RGB, SHALLOW_RGB, SHORE_RGB, depth_colours, water_rgba
+from .water import DEEP_RGB, SHALLOW_RGB, SHORE_RGB, depth_colours, water_cells, water_rgba
 
 __all__ = [
     "DEEP_RGB",
@@ -58,5 +58,6 @@ __all__ = [
     "terrain_colours",
     "thumbnail",
     "trim_background",
+    "water_cells",
     "water_rgba",
 ]

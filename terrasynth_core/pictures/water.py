@@ -39,11 +39,8 @@ def depth_colours(depth: np.ndarray, *, full_depth: float | None = None) -> np.n
     return (1.0 - t) * SHALLOW_RGB + t * DEEP_RGB
 
 
-def water_rgba(heights: np.ndarray, level: float, *, alpha: int = 230) -> np.ndarray:
-    """Every cell below ``level`` as water, blue by depth, with a shoreline.
-
-    What an artist will get: once the terrain is exported, a water surface
-    at ``level`` covers every cell below it, painted or not.
+def water_cells(heights: np.ndarray, level: float, *, painted: np.ndarray | None = None) -> np.ndarray:
+    """Cells under water at ``level``.
 
     Parameters
     ----------
@@ -51,6 +48,34 @@ def water_rgba(heights: np.ndarray, level: float, *, alpha: int = 230) -> np.nda
         Metres; NaN (not synthesized yet) is dry.
     level : float
         Water surface height, metres.
+    painted : ndarray of bool, shape (rows, cols), optional
+        Painted water.  Given, only the cells below the level that connect
+        (8-neighbours) to painted water are water: a basin below the level
+        with no painted water in it stays dry, as it would under real water.
+        None: every cell below the level (a water plane at the level in
+        another program covers them all).
+
+    Returns
+    -------
+    ndarray of bool, shape (rows, cols)
+    """
+    with np.errstate(invalid="ignore"):
+        wet = heights < level  # NaN compares False: dry
+    if painted is not None and wet.any():
+        labels, _ = ndimage.label(wet, structure=np.ones((3, 3), bool))
+        touched = np.unique(labels[painted & wet])
+        wet = np.isin(labels, touched[touched > 0])
+    return wet
+
+
+def water_rgba(heights: np.ndarray, level: float, *, painted: np.ndarray | None = None,
+               alpha: int = 230) -> np.ndarray:
+    """The cells of :func:`water_cells` as water, blue by depth, with a shoreline.
+
+    Parameters
+    ----------
+    heights, level, painted
+        As in :func:`water_cells`.
     alpha : int, default 230
         Opacity of the water, 0 to 255 (the hillshade shows through a little).
 
@@ -60,8 +85,7 @@ def water_rgba(heights: np.ndarray, level: float, *, alpha: int = 230) -> np.nda
         RGBA; dry cells transparent, water cells next to dry land drawn in
         :data:`SHORE_RGB`, opaque.
     """
-    with np.errstate(invalid="ignore"):
-        wet = heights < level  # NaN compares False: dry
+    wet = water_cells(heights, level, painted=painted)
     rgba = np.zeros(heights.shape + (4,), np.uint8)
     if not wet.any():
         return rgba

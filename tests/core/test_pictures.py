@@ -215,3 +215,16 @@ def test_height_ticks_are_round_metres_within_the_range_and_the_strip_is_the_ram
     strip = ramp_strip(64, width=3)
     assert strip.shape == (64, 3, 3) and np.array_equal(strip[0, 0], TERRAIN_LUT[255])
     assert np.array_equal(strip[-1, 2], TERRAIN_LUT[0])
+
+
+def test_connected_water_leaves_a_basin_without_painted_water_dry():
+    from terrasynth_core.pictures import water_cells
+
+    heights = np.full((5, 9), 10.0, np.float32)
+    heights[1:4, 1:3] = 0.0  # western basin, painted
+    heights[1:4, 6:8] = 0.0  # eastern basin, not
+    painted = np.zeros((5, 9), bool)
+    painted[2, 1] = True
+    assert water_cells(heights, 5.0).sum() == 12
+    connected = water_cells(heights, 5.0, painted=painted)
+    assert connected.sum() == 6 and connected[2, 2] and not connected[2, 6]

@@ -21,7 +21,8 @@ def test_drowned_land_counts_unpainted_cells_below_the_level_and_the_level_that_
     assert drowning.cells == 30 and drowning.share == 0.3
     assert drowning.safe_level == 10.2  # the lowest land, rounded down to 0.1 m
     assert drowned_land(heights, water, drowning.safe_level) is None
-    assert "30%" in drowning.message() and "35 m" in drowning.message()
+    assert "30.0%" in drowning.message() and "35 m" in drowning.message()
+    assert "drawn dry" in drowning.message(connected_only=True)
 
 
 def test_a_document_without_water_or_terrain_has_nothing_drowned():

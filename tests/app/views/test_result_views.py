@@ -81,18 +81,45 @@ def test_land_below_the_level_raises_a_banner_whose_fix_leaves_no_land_drowned(q
     drowning = document_drowning(doc)
     assert view.banner.isVisible() and drowning is not None
     text = view.banner.label.text()
-    assert f"{drowning.share:.0%}" in text and "500 m" in text and str(drowning.cells) in text
+    assert f"{drowning.share:.1%}" in text and "500 m" in text and str(drowning.cells) in text
     # Inside the result view, across its top, not cut: it wraps instead.
     banner = window_rect(view.banner, window)
     assert window_rect(view.view, window).contains(banner)
     assert view.banner.label.heightForWidth(view.banner.label.width()) <= view.banner.label.height()
     # One click: the level goes down to the highest that drowns no land, and a run starts.
     with qtbot.waitSignals([window.synthesis.run_started, window.synthesis.finished], timeout=RUN_TIMEOUT_MS):
-        qtbot.mouseClick(view.banner.fix_button, Qt.LeftButton)
+        qtbot.mouseClick(view.banner.fix_buttons[0], Qt.LeftButton)
         assert doc.water_level == drowning.safe_level
     settle()
     assert document_drowning(doc) is None and not view.banner.isVisible()
     assert view.water_cells() > 0  # the painted lake is below the new level
+
+
+def test_the_banners_other_fix_draws_only_water_connected_to_the_painted_water(qtbot, window):
+    """Two basins, water painted in the western one only: the eastern one
+    is below the level but no water reaches it."""
+    rows, cols = np.mgrid[:160, :160]
+    heights = (500.0 - 400.0 * np.exp(-((rows - 80) ** 2 + (cols - 40) ** 2) / 400.0)
+               - 400.0 * np.exp(-((rows - 80) ** 2 + (cols - 120) ** 2) / 400.0)).astype(np.float32)
+    water = np.zeros((160, 160), bool)
+    water[75:85, 35:45] = True
+    doc, view = window.document, window.heightmap
+    doc.sketch.replace_regions(water=water)
+    doc.set_result(TerrainResult(heights, np.zeros((160, 160), np.int32), np.zeros((160, 160), bool),
+                                 cell_size=(30.0, 30.0)))
+    doc.set_water_level(300.0)
+    settle()
+    both = view.water_cells()
+    assert both == int((heights < 300).sum()) and view.banner.isVisible()
+    qtbot.mouseClick(view.banner.fix_buttons[1], Qt.LeftButton)
+    assert view.connected_water_check.isChecked()
+    drawn = view.water_image.image[..., 3] > 0
+    assert drawn[80, 40] and not drawn[80, 120] and view.water_cells() == pytest.approx(both / 2, abs=2)
+    # Still said, since another program's water plane would cover the basin.
+    assert view.banner.isVisible() and "drawn dry" in view.banner.label.text()
+    assert not view.banner.fix_buttons[1].isVisible()
+    view.connected_water_check.setChecked(False)
+    assert view.water_cells() == both
 
 
 def test_without_painted_water_nothing_is_drawn_as_water(window):
@@ -161,12 +188,17 @@ def test_tabs_overlays_banner_and_long_texts_do_not_move_the_views(qtbot, lake_w
     window.document.set_water_level(600.0)
     settle()
     assert view.banner.isVisible() and geometry() == before
-    # Long status texts elide in their fixed places.
-    window.run_status.stage_label.setText("Placing feature patches " * 10)
-    window.run_status.readout.setText("row 1, col 2: " + "x" * 400)
+    # Long status texts elide in their fixed places, side by side in the window.
+    status = window.run_status
+    status.stage_label.setText("Placing feature patches " * 10)
+    status.readout.setText("row 1, col 2: " + "x" * 400)
     settle()
     assert geometry() == before
-    assert window.run_status.stage_label.shown_text().endswith("…")
+    assert status.stage_label.shown_text().endswith("…") and status.readout.shown_text().endswith("…")
+    places = [window_rect(w, window) for w in (status.readout, status.stage_label, status.progress,
+                                                 status.time_label)]
+    assert all(window.rect().contains(r) for r in places)
+    assert all(a.right() < b.left() for a, b in zip(places, places[1:]))  # in order, none overlapping
 
 
 def test_the_placeholder_is_whole_at_any_window_size(window):

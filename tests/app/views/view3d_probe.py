@@ -61,6 +61,12 @@ def main(screenshot_path: str) -> None:
         out["water_planes"] = [first, view.water_plane_height()]
         view.set_water_level(None)
         out["water_plane_removed"] = view.water_plane_height() is None
+        # Only water connected to painted water: none painted in the low
+        # corner, so no cell there is water.
+        painted = np.zeros(shape, bool)
+        painted[-1, -1] = True  # the highest corner, above the level: reaches nothing
+        view.set_water_level(200.0, painted=painted)
+        out["unconnected_dry"] = view.water_plane_height() is None
         view.set_water_level(200.0)
         view.screenshot(screenshot_path)
         view.plotter.close()
