@@ -17,7 +17,7 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import QPointF, QTimer, Signal
 from PySide6.QtGui import QColor, QPen
-from PySide6.QtWidgets import QCheckBox, QGraphicsRectItem, QHBoxLayout, QLabel, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QCheckBox, QGraphicsRectItem, QLabel, QToolBar, QVBoxLayout, QWidget
 
 from terrasynth_core.pictures import height_range, patch_colours, shaded_relief, shaded_window, water_rgba
 
@@ -108,8 +108,10 @@ class HeightmapView(QWidget):
         self.view.scene().sigMouseMoved.connect(self._mouse_moved)
 
         self.overlay_checks: dict[str, QCheckBox] = {}
-        bar = QHBoxLayout()
-        bar.addWidget(QLabel("Overlays:"))
+        # A tool bar: what does not fit goes behind its "»" button, so the
+        # checkboxes never set the panel's minimum width.
+        bar = QToolBar("Overlays")
+        bar.addWidget(QLabel("Overlays: "))
         for name, text, tip in (
             ("patch_ids", "Patches", "Colour each cell by the patch it came from"),
             ("seams", "Seams", "Mark the graph-cut seams between patches"),
@@ -120,7 +122,7 @@ class HeightmapView(QWidget):
             check.toggled.connect(self._update_overlays)
             self.overlay_checks[name] = check
             bar.addWidget(check)
-        bar.addStretch(1)
+        bar.addSeparator()
         self.connected_water_check = QCheckBox(
             "Connected water", toolTip="Draw as water only the cells below the level that connect to painted "
                                        "water (else every cell below the level)")
@@ -131,7 +133,7 @@ class HeightmapView(QWidget):
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.view, 1)
-        layout.addLayout(bar)
+        layout.addWidget(bar)
 
         self.placeholder = pin_overlay(note_label(PLACEHOLDER), self.view, "centre")
         self.legend = pin_overlay(note_label(legend_text()), self.view, "bottom_left")

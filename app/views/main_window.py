@@ -34,7 +34,7 @@ from .main_actions import MainActions
 from .params_panel import ParamsPanel
 from .pin_stamp_panel import PinStampPanel
 from .pin_stamp_requests import PinStampRequests
-from .run_status import RunStatus
+from .run_status import ElidingStatusBar, RunStatus
 from .sketch_canvas import GRAPH_DELAY_MS, SketchCanvas
 from .style_panel import StylePanel
 from .terrain_view_3d import TerrainView3D
@@ -108,6 +108,7 @@ class MainWindow(QMainWindow):
         self.styles = StylePanel(doc)
         self.pins_stamps = PinStampPanel(doc)
         self.docks = self._build_docks()
+        self.setStatusBar(ElidingStatusBar())
         self.run_status = RunStatus(self.statusBar(), self.synthesis, doc)
         self.view_link = ViewLink(self.canvas.view_box, self.heightmap.view_box)
         self._water_timer = QTimer(self, singleShot=True, interval=WATER_REFRESH_MS)

@@ -8,6 +8,8 @@ clears what the last run's counts said.
 
 from __future__ import annotations
 
+from PySide6.QtCore import QRect, Qt
+from PySide6.QtGui import QPainter
 from PySide6.QtWidgets import QProgressBar, QStatusBar
 
 from ..controllers import SynthesisController
@@ -15,6 +17,36 @@ from .overlay_widgets import ElidedLabel
 
 #: Widths of the readout, stage and time labels, px.
 READOUT_WIDTH, STAGE_WIDTH, TIME_WIDTH = 380, 170, 110
+
+
+class ElidingStatusBar(QStatusBar):
+    """A status bar whose messages end in "…" where the permanent widgets
+    begin, instead of being cut mid-word under them; the whole message is
+    the bar's tooltip."""
+
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self.messageChanged.connect(self.setToolTip)
+
+    def message_rect(self) -> QRect:
+        """Where the message is drawn: from the left edge to the first
+        visible permanent widget."""
+        right = min((w.geometry().left() for w in self.findChildren(ElidedLabel) + self.findChildren(QProgressBar)
+                     if w.isVisible() and w.parent() is self), default=self.width())
+        return QRect(6, 0, max(right - 12, 0), self.height())
+
+    def shown_message(self) -> str:
+        """The message as drawn."""
+        return self.fontMetrics().elidedText(self.currentMessage(), Qt.ElideRight, self.message_rect().width())
+
+    def paintEvent(self, event) -> None:
+        if not self.currentMessage():
+            super().paintEvent(event)
+            return
+        painter = QPainter(self)
+        painter.setPen(self.palette().windowText().color())
+        painter.drawText(self.message_rect(), Qt.AlignLeft | Qt.AlignVCenter, self.shown_message())
+        painter.end()
 
 
 class RunStatus:
