@@ -17,7 +17,7 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import QPointF, QTimer, Signal
 from PySide6.QtGui import QColor, QPen
-from PySide6.QtWidgets import QCheckBox, QGraphicsRectItem, QLabel, QToolBar, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QCheckBox, QGraphicsRectItem, QToolBar, QVBoxLayout, QWidget
 
 from terrasynth_core.pictures import height_range, patch_colours, shaded_relief, shaded_window, water_rgba
 
@@ -111,7 +111,10 @@ class HeightmapView(QWidget):
         # A tool bar: what does not fit goes behind its "»" button, so the
         # checkboxes never set the panel's minimum width.
         bar = QToolBar("Overlays")
-        bar.addWidget(QLabel("Overlays: "))
+        self.link_check = QCheckBox("Linked", checked=True,
+                                    toolTip="Zoom and pan the sketch and the 2D terrain together")
+        bar.addWidget(self.link_check)
+        bar.addSeparator()
         for name, text, tip in (
             ("patch_ids", "Patches", "Colour each cell by the patch it came from"),
             ("seams", "Seams", "Mark the graph-cut seams between patches"),
@@ -122,14 +125,10 @@ class HeightmapView(QWidget):
             check.toggled.connect(self._update_overlays)
             self.overlay_checks[name] = check
             bar.addWidget(check)
-        bar.addSeparator()
         self.connected_water_check = QCheckBox(
             "Connected water", toolTip="Draw as water only the cells below the level that connect to painted "
                                        "water (else every cell below the level)")
         bar.addWidget(self.connected_water_check)
-        self.link_check = QCheckBox("Link to sketch", checked=True,
-                                    toolTip="Zoom and pan the sketch and the 2D terrain together")
-        bar.addWidget(self.link_check)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.view, 1)
@@ -282,9 +281,9 @@ class HeightmapView(QWidget):
         if drowning is None:
             self.banner.show_warning(None)
             return
-        fixes = (f"Lower the level to {drowning.safe_level:g} m and synthesize",)
+        fixes = (f"Lower to {drowning.safe_level:g} m and synthesize",)
         if painted is None:
-            fixes += ("Draw only water connected to the painted water",)
+            fixes += ("Draw only connected water",)
         self.banner.show_warning(drowning.message(connected_only=painted is not None), fixes)
 
     def _banner_fix(self, index: int) -> None:

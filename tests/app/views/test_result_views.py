@@ -224,18 +224,44 @@ def test_the_placeholder_is_whole_at_any_window_size(window):
 
 
 # -- 5: linked views ------------------------------------------------------------------------------
-def test_the_sketch_and_the_terrain_zoom_and_pan_together(lake_window):
-    canvas, view = lake_window.canvas.view_box, lake_window.heightmap.view_box
-    canvas.setRange(xRange=(40, 80), yRange=(100, 140), padding=0)
-    a, b = view_state(canvas), view_state(view)
-    assert a == pytest.approx(b, rel=1e-3)
-    view.translateBy(x=10, y=-5)  # panning the terrain moves the sketch
+def wheel(view, cell, steps: int, viewport_pos) -> None:
+    """Turn the mouse wheel ``steps`` notches over ``cell`` (row, col) of
+    ``view`` (``viewport_pos``: the ``cell_pos`` fixture)."""
+    from PySide6.QtCore import QPointF
+    from PySide6.QtGui import QWheelEvent
+
+    pos = QPointF(viewport_pos(view, *cell))
+    event = QWheelEvent(pos, QPointF(view.view.viewport().mapToGlobal(pos.toPoint())), QPoint(0, 0),
+                        QPoint(0, 120 * steps), Qt.NoButton, Qt.NoModifier, Qt.NoScrollPhase, False)
+    QApplication.sendEvent(view.view.viewport(), event)
+    settle()  # the box applies a new range on its next update
+
+
+def test_the_sketch_and_the_terrain_zoom_and_pan_together(lake_window, cell_pos):
+    window = lake_window
+    canvas, view = window.canvas.view_box, window.heightmap.view_box
     assert view_state(canvas) == pytest.approx(view_state(view), rel=1e-3)
-    lake_window.heightmap.link_check.setChecked(False)
-    canvas.scaleBy((0.5, 0.5))
+    canvas.setRange(xRange=(40, 80), yRange=(100, 140), padding=0)  # e.g. Fit, or a script
+    assert view_state(canvas) == pytest.approx(view_state(view), rel=1e-3)
+    # Zooming the terrain with the wheel zooms the sketch.
+    before = view_state(canvas)[2]
+    wheel(window.heightmap, (120, 60), 3, cell_pos)
+    assert view_state(canvas)[2] < before * 0.9
+    assert view_state(canvas) == pytest.approx(view_state(view), rel=1e-3)
+    # Behind the 3D tab and back: still in line, the sketch untouched.
+    held = view_state(canvas)
+    window.result_tabs.setCurrentWidget(window.view3d)
+    settle()
+    window.result_tabs.setCurrentWidget(window.heightmap)
+    settle()
+    assert view_state(canvas) == pytest.approx(held, rel=1e-3)
+    assert view_state(view) == pytest.approx(held, rel=1e-3)
+    # Unlinked, each zooms alone; relinked, the last one zoomed leads.
+    window.heightmap.link_check.setChecked(False)
+    wheel(window.canvas, (120, 60), -2, cell_pos)
     assert view_state(canvas)[2] != pytest.approx(view_state(view)[2], rel=1e-3)
-    lake_window.heightmap.link_check.setChecked(True)  # relinking: the terrain follows the sketch
-    assert view_state(canvas) == pytest.approx(view_state(view), rel=1e-3)
+    window.heightmap.link_check.setChecked(True)
+    assert view_state(view) == pytest.approx(view_state(canvas), rel=1e-3)
 
 
 # -- 6: status follows every change ---------------------------------------------------------------
