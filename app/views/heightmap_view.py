@@ -177,6 +177,7 @@ class HeightmapView(QWidget):
         self.outline.setVisible(False)
         self.placeholder.setVisible(False)
         self.water_image.setVisible(False)
+        self.banner.show_warning(None)  # it spoke of the terrain this run replaces
         self.height_legend.set_range(vrange, self.water_level)
         for item in (self.patch_image, self.seam_image):
             item.setVisible(False)

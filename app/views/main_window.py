@@ -178,6 +178,7 @@ class MainWindow(QMainWindow):
             lambda running: self.actions.variations.setText("Making variations…" if running else "Make variations…"))
 
         self.heightmap.hovered.connect(self._hovered)
+        self.canvas.hovered.connect(self._hovered)
         self.heightmap.water_fix_requested.connect(self.lower_water_level)
         self.heightmap.link_check.toggled.connect(self.view_link.set_enabled)
         self.heightmap.connected_water_check.toggled.connect(lambda _on: self._show_water())

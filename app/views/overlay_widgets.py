@@ -174,7 +174,7 @@ class HeightLegend(QWidget):
     :func:`~terrasynth_core.pictures.height_ticks`.
     """
 
-    #: Ramp height and width, px.
+    #: Width and height of the ramp, px.
     RAMP_SIZE = (14, 150)
 
     def __init__(self, parent: QWidget | None = None) -> None:

@@ -60,12 +60,15 @@ class SketchCanvas(QWidget):
         The stamp tool clicked the cell ``(row, col)``.
     notice(str)
         Something the user should read (e.g. why a tool did nothing).
+    hovered(int, int)
+        The mouse is over cell ``(row, col)``; ``(-1, -1)`` off the sketch.
     """
 
     feature_graph_updated = Signal(object)
     pin_requested = Signal(int, int)
     stamp_requested = Signal(float, float)
     notice = Signal(str)
+    hovered = Signal(int, int)
 
     def __init__(self, sketch: Sketch, parent: QWidget | None = None, *, document: Document | None = None,
                  graphs: FeatureGraphController | None = None) -> None:
@@ -277,6 +280,11 @@ class SketchCanvas(QWidget):
         # Pixel (i, j) covers [j, j+1] x [i, i+1]; its centre is cell (i, j).
         return point.y() - 0.5, point.x() - 0.5
 
+    def _hover(self, cell: tuple[float, float]) -> None:
+        row, col = (int(np.floor(v + 0.5)) for v in cell)
+        rows, cols = self.sketch.shape
+        self.hovered.emit(*((row, col) if 0 <= row < rows and 0 <= col < cols else (-1, -1)))
+
     def eventFilter(self, obj: QObject, event: QEvent) -> bool:
         kind = event.type()
         if obj is self.view.viewport():
@@ -289,13 +297,16 @@ class SketchCanvas(QWidget):
                     self.finish_polyline()
                 return True
             if kind == QEvent.MouseMove:
-                self._move(self.cell_at(event.position()), event.modifiers())
+                cell = self.cell_at(event.position())
+                self._hover(cell)
+                self._move(cell, event.modifiers())
                 return self._stroking or self._drag is not None
             if kind == QEvent.MouseButtonRelease and event.button() == Qt.LeftButton:
                 self._release(self.cell_at(event.position()), event.modifiers())
                 return True
             if kind == QEvent.Leave:
                 self._cursor.setVisible(False)
+                self.hovered.emit(-1, -1)
         elif obj is self.view and kind == QEvent.KeyPress:
             if event.key() in (Qt.Key_Return, Qt.Key_Enter) and self._poly_points:
                 self.finish_polyline()

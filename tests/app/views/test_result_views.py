@@ -152,6 +152,10 @@ def test_the_legend_shows_the_views_height_range_in_metres_and_the_readout_the_c
     height = float(window.document.result.heights[40, 80])
     assert text.startswith("row 40, col 80: ") and f"{height:.1f} m" in text and "slope" in text
     assert "under water" not in text if height >= 300 else "under water" in text
+    # The sketch canvas tells the same of its cells (e.g. where a pin will go).
+    qtbot.mouseMove(window.canvas.view.viewport(), cell_pos(window.canvas, 100, 30))
+    assert window.run_status.readout.text().startswith(
+        f"row 100, col 30: {float(window.document.result.heights[100, 30]):.1f} m")
 
 
 # -- 4: layout that stays put ---------------------------------------------------------------------
