@@ -23,7 +23,7 @@ from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtGui import QGuiApplication
 from PySide6.QtWidgets import QDoubleSpinBox, QHBoxLayout, QLabel, QStackedLayout, QVBoxLayout, QWidget
 
-from terrasynth_core.pictures import SHALLOW_RGB, TERRAIN_LUT, height_range, water_cells
+from terrasynth_core.pictures import SHALLOW_RGB, TERRAIN_LUT, camera_direction, height_range, water_cells
 
 from ..model.result import TerrainResult
 from .overlay_widgets import ElidedLabel
@@ -42,6 +42,8 @@ REDRAW_MS = 100
 MAX_RENDER_SHARE = 0.3
 #: Cell size assumed when the examples do not tell one, in metres.
 DEFAULT_CELL_M = 30.0
+#: Camera direction of a new mesh: degrees from south towards east, and above the horizon.
+CAMERA = (-30.0, 35.0)
 #: Opacity of the water plane.
 WATER_OPACITY = 0.6
 #: Qt platforms that have no OpenGL window to render into.
@@ -345,7 +347,12 @@ class TerrainView3D(QWidget):
                                   scalar_range=self._vrange)
             self._actor = self.plotter.add_mesh(grid, scalars="elevation", cmap=ramp, show_scalar_bar=False,
                                                 render=False)
-            self.plotter.view_isometric(render=False)
+            # From the south-south-west, north up the screen, as the 2D view
+            # and the README's 3D pictures (render_3d) are seen.
+            centre = np.array(grid.center)
+            x0, x1, y0, y1, _, _ = grid.bounds
+            eye = centre + 2.0 * max(x1 - x0, y1 - y0) * camera_direction(*CAMERA)
+            self.plotter.camera_position = [tuple(eye), tuple(centre), (0.0, 0.0, 1.0)]
             self.plotter.reset_camera(render=False)
         else:
             self._apply_heights(z)
