@@ -279,7 +279,7 @@ class HeightmapView(QWidget):
         self.water_level = level
         self._painted = painted
         self._draw_water()
-        if drowning is None:
+        if drowning is None or self._timer.isActive():  # (a run replaces the terrain it speaks of)
             self.banner.show_warning(None)
             return
         fixes = (f"Lower to {drowning.safe_level:g} m and synthesize",)

@@ -16,7 +16,6 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-
 from PySide6.QtCore import QSettings, Qt, QTimer, Signal
 from PySide6.QtWidgets import (QDockWidget, QFileDialog, QFrame, QInputDialog, QMainWindow, QMessageBox, QScrollArea,
                                QSplitter, QTabWidget)
