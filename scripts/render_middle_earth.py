@@ -33,7 +33,7 @@ from make_middle_earth import STYLES, demo_params, load_demo
 from render_gallery import MARGIN, MAX_WIDTH, compose
 from terrasynth_app.views.render_3d import render_terrain
 from terrasynth_core.cli.main import parse_size
-from terrasynth_core.pictures import hillshade, lit, save_png, terrain_colours
+from terrasynth_core.pictures import SHALLOW_RGB, depth_colours, hillshade, lit, save_png, terrain_colours
 from terrasynth_core.synthesis import Session
 
 REPO = Path(__file__).resolve().parents[1]
@@ -44,9 +44,6 @@ EXAGGERATION = 2.5
 VIEW_AZIMUTH = 25.0
 VIEW_ELEVATION = 38.0
 MAX_BYTES = 400_000
-#: Water colour from the shore (shallow) to full depth.
-SHALLOW_RGB = np.array((120, 170, 215), np.float64)
-DEEP_RGB = np.array((30, 70, 140), np.float64)
 STAMP_RGB = (255, 140, 0)
 PIN_RGB = (255, 230, 0)
 
@@ -58,9 +55,7 @@ def map_colours(heights: np.ndarray, water: np.ndarray, level: float) -> np.ndar
     land = np.where(water, np.nan, heights.astype(np.float64))
     rgb = terrain_colours(land).astype(np.float64)
     if water.any():
-        depth = np.clip(level - heights[water], 0.0, None)
-        t = (depth / max(float(np.percentile(depth, 95)), 1e-6)).clip(0.0, 1.0)[:, None]
-        rgb[water] = (1 - t) * SHALLOW_RGB + t * DEEP_RGB
+        rgb[water] = depth_colours(level - heights[water])
     return rgb
 
 

@@ -13,8 +13,14 @@ Writes, under ``docs/images``:
 * ``app_middle_earth.png``: a 1400x900 window with the built-in
   Middle-earth map opened (File > Open example map) and synthesized: the
   sketch with its style regions, water, stamp and pins beside the 2D
-  result, the Regions panel (styles, water level) above the Pins and
-  stamps panel.
+  result with its water, height legend and drowning banner, the Regions
+  panel (styles, water level) above the Pins and stamps panel;
+* ``app_linked.png``: the same, zoomed into the lake and the river on the
+  sketch (the 2D terrain follows: linked views), the mouse over a cell of
+  the terrain (the readout in the status bar), only water connected to
+  the painted water drawn;
+* ``app_3d_water.png``: the same terrain in the 3D tab with its water
+  surface.
 
 Every picture is kept under 400 KB (quantized to 256 colours when needed).
 """
@@ -36,7 +42,12 @@ from terrasynth_core.pictures import save_png
 REPO = Path(__file__).resolve().parent.parent
 MAX_BYTES = 400_000
 #: Pictures to make: name -> what it shows.
-PICTURES = {"default": "app_running.png and app_finished.png", "middle-earth": "app_middle_earth.png"}
+PICTURES = {"default": "app_running.png and app_finished.png",
+            "middle-earth": "app_middle_earth.png, app_linked.png and app_3d_water.png"}
+#: The part of the Middle-earth map app_linked.png zooms into: rows, cols.
+LINKED_WINDOW = ((150, 450), (180, 600))
+#: The cell the mouse rests on in app_linked.png.
+HOVER_CELL = (300, 420)
 
 
 def grab_window(window, path: Path) -> None:
@@ -150,14 +161,30 @@ def default_pictures(window, args, fail, done):
 
 def middle_earth_picture(window, args, fail, done):
     """The Middle-earth example map opened from the menu and synthesized,
-    the 2D result beside the painted map."""
+    the 2D result beside the painted map; then zoomed in, and in 3D."""
     window.resize(1400, 900)
     window.show()
     window.result_tabs.setCurrentWidget(window.heightmap)
 
     def finish() -> None:
         if grabbed(window, args.out / "app_middle_earth.png", fail):
-            done()
+            QTimer.singleShot(0, zoomed)
+
+    def zoomed() -> None:
+        from PySide6.QtCore import QPointF
+        from PySide6.QtTest import QTest
+
+        (r0, r1), (c0, c1) = LINKED_WINDOW
+        window.heightmap.connected_water_check.setChecked(True)
+        window.canvas.view_box.setRange(xRange=(c0, c1), yRange=(r0, r1), padding=0)
+        view = window.heightmap
+        scene = view.view_box.mapViewToScene(QPointF(HOVER_CELL[1] + 0.5, HOVER_CELL[0] + 0.5))
+        QTest.mouseMove(view.view.viewport(), view.view.mapFromScene(scene))
+        QTimer.singleShot(300, lambda: grabbed(window, args.out / "app_linked.png", fail) and three_d())
+
+    def three_d() -> None:
+        window.result_tabs.setCurrentWidget(window.view3d)
+        QTimer.singleShot(1500, lambda: grabbed(window, args.out / "app_3d_water.png", fail) and done())
 
     def opened(_key) -> None:
         # The pins' table and their misses after the run below the Regions

@@ -1,4 +1,10 @@
-"""The 2D view of the terrain: shaded heights, live patches, result overlays.
+"""The 2D view of the terrain: shaded heights, water, live patches, result overlays.
+
+Water is every cell below the water level, blue by depth (what the terrain
+will show once exported under a water surface), redrawn as the level moves;
+a banner over the image says how much land lies below it.  The height
+legend, the banner, the feature legend and the placeholder float over the
+image, so showing them never moves the image or the checkboxes.
 
 During a run each placed patch is pasted into a GUI-side buffer and only its
 window is recoloured; the image is pushed to the screen by a timer (about 25
@@ -9,16 +15,20 @@ from __future__ import annotations
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import QTimer, Signal
+from PySide6.QtCore import QPointF, QTimer, Signal
 from PySide6.QtGui import QColor, QPen
-from PySide6.QtWidgets import QCheckBox, QGraphicsRectItem, QHBoxLayout, QLabel, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QCheckBox, QGraphicsRectItem, QToolBar, QVBoxLayout, QWidget
 
-from terrasynth_core.pictures import height_range, patch_colours, shaded_relief, shaded_window
+from terrasynth_core.pictures import height_range, patch_colours, shaded_relief, shaded_window, water_rgba
 
 from ..controllers import FeatureGraphController
 from ..model.result import TerrainResult
 from ..workers import run_in_background
 from .feature_overlay import FeatureGraphOverlay, legend_text
+from .overlay_widgets import HeightLegend, WarningBanner, note_label, pin_overlay
+
+#: What the view says before there is a terrain.
+PLACEHOLDER = "Press Synthesize to make a terrain"
 
 #: Screen refresh period during a run, in ms.
 REFRESH_MS = 40
@@ -40,11 +50,18 @@ class HeightmapView(QWidget):
         A finished terrain (or none) is fully drawn, overlays included.
     terrain_features_ready(object)
         Ridges and valleys extracted from the shown result.
+    hovered(int, int)
+        The mouse is over cell ``(row, col)``; ``(-1, -1)`` when it left
+        the terrain.
+    water_fix_requested()
+        The banner's first button: lower the water level so no land drowns.
     """
 
     refreshed = Signal()
     result_shown = Signal()
     terrain_features_ready = Signal(object)
+    hovered = Signal(int, int)
+    water_fix_requested = Signal()
 
     def __init__(self, terrain_graph: FeatureGraphController, parent: QWidget | None = None) -> None:
         super().__init__(parent)
@@ -55,6 +72,8 @@ class HeightmapView(QWidget):
         self._cell_size: tuple[float, float] | None = None
         self._vrange = (0.0, 1.0)
         self._result: TerrainResult | None = None
+        self.water_level: float | None = None  # None: no painted water, none drawn
+        self._painted: np.ndarray | None = None  # given: only water connected to it is drawn
         self._dirty = False
         # Bumped by every new result or run; late images of an older one are
         # dropped.
@@ -68,6 +87,9 @@ class HeightmapView(QWidget):
         self.view.setCentralItem(self.view_box)
         self.image = pg.ImageItem()
         self.view_box.addItem(self.image)
+        self.water_image = pg.ImageItem()
+        self.water_image.setZValue(3)
+        self.view_box.addItem(self.water_image)
         self.patch_image = pg.ImageItem(opacity=0.45)
         self.seam_image = pg.ImageItem()
         for z, item in enumerate((self.patch_image, self.seam_image), start=5):
@@ -83,12 +105,16 @@ class HeightmapView(QWidget):
         self.outline.setZValue(50)
         self.outline.setVisible(False)
         self.view_box.addItem(self.outline)
-        self.placeholder = pg.TextItem("Press Synthesize to make a terrain", color=(220, 220, 220), anchor=(0.5, 0.5))
-        self.view_box.addItem(self.placeholder)
+        self.view.scene().sigMouseMoved.connect(self._mouse_moved)
 
         self.overlay_checks: dict[str, QCheckBox] = {}
-        bar = QHBoxLayout()
-        bar.addWidget(QLabel("Overlays:"))
+        # A tool bar: what does not fit goes behind its "»" button, so the
+        # checkboxes never set the panel's minimum width.
+        bar = QToolBar("Overlays")
+        self.link_check = QCheckBox("Linked", checked=True,
+                                    toolTip="Zoom and pan the sketch and the 2D terrain together")
+        bar.addWidget(self.link_check)
+        bar.addSeparator()
         for name, text, tip in (
             ("patch_ids", "Patches", "Colour each cell by the patch it came from"),
             ("seams", "Seams", "Mark the graph-cut seams between patches"),
@@ -99,14 +125,21 @@ class HeightmapView(QWidget):
             check.toggled.connect(self._update_overlays)
             self.overlay_checks[name] = check
             bar.addWidget(check)
-        bar.addStretch(1)
-        self.legend = QLabel(legend_text())
-        self.legend.setVisible(False)
+        self.connected_water_check = QCheckBox(
+            "Connected water", toolTip="Draw as water only the cells below the level that connect to painted "
+                                       "water (else every cell below the level)")
+        bar.addWidget(self.connected_water_check)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.view, 1)
-        layout.addLayout(bar)
-        layout.addWidget(self.legend)
+        layout.addWidget(bar)
+
+        self.placeholder = pin_overlay(note_label(PLACEHOLDER), self.view, "centre")
+        self.legend = pin_overlay(note_label(legend_text()), self.view, "bottom_left")
+        self.legend.setVisible(False)
+        self.height_legend = pin_overlay(HeightLegend(), self.view, "bottom_right")
+        self.banner = pin_overlay(WarningBanner(), self.view, "top")
+        self.banner.fix_clicked.connect(self._banner_fix)
 
         self._timer = QTimer(self, interval=REFRESH_MS)
         self._timer.timeout.connect(self._refresh)
@@ -143,6 +176,9 @@ class HeightmapView(QWidget):
         self.patches_pasted = 0
         self.outline.setVisible(False)
         self.placeholder.setVisible(False)
+        self.water_image.setVisible(False)
+        self.banner.show_warning(None)  # it spoke of the terrain this run replaces
+        self.height_legend.set_range(vrange, self.water_level)
         for item in (self.patch_image, self.seam_image):
             item.setVisible(False)
         self.sketch_overlay.set_visible(False)
@@ -201,7 +237,9 @@ class HeightmapView(QWidget):
             self._rgba = None
             self._rgba_result = None
             self.image.clear()
+            self.water_image.clear()
             self.placeholder.setVisible(True)
+            self.height_legend.set_range(None)
             self._update_overlays()
             self.result_shown.emit()
             return
@@ -209,6 +247,7 @@ class HeightmapView(QWidget):
         self._cell_size = result.cell_size
         self._vrange = height_range(result.heights)
         self.placeholder.setVisible(False)
+        self._draw_water()
         self.sketch_overlay.set_maps(result.sketch_features)
         self._update_overlays()
         generation = self._features_generation
@@ -230,6 +269,60 @@ class HeightmapView(QWidget):
             self.view_box.autoRange(padding=0.02)
         self._update_overlays()
         self.result_shown.emit()
+
+    # -- water, hover ----------------------------------------------------------------------
+    def set_water(self, level: float | None, drowning=None, *, painted: np.ndarray | None = None) -> None:
+        """Draw water below ``level`` metres (None: no painted water, no
+        water drawn), only where it connects to ``painted`` when given,
+        and warn about ``drowning``, a
+        :class:`~terrasynth_app.model.water_check.Drowning` or None."""
+        self.water_level = level
+        self._painted = painted
+        self._draw_water()
+        if drowning is None or self._timer.isActive():  # (a run replaces the terrain it speaks of)
+            self.banner.show_warning(None)
+            return
+        fixes = (f"Lower to {drowning.safe_level:g} m and synthesize",)
+        if painted is None:
+            fixes += ("Draw only connected water",)
+        self.banner.show_warning(drowning.message(connected_only=painted is not None), fixes)
+
+    def _banner_fix(self, index: int) -> None:
+        if index == 0:
+            self.water_fix_requested.emit()
+        else:
+            self.connected_water_check.setChecked(True)
+
+    def _draw_water(self) -> None:
+        finished = self._result is not None and not self._timer.isActive()
+        if self.water_level is None or not finished:
+            self.water_image.clear()
+            self.water_image.setVisible(False)
+        else:
+            self.water_image.setImage(water_rgba(self._result.heights, self.water_level, painted=self._painted),
+                                      autoLevels=False, levels=None)
+            self.water_image.setVisible(True)
+        if self.heights is not None:
+            self.height_legend.set_range(self._vrange, self.water_level)
+
+    def water_cells(self) -> int:
+        """Cells drawn as water now."""
+        if not self.water_image.isVisible() or self.water_image.image is None:
+            return 0
+        return int((self.water_image.image[..., 3] > 0).sum())
+
+    def _mouse_moved(self, scene_pos: QPointF) -> None:
+        if self.heights is None or not self.view_box.sceneBoundingRect().contains(scene_pos):
+            self.hovered.emit(-1, -1)
+            return
+        point = self.view_box.mapSceneToView(scene_pos)
+        row, col = int(np.floor(point.y())), int(np.floor(point.x()))
+        rows, cols = self.heights.shape
+        self.hovered.emit(*((row, col) if 0 <= row < rows and 0 <= col < cols else (-1, -1)))
+
+    def leaveEvent(self, event) -> None:
+        super().leaveEvent(event)
+        self.hovered.emit(-1, -1)
 
     def _result_images_failed(self, message: str) -> None:
         self.legend.setText(f"Cannot draw the terrain: {message}")

@@ -15,21 +15,25 @@ from __future__ import annotations
 
 import logging
 
-from PySide6.QtCore import QSettings, Qt, Signal
+import numpy as np
+from PySide6.QtCore import QSettings, Qt, QTimer, Signal
 from PySide6.QtWidgets import (QDockWidget, QFileDialog, QFrame, QInputDialog, QMainWindow, QMessageBox, QScrollArea,
                                QSplitter, QTabWidget)
 
 from ..controllers import (AUTOSAVE_MS, AutosaveController, FeatureGraphController, FilesController,
                            SynthesisController, VariationsController)
 from ..model import Document, RecoveryStore, SketchGraph, TerrainGraph
+from ..model.readout import cell_readout
+from ..model.water_check import document_drowning
 from .example_panel import ExamplePanel
 from .file_actions import APP_NAME, FileActions
 from .heightmap_view import HeightmapView
+from .linked_views import ViewLink
 from .main_actions import MainActions
 from .params_panel import ParamsPanel
 from .pin_stamp_panel import PinStampPanel
 from .pin_stamp_requests import PinStampRequests
-from .run_status import RunStatus
+from .run_status import ElidingStatusBar, RunStatus
 from .sketch_canvas import GRAPH_DELAY_MS, SketchCanvas
 from .style_panel import StylePanel
 from .terrain_view_3d import TerrainView3D
@@ -37,6 +41,8 @@ from .variations_dialog import VariationsDialog
 
 log = logging.getLogger(__name__)
 
+#: Coalescing delay of water redraws while water is painted, in ms.
+WATER_REFRESH_MS = 100
 #: Variations a batch may have.
 VARIATION_COUNTS = (2, 8)
 
@@ -101,7 +107,11 @@ class MainWindow(QMainWindow):
         self.styles = StylePanel(doc)
         self.pins_stamps = PinStampPanel(doc)
         self.docks = self._build_docks()
-        self.run_status = RunStatus(self.statusBar(), self.synthesis)
+        self.setStatusBar(ElidingStatusBar())
+        self.run_status = RunStatus(self.statusBar(), self.synthesis, doc)
+        self.view_link = ViewLink(self.canvas.view_box, self.heightmap.view_box)
+        self._water_timer = QTimer(self, singleShot=True, interval=WATER_REFRESH_MS)
+        self._water_timer.timeout.connect(self._show_water)
         self.files = FileActions(self, doc, self.file_controller, self.autosave)
         self.pin_stamp_requests = PinStampRequests(self, doc, self.pins_stamps)
         self.actions = MainActions(self)
@@ -109,6 +119,8 @@ class MainWindow(QMainWindow):
         self._update_title()
         self.heightmap.show_result(doc.result)
         self.view3d.show_result(doc.result)
+        self._show_water()
+        self.view_link.set_enabled(self.heightmap.link_check.isChecked())
 
     def _build_docks(self) -> dict[str, QDockWidget]:
         docks: dict[str, QDockWidget] = {}
@@ -164,6 +176,13 @@ class MainWindow(QMainWindow):
         v.running_changed.connect(
             lambda running: self.actions.variations.setText("Making variations…" if running else "Make variations…"))
 
+        self.heightmap.hovered.connect(self._hovered)
+        self.canvas.hovered.connect(self._hovered)
+        self.heightmap.water_fix_requested.connect(self.lower_water_level)
+        self.heightmap.link_check.toggled.connect(self.view_link.set_enabled)
+        self.heightmap.connected_water_check.toggled.connect(lambda _on: self._show_water())
+        self.document.sketch.changed.connect(lambda _bbox: self._water_timer.start())
+
         self.file_controller.example_map_opened.connect(self._example_map_opened)
         self.file_controller.export_finished.connect(self.export_finished)
         self.document.changed.connect(self._document_changed)
@@ -183,6 +202,31 @@ class MainWindow(QMainWindow):
     def _show_document_result(self, *_args) -> None:
         self.heightmap.show_result(self.document.result)
         self.view3d.show_result(self.document.result)
+        self._show_water()
+
+    # -- water, hover ----------------------------------------------------------------------------
+    def _show_water(self) -> None:
+        """Draw the water at the document's level in both views and warn
+        about land below it (only with painted water: the engine touches
+        nothing otherwise)."""
+        doc = self.document
+        level = doc.water_level if doc.sketch.has_water else None
+        painted = np.asarray(doc.sketch.water) if self.heightmap.connected_water_check.isChecked() else None
+        self.heightmap.set_water(level, document_drowning(doc), painted=painted)
+        self.view3d.set_water_level(level, painted=painted)
+
+    def lower_water_level(self) -> None:
+        """The banner's fix: the highest level that drowns no land of the
+        current terrain, then a new run with it."""
+        drowning = document_drowning(self.document)
+        if drowning is None:
+            return
+        self.document.set_water_level(drowning.safe_level)
+        self.show_status(f"Water level lowered to {drowning.safe_level:g} m; synthesizing again", 10_000)
+        self.synthesize()
+
+    def _hovered(self, row: int, col: int) -> None:
+        self.run_status.show_readout(cell_readout(self.document, row, col) if row >= 0 else None)
 
     def make_variations(self, count: int | None = None) -> None:
         """Make ``count`` variations with new seeds (asked when None) and show them as they come."""
@@ -235,6 +279,8 @@ class MainWindow(QMainWindow):
     def _document_changed(self, what: str) -> None:
         if what == "result":
             self._show_document_result()
+        elif what == "water_level":
+            self._show_water()
         elif what in ("path", "dirty"):
             self._update_title()
 

@@ -28,6 +28,7 @@ from ..model.document import Document
 from ..model.sketch_layers import TOOLS, Sketch
 from .controls_overlay import ControlsOverlay
 from .feature_overlay import FeatureGraphOverlay, legend_text
+from .overlay_widgets import note_label, pin_overlay
 from .style_panel import swatch
 
 #: Delay after the last edit before the feature graph is recomputed, in ms.
@@ -59,12 +60,15 @@ class SketchCanvas(QWidget):
         The stamp tool clicked the cell ``(row, col)``.
     notice(str)
         Something the user should read (e.g. why a tool did nothing).
+    hovered(int, int)
+        The mouse is over cell ``(row, col)``; ``(-1, -1)`` off the sketch.
     """
 
     feature_graph_updated = Signal(object)
     pin_requested = Signal(int, int)
     stamp_requested = Signal(float, float)
     notice = Signal(str)
+    hovered = Signal(int, int)
 
     def __init__(self, sketch: Sketch, parent: QWidget | None = None, *, document: Document | None = None,
                  graphs: FeatureGraphController | None = None) -> None:
@@ -110,8 +114,6 @@ class SketchCanvas(QWidget):
 
         self._build_toolbar()
         self.region_bars = self._build_region_bars() if document is not None else []
-        self.legend = QLabel(legend_text())
-        self.legend.setVisible(False)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.toolbar)
@@ -119,7 +121,9 @@ class SketchCanvas(QWidget):
             layout.addWidget(bar)
         layout.addWidget(self.options_bar)
         layout.addWidget(self.view, 1)
-        layout.addWidget(self.legend)
+        # Floats over the image: showing it must not move the canvas under the brush.
+        self.legend = pin_overlay(note_label(legend_text()), self.view, "bottom_left")
+        self.legend.setVisible(False)
 
         self._refresh_timer = QTimer(self, singleShot=True, interval=REFRESH_MS)
         self._refresh_timer.timeout.connect(self._refresh_image)
@@ -276,6 +280,11 @@ class SketchCanvas(QWidget):
         # Pixel (i, j) covers [j, j+1] x [i, i+1]; its centre is cell (i, j).
         return point.y() - 0.5, point.x() - 0.5
 
+    def _hover(self, cell: tuple[float, float]) -> None:
+        row, col = (int(np.floor(v + 0.5)) for v in cell)
+        rows, cols = self.sketch.shape
+        self.hovered.emit(*((row, col) if 0 <= row < rows and 0 <= col < cols else (-1, -1)))
+
     def eventFilter(self, obj: QObject, event: QEvent) -> bool:
         kind = event.type()
         if obj is self.view.viewport():
@@ -288,13 +297,16 @@ class SketchCanvas(QWidget):
                     self.finish_polyline()
                 return True
             if kind == QEvent.MouseMove:
-                self._move(self.cell_at(event.position()), event.modifiers())
+                cell = self.cell_at(event.position())
+                self._hover(cell)
+                self._move(cell, event.modifiers())
                 return self._stroking or self._drag is not None
             if kind == QEvent.MouseButtonRelease and event.button() == Qt.LeftButton:
                 self._release(self.cell_at(event.position()), event.modifiers())
                 return True
             if kind == QEvent.Leave:
                 self._cursor.setVisible(False)
+                self.hovered.emit(-1, -1)
         elif obj is self.view and kind == QEvent.KeyPress:
             if event.key() in (Qt.Key_Return, Qt.Key_Enter) and self._poly_points:
                 self.finish_polyline()

@@ -6,6 +6,11 @@ timer redraws at most 10 times a second.  Rendering happens on the GUI
 thread, so when the view starts it times a frame: if this OpenGL (e.g. a
 software renderer) is too slow for live updates, the terrain is drawn only
 when a run ends, and the view says so, rather than freezing the window.
+
+With painted water, a translucent plane lies at the water level, moved as
+the level changes.  Heights are coloured by the same ramp
+(:data:`~terrasynth_core.pictures.TERRAIN_LUT`) over the same heights as
+the 2D view.
 """
 
 from __future__ import annotations
@@ -18,9 +23,10 @@ from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtGui import QGuiApplication
 from PySide6.QtWidgets import QDoubleSpinBox, QHBoxLayout, QLabel, QStackedLayout, QVBoxLayout, QWidget
 
-from terrasynth_core.pictures import TERRAIN_LUT, height_range
+from terrasynth_core.pictures import SHALLOW_RGB, TERRAIN_LUT, camera_direction, height_range, water_cells
 
 from ..model.result import TerrainResult
+from .overlay_widgets import ElidedLabel
 
 log = logging.getLogger(__name__)
 
@@ -36,6 +42,10 @@ REDRAW_MS = 100
 MAX_RENDER_SHARE = 0.3
 #: Cell size assumed when the examples do not tell one, in metres.
 DEFAULT_CELL_M = 30.0
+#: Camera direction of a new mesh: degrees from south towards east, and above the horizon.
+CAMERA = (-30.0, 35.0)
+#: Opacity of the water plane.
+WATER_OPACITY = 0.6
 #: Qt platforms that have no OpenGL window to render into.
 _HEADLESS_PLATFORMS = {"offscreen", "minimal", "vnc"}
 
@@ -66,6 +76,9 @@ class TerrainView3D(QWidget):
         self._grid = None
         self._grid_key = None
         self._actor = None
+        self._water_actor = None
+        self.water_level: float | None = None
+        self._painted: np.ndarray | None = None
         self._dirty = False
         self.redraws = 0
 
@@ -81,7 +94,8 @@ class TerrainView3D(QWidget):
         bar = QHBoxLayout()
         bar.addWidget(QLabel("Vertical scale"))
         bar.addWidget(self.scale_spin)
-        self.notice = QLabel()
+        # Elided: a long notice must not widen the result panel.
+        self.notice = ElidedLabel(width_hint=200)
         bar.addWidget(self.notice, 1)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
@@ -157,6 +171,7 @@ class TerrainView3D(QWidget):
 
     def _clear_mesh(self) -> None:
         self.plotter.clear()
+        self._water_actor = None
         self._grid = None
         self._grid_key = None
         self.plotter.render()
@@ -217,7 +232,61 @@ class TerrainView3D(QWidget):
         if self.plotter is None:
             raise RuntimeError(self.unavailable_reason or "the 3D view is not running")
         self._redraw(now=True)
+        self.plotter.render()  # changes since the last frame (water, camera) may be waiting for a repaint
         self.plotter.screenshot(str(path))
+
+    def set_water_level(self, level: float | None, *, painted: np.ndarray | None = None) -> None:
+        """Show water at ``level`` metres (None: none) over the cells below
+        it, only those connected to ``painted`` (bool, the terrain's shape)
+        when given."""
+        self.water_level = level
+        self._painted = painted
+        self._place_water()
+
+    def water_plane_height(self) -> float | None:
+        """Height of the drawn water plane in scene units (metres times the
+        vertical scale), None when none is drawn; for tests."""
+        if self._water_actor is None:
+            return None
+        return float(self._water_actor.GetBounds()[4])
+
+    def ramp_colour(self, height: float) -> np.ndarray:
+        """RGB (0-255) the mesh gives ``height`` metres, from its lookup table; for tests."""
+        rgb = np.zeros(3)
+        self._actor.mapper.lookup_table.GetColor(float(height), rgb)
+        return rgb * 255
+
+    def _place_water(self, *, render: bool = True) -> None:
+        """Draw the water surface: the mesh's cells whose corners lie below
+        the level, flat at the level (so it ends at the shore, not at the
+        map's edge under the terrain)."""
+        if self.plotter is None or self._grid is None:
+            return
+        if self._water_actor is not None:
+            self.plotter.remove_actor(self._water_actor, render=False)
+            self._water_actor = None
+        if self.water_level is None:
+            return
+        (rows, cols), step = self._grid_key[0], self._grid_key[1]
+        heights = np.asarray(self._grid["elevation"]).reshape(rows, cols)
+        painted = None
+        if self._painted is not None and self._painted.shape == self.heights.shape:
+            painted = self._painted[::step, ::step]
+        wet = water_cells(heights, self.water_level, painted=painted)
+        if not wet.any():
+            return
+        water = self._grid.copy(deep=True)
+        points = water.points
+        points[:, 2] = self.water_level * self.scale_spin.value()
+        water.points = points
+        water["wet"] = wet.ravel().astype(np.float32)
+        # A cell is water if any corner is below the level: the surface
+        # reaches the shore, and the terrain hides the overlap above it.
+        surface = water.threshold(0.5, scalars="wet", all_scalars=False)
+        self._water_actor = self.plotter.add_mesh(surface, color=tuple(SHALLOW_RGB / 255), opacity=WATER_OPACITY,
+                                                  show_scalar_bar=False, render=False, reset_camera=False)
+        if render:
+            self.plotter.update()
 
     def mesh_heights(self) -> np.ndarray | None:
         """Heights of the displayed mesh vertices (metres, decimated), for tests."""
@@ -269,6 +338,7 @@ class TerrainView3D(QWidget):
             self._grid_key = key
             self._apply_heights(z)
             self.plotter.clear()
+            self._water_actor = None
             # No smooth_shading: it would draw a copy with computed normals, and
             # in-place height updates would not show; _apply_heights sets the
             # normals itself.
@@ -277,11 +347,17 @@ class TerrainView3D(QWidget):
                                   scalar_range=self._vrange)
             self._actor = self.plotter.add_mesh(grid, scalars="elevation", cmap=ramp, show_scalar_bar=False,
                                                 render=False)
-            self.plotter.view_isometric(render=False)
+            # From the south-south-west, north up the screen, as the 2D view
+            # and the README's 3D pictures (render_3d) are seen.
+            centre = np.array(grid.center)
+            x0, x1, y0, y1, _, _ = grid.bounds
+            eye = centre + 2.0 * max(x1 - x0, y1 - y0) * camera_direction(*CAMERA)
+            self.plotter.camera_position = [tuple(eye), tuple(centre), (0.0, 0.0, 1.0)]
             self.plotter.reset_camera(render=False)
         else:
             self._apply_heights(z)
             self._actor.mapper.scalar_range = self._vrange
+        self._place_water(render=False)
         if now:
             self.plotter.render()
             self.render_ms = (time.perf_counter() - started) * 1000

@@ -4,6 +4,7 @@
   (colours under a hillshade);
 * :mod:`.colours`: the one height colour ramp (:func:`terrain_colours`),
   :func:`shaded_relief`, thumbnails and :func:`patch_colours`;
+* :mod:`.water`: water below a level, blue by depth, with its shoreline;
 * :mod:`.overlay`: ridges and valleys over a hillshade;
 * :mod:`.terrain_3d`: arrays and camera for 3D views (the renderer itself
   lives outside the core, in ``terrasynth_app.views.render_3d``);
@@ -16,7 +17,9 @@ The pictures only read the engine's results; no synthesis stage imports them.
 from .colours import (
     TERRAIN_LUT,
     height_range,
+    height_ticks,
     patch_colours,
+    ramp_strip,
     shaded_relief,
     shaded_window,
     terrain_colours,
@@ -27,19 +30,26 @@ from .overlay import RIDGE_COLOUR, VALLEY_COLOUR, render_overlay
 from .shading import grey_hillshade, hillshade, lit
 from .sheet import compose, fit_panel
 from .terrain_3d import camera_direction, surface_grid, trim_background
+from .water import DEEP_RGB, SHALLOW_RGB, SHORE_RGB, depth_colours, water_cells, water_rgba
 
 __all__ = [
+    "DEEP_RGB",
     "RIDGE_COLOUR",
+    "SHALLOW_RGB",
+    "SHORE_RGB",
     "TERRAIN_LUT",
     "VALLEY_COLOUR",
     "camera_direction",
     "compose",
+    "depth_colours",
     "fit_panel",
     "grey_hillshade",
     "height_range",
+    "height_ticks",
     "hillshade",
     "lit",
     "patch_colours",
+    "ramp_strip",
     "render_overlay",
     "save_png",
     "shaded_relief",
@@ -48,4 +58,6 @@ __all__ = [
     "terrain_colours",
     "thumbnail",
     "trim_background",
+    "water_cells",
+    "water_rgba",
 ]

@@ -29,6 +29,45 @@ TERRAIN_LUT = np.rint(
 ).astype(np.uint8)
 
 
+def height_ticks(low: float, high: float, *, count: int = 5) -> list[float]:
+    """Round heights between ``low`` and ``high`` to label a legend with.
+
+    Parameters
+    ----------
+    low, high : float
+        Metres at the ends of the ramp.
+    count : int, default 5
+        About how many ticks.
+
+    Returns
+    -------
+    list of float
+        Multiples of 1, 2 or 5 times a power of ten, ascending, all within
+        ``[low, high]``; at least the two ends when no round value fits.
+    """
+    span = high - low
+    if not (np.isfinite(span) and span > 0):
+        return [float(low)]
+    # A step a little under span / (count - 1) rounds to 1-2-5 without
+    # falling to half the ticks wanted.
+    raw = span / max(count - 1, 1) / 1.5
+    power = 10.0 ** np.floor(np.log10(raw))
+    step = next(m * power for m in (1, 2, 5, 10) if m * power >= raw)
+    ticks = np.arange(np.ceil(low / step) * step, high + step * 1e-9, step) + 0.0  # no -0.0
+    return [float(t) for t in ticks] if len(ticks) >= 2 else [float(low), float(high)]
+
+
+def ramp_strip(length: int, *, width: int = 1) -> np.ndarray:
+    """The ramp as a vertical strip, highest colour at the top (a legend).
+
+    Returns
+    -------
+    ndarray of uint8, shape (length, width, 3)
+    """
+    levels = np.rint(np.linspace(255, 0, length)).astype(np.uint8)
+    return np.repeat(TERRAIN_LUT[levels][:, None, :], width, axis=1)
+
+
 def height_range(heights: np.ndarray, *, tail: float = 0.0) -> tuple[float, float]:
     """Heights that span the ramp.
 

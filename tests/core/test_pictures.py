@@ -187,3 +187,44 @@ def test_compose_lays_panels_out_in_a_labelled_grid():
     rgb = np.asarray(sheet)
     assert (rgb[34 + 5 + 26 + 10, 10 + 20] == 0).all()  # first panel, first row
     assert (rgb[34 + 5 + 26 + 20 + 5 + 26 + 10, 10 + 20] == 200).all()  # third panel, second row
+
+
+def test_water_is_every_cell_below_the_level_blue_by_depth_with_a_light_shoreline():
+    from terrasynth_core.pictures import DEEP_RGB, SHALLOW_RGB, SHORE_RGB, depth_colours, water_rgba
+
+    heights = np.tile(np.arange(20, dtype=np.float32), (10, 1))  # rises 1 m per column, east
+    heights[0, 0] = np.nan
+    rgba = water_rgba(heights, 8.5)
+    wet = rgba[..., 3] > 0
+    assert np.array_equal(wet[1:], np.broadcast_to(np.arange(20) < 8.5, (9, 20)))
+    assert not wet[0, 0]  # not synthesized yet: dry
+    assert tuple(rgba[5, 8, :3]) == SHORE_RGB and rgba[5, 8, 3] == 255  # the last wet column meets land
+    assert rgba[5, 0, :3].sum() < rgba[5, 6, :3].sum()  # deeper is darker
+    assert np.allclose(depth_colours(np.array([0.0, 5.0, 10.0]), full_depth=10.0)[[0, 2]], [SHALLOW_RGB, DEEP_RGB])
+    assert not water_rgba(heights, -1.0).any()
+
+
+def test_height_ticks_are_round_metres_within_the_range_and_the_strip_is_the_ramp():
+    from terrasynth_core.pictures import TERRAIN_LUT, height_ticks, ramp_strip
+
+    assert height_ticks(0.0, 1000.0) == [0.0, 200.0, 400.0, 600.0, 800.0, 1000.0]
+    ticks = height_ticks(-14.7, 905.3)
+    assert all(-14.7 <= t <= 905.3 for t in ticks) and len(ticks) >= 3
+    assert all(float(t / 200).is_integer() for t in ticks)
+    assert height_ticks(3.0, 3.0) == [3.0]
+    strip = ramp_strip(64, width=3)
+    assert strip.shape == (64, 3, 3) and np.array_equal(strip[0, 0], TERRAIN_LUT[255])
+    assert np.array_equal(strip[-1, 2], TERRAIN_LUT[0])
+
+
+def test_connected_water_leaves_a_basin_without_painted_water_dry():
+    from terrasynth_core.pictures import water_cells
+
+    heights = np.full((5, 9), 10.0, np.float32)
+    heights[1:4, 1:3] = 0.0  # western basin, painted
+    heights[1:4, 6:8] = 0.0  # eastern basin, not
+    painted = np.zeros((5, 9), bool)
+    painted[2, 1] = True
+    assert water_cells(heights, 5.0).sum() == 12
+    connected = water_cells(heights, 5.0, painted=painted)
+    assert connected.sum() == 6 and connected[2, 2] and not connected[2, 6]

@@ -22,7 +22,7 @@ def x_display():
     return display
 
 
-def test_3d_view_builds_its_mesh_updates_it_and_takes_screenshots(x_display, tmp_path):
+def test_3d_view_builds_its_mesh_updates_it_draws_water_and_takes_screenshots(x_display, tmp_path):
     shot = tmp_path / "view3d.png"
     env = dict(os.environ, QT_QPA_PLATFORM="xcb")
     proc = subprocess.run([sys.executable, str(Path(__file__).with_name("view3d_probe.py")), str(shot)],
@@ -33,5 +33,8 @@ def test_3d_view_builds_its_mesh_updates_it_and_takes_screenshots(x_display, tmp
     assert out["available"] and out["reason"] is None, out["reason"]
     assert out["mesh_shape"] == [150, 100]
     assert out["patch_in_mesh"] and out["floor_elsewhere"] and out["result_in_mesh"]
+    assert out["ramp_error"] <= 2.0  # the 2D view's colours, up to rounding
+    assert out["no_water_plane"] and out["water_plane_removed"] and out["unconnected_dry"]
+    assert out["water_planes"] == [120.0 * 2.0, 200.0 * 3.0]  # metres times the vertical scale
     image = np.asarray(Image.open(shot).convert("RGB"))
     assert image.shape[0] > 100 and image.std() > 10  # a drawn surface, not a blank window

@@ -44,6 +44,30 @@ def main(screenshot_path: str) -> None:
         ramp = np.add.outer(np.arange(300), np.arange(200)).astype(np.float32)
         view.show_result(TerrainResult(ramp, np.zeros(shape, np.int32), np.zeros(shape, bool), cell_size=(30.0, 30.0)))
         out["result_in_mesh"] = bool(np.allclose(view.mesh_heights(), ramp[::step, ::step]))
+        # The same ramp as the 2D view over the same heights.
+        from terrasynth_core.pictures import height_range, terrain_colours
+
+        vrange = height_range(ramp)
+        probes = np.linspace(*vrange, 9, dtype=np.float32)
+        flat = terrain_colours(probes[None, :], vrange=vrange)[0].astype(float)
+        mesh = np.array([view.ramp_colour(h) for h in probes])
+        out["ramp_error"] = float(np.abs(mesh - flat).max())
+        # A water plane at the level, following it and the vertical scale.
+        out["no_water_plane"] = view.water_plane_height() is None
+        view.set_water_level(120.0)
+        first = view.water_plane_height()
+        view.set_water_level(200.0)
+        view.scale_spin.setValue(3.0)
+        out["water_planes"] = [first, view.water_plane_height()]
+        view.set_water_level(None)
+        out["water_plane_removed"] = view.water_plane_height() is None
+        # Only water connected to painted water: none painted in the low
+        # corner, so no cell there is water.
+        painted = np.zeros(shape, bool)
+        painted[-1, -1] = True  # the highest corner, above the level: reaches nothing
+        view.set_water_level(200.0, painted=painted)
+        out["unconnected_dry"] = view.water_plane_height() is None
+        view.set_water_level(200.0)
         view.screenshot(screenshot_path)
         view.plotter.close()
     print(json.dumps(out))
