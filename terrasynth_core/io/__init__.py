@@ -64,7 +64,7 @@ from pathlib import Path
 
 from ..errors import DEMFormatError
 from ..heightfield import HeightField
-from . import esri_ascii, exr, gdal, hgt, mesh, npy, png, raw, terragen, usgs_dem
+from . import esri_ascii, exr, gdal, gltf, hgt, mesh, npy, png, raw, terragen, usgs_dem
 from ._common import (SIDECAR_EXTENSIONS, atomic_outputs, check_sidecar_free, open_new, sidecar_path, wrap_errors,
                       write_sidecar)
 
@@ -148,7 +148,7 @@ _LEVEL_FORMATS = {"png", "r16"}
 #: Formats written with a JSON sidecar (see :func:`._common.make_sidecar`).
 _SIDECAR_FORMATS = {_FORMAT_NAMES[ext] for ext in SIDECAR_EXTENSIONS}
 
-_MESH_WRITERS = {".obj": mesh.write_obj, ".stl": mesh.write_stl, ".ply": mesh.write_ply}
+_MESH_WRITERS = {".obj": mesh.write_obj, ".stl": mesh.write_stl, ".ply": mesh.write_ply, ".glb": gltf.write_glb}
 
 #: Extensions :func:`load_dem` reads.
 READ_EXTENSIONS: tuple[str, ...] = tuple(_FORMAT_NAMES)
@@ -319,6 +319,8 @@ def save_mesh(
     *,
     vertical_scale: float = 1.0,
     step: int = 1,
+    target_triangles: int | None = None,
+    texture=None,
 ) -> None:
     """Write the surface of ``field`` as a triangle mesh.
 
@@ -326,12 +328,19 @@ def save_mesh(
     ----------
     field : HeightField
     path : str or path-like
-        ``.obj`` (text), ``.stl`` (binary) or ``.ply`` (binary
-        little-endian), any case.
+        ``.obj`` (text), ``.stl`` (binary), ``.ply`` (binary
+        little-endian) or ``.glb`` (binary glTF 2.0 with normals and
+        texture coordinates, Y up: see :mod:`.gltf`), any case.
     vertical_scale : float, default 1.0
         Factor on heights (vertical exaggeration).
     step : int, default 1
         Keep every ``step``-th row and column, to thin large grids.
+    target_triangles : int, optional
+        Simplify the mesh to about this many triangles
+        (:func:`.mesh.decimate`: fewer where the ground is flat).
+    texture : ndarray of uint8, shape (rows, cols, 3), optional
+        ``.glb`` only: a colour picture of the grid (one pixel per cell),
+        draped over the mesh and stored in the file.
 
     Notes
     -----
@@ -354,7 +363,16 @@ def save_mesh(
             f"cannot write {path}: unsupported mesh extension {path.suffix!r}; "
             f"supported: {', '.join(MESH_EXTENSIONS)}"
         )
+    glb = path.suffix.lower() == ".glb"
+    if texture is not None and not glb:
+        raise DEMFormatError(f"cannot write {path}: a texture needs a .glb mesh")
     with wrap_errors(path, "write"), atomic_outputs(path) as (temp,):
         vertices, faces = mesh.mesh_arrays(field, vertical_scale=vertical_scale, step=step)
+        if target_triangles is not None:
+            vertices, faces = mesh.decimate(vertices, faces, target_triangles)
         with open_new(temp) as fh:
-            writer(vertices, faces, fh)
+            if glb:
+                uv = mesh.texture_coordinates(vertices, field)
+                writer(vertices, faces, fh, uv=uv, texture=texture)
+            else:
+                writer(vertices, faces, fh)
