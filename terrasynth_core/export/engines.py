@@ -217,7 +217,7 @@ def _check_options(preset_name: str, size: int | None, tiles: int) -> EnginePres
         raise ParamsError(f"the {preset_name} preset writes one heightfield; --tiles is for unreal and unity")
     if size is not None:
         if preset.sizes is not None and size not in preset.sizes:
-            raise ParamsError(f"size {size} is not a {preset_name} heightmap size; expected one of "
+            raise ParamsError(f"size {size} is not one of the {preset_name} heightmap sizes: "
                               f"{', '.join(map(str, preset.sizes))}")
         if preset.sizes is None and not 2 <= size <= MAX_EXR_SIDE:
             raise ParamsError(f"size {size}: expected 2 to {MAX_EXR_SIDE} samples on the longer side")

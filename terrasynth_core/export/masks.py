@@ -40,6 +40,9 @@ MASK_NAMES = ("slope", "convex", "concave", "flow", "wetness", "water", "height_
 #: Number of height bands.
 BANDS = 4
 
+#: Curvature (1/m) below which ground counts as flat for the scale.
+MIN_CURVATURE = 1e-6
+
 #: Smallest slope tangent in the wetness index (flat ground would divide by 0).
 MIN_TAN_SLOPE = 1e-3
 
@@ -68,10 +71,10 @@ class TerrainMasks:
     cell_size: tuple[float, float] = (1.0, 1.0)
 
 
-def _robust_scale(values: np.ndarray) -> float:
-    """The 99th percentile of the positive ``values`` (1 when there are none)."""
+def _robust_scale(values: np.ndarray, floor: float = 0.0) -> float:
+    """The 99th percentile of the positive ``values``, at least ``floor`` (1 when there are none)."""
     positive = values[np.isfinite(values) & (values > 0)]
-    return float(np.percentile(positive, 99)) if positive.size else 1.0
+    return max(float(np.percentile(positive, 99)), floor) if positive.size else 1.0
 
 
 def curvature(heights: np.ndarray, cell_size: tuple[float, float]) -> np.ndarray:
@@ -91,7 +94,10 @@ def curvature(heights: np.ndarray, cell_size: tuple[float, float]) -> np.ndarray
     """
     dy, dx = cell_size
     # A light smoothing first: the second difference of a DEM is mostly noise.
-    h = ndimage.gaussian_filter(heights.astype(np.float64), 1.0, mode="nearest")
+    # Odd reflection continues slopes past the edges, so planes stay planes.
+    pad = 4
+    padded = np.pad(heights.astype(np.float64), pad, mode="reflect", reflect_type="odd")
+    h = ndimage.gaussian_filter(padded, 1.0, mode="nearest")[pad:-pad, pad:-pad]
     d2y = (np.roll(h, -1, 0) + np.roll(h, 1, 0) - 2 * h) / dy**2
     d2x = (np.roll(h, -1, 1) + np.roll(h, 1, 1) - 2 * h) / dx**2
     d2y[0] = d2y[1]
@@ -182,7 +188,9 @@ def terrain_masks(field: HeightField, *, water: np.ndarray | None = None, sea_le
         lap = curvature(heights, cell_size)
         for name, values in (("convex", -lap), ("concave", lap)):
             if name in names:
-                scale = _robust_scale(values)
+                # Floor: rounding noise on a plane is no curvature (1e-6/m is a
+                # radius of 1000 km).
+                scale = _robust_scale(values, MIN_CURVATURE)
                 masks[name] = np.clip(values / scale, 0, 1).astype(np.float32)
                 scales[name] = scale
     if {"flow", "wetness"} & set(names):
