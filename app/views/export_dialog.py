@@ -16,7 +16,8 @@ _NAMES = {
     ".tif": "GeoTIFF, float32", ".tiff": "GeoTIFF, float32", ".asc": "ESRI ASCII grid",
     ".png": "16-bit PNG + JSON sidecar", ".npy": "NumPy float32 + JSON sidecar", ".ter": "Terragen",
     ".r16": "RAW 16-bit + JSON sidecar", ".r32": "RAW 32-bit float", ".obj": "Wavefront OBJ mesh",
-    ".stl": "STL mesh (binary)", ".ply": "PLY mesh (binary)",
+    ".stl": "STL mesh (binary)", ".ply": "PLY mesh (binary)", ".exr": "OpenEXR float32",
+    ".glb": "glTF binary mesh (GLB)",
 }
 
 
