@@ -3,7 +3,8 @@
 ``<stem>_<mask>.png`` (or ``.exr``) per mask, plus ``<stem>_masks.json``
 with what 1.0 means in each and the notes.  One-channel masks are grey,
 the normal map RGB, the height bands RGBA (a splat map).  PNG levels are
-``round(value * top)``, ``top`` 255 or 65535; EXR keeps the float values
+``round(value * top)``, ``top`` 255 or 65535 (style region ids: the id + 1
+itself); EXR keeps the float values
 (``Y`` for one channel, ``R``, ``G``, ``B`` (and ``A``) for more).
 """
 
@@ -48,7 +49,10 @@ def png16_bytes(levels: np.ndarray) -> bytes:
 
 def _write_png(values: np.ndarray, temp: Path, bits: int) -> None:
     top = 255 if bits == 8 else 65535
-    levels = np.rint(np.clip(np.nan_to_num(values), 0, 1) * top)
+    if np.issubdtype(values.dtype, np.integer):
+        levels = values  # ids are written as they are
+    else:
+        levels = np.rint(np.clip(np.nan_to_num(values), 0, 1) * top)
     with open_new(temp) as fh:
         if bits == 8:
             # Pillow makes L, RGB or RGBA from the uint8 array's shape.

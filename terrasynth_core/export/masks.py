@@ -15,7 +15,11 @@ wetness        1         topographic wetness index ln(a / tan b), scaled
 water          1         1 where there is water (given, or at/below sea level)
 height_bands   4 (RGBA)  soft low / mid / high / peak bands, summing to 1
 normal         3 (RGB)   tangent-space normal, (n + 1) / 2, OpenGL (green = north)
+style_regions  1         uint8 style id + 1 (0: no style), only when given
 =============  ========  ==========================================================
+
+Style regions exist only where the caller has them (the app's painted
+style layer); a DEM file carries none, so the CLI makes no such mask.
 
 Curvature and wetness are scaled by their 99th percentile over the
 terrain (the scale is returned, so the numbers can be recovered).
@@ -140,7 +144,7 @@ def normal_map(heights: np.ndarray, cell_size: tuple[float, float]) -> np.ndarra
 
 
 def terrain_masks(field: HeightField, *, water: np.ndarray | None = None, sea_level: float = 0.0,
-                  names: tuple[str, ...] = MASK_NAMES) -> TerrainMasks:
+                  style_ids: np.ndarray | None = None, names: tuple[str, ...] = MASK_NAMES) -> TerrainMasks:
     """Every mask of ``field`` (see the module table).
 
     Parameters
@@ -154,6 +158,9 @@ def terrain_masks(field: HeightField, *, water: np.ndarray | None = None, sea_le
         the cells at or below ``sea_level``; with none, the mask is left out.
     sea_level : float, default 0
         Metres.
+    style_ids : ndarray of int, shape (rows, cols), optional
+        Style region id per cell (-1 for none, at most 254): adds the
+        ``style_regions`` mask (uint8, id + 1).
     names : tuple of str
         Which masks to make, from :data:`MASK_NAMES`.
 
@@ -228,4 +235,12 @@ def terrain_masks(field: HeightField, *, water: np.ndarray | None = None, sea_le
     for name, mask in masks.items():
         if mask.ndim == 2 and name != "water":
             mask[nodata] = 0
+    if style_ids is not None:
+        ids = np.asarray(style_ids)
+        if ids.shape != field.shape or not np.issubdtype(ids.dtype, np.integer):
+            raise ParamsError(f"style ids must be integers of the terrain's shape {field.shape}, got "
+                              f"{ids.dtype} {ids.shape}")
+        if ids.size and not (-1 <= int(ids.min()) and int(ids.max()) <= 254):
+            raise ParamsError(f"style ids must be -1 to 254 to fit 8 bits, got {ids.min()} to {ids.max()}")
+        masks["style_regions"] = (ids + 1).astype(np.uint8)
     return TerrainMasks(masks=masks, scales=scales, notes=notes, cell_size=tuple(cell_size))

@@ -146,3 +146,16 @@ def test_masks_never_replace_files(tmp_path):
         write_masks(masks, tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["terrain_flow.png"]
     assert (tmp_path / "terrain_flow.png").read_bytes() == b"mine"
+
+
+def test_style_region_ids_are_written_as_levels(tmp_path):
+    field = HeightField(_valley(), cell_size=(1.0, 1.0))
+    ids = np.full(field.shape, -1, np.int16)
+    ids[:, 20:] = 3
+    masks = terrain_masks(field, names=("slope",), style_ids=ids)
+    write_masks(masks, tmp_path, fmt="png16")
+    with Image.open(tmp_path / "terrain_style_regions.png") as image:
+        levels = np.asarray(image)
+    np.testing.assert_array_equal(levels, ids + 1)
+    with pytest.raises(ParamsError, match="style ids must be"):
+        terrain_masks(field, names=("slope",), style_ids=ids[1:])
