@@ -1,4 +1,4 @@
-"""Writing the synthesized terrain: DEM formats and meshes, at any size."""
+"""Writing the synthesized terrain: DEM formats and meshes at any size, engine presets and masks."""
 
 from __future__ import annotations
 
@@ -10,6 +10,8 @@ import numpy as np
 from scipy import ndimage
 
 from terrasynth_core.errors import ParamsError
+from terrasynth_core.export import export_for_engine, terrain_masks, write_masks
+from terrasynth_core.features import resize_nearest
 from terrasynth_core.heightfield import HeightField
 from terrasynth_core.io import MESH_EXTENSIONS, WRITE_EXTENSIONS, save_dem, save_mesh
 
@@ -94,3 +96,60 @@ def export_terrain(result: TerrainResult, path: str | os.PathLike, *, size: tupl
     else:
         save_dem(field, path)
     return path
+
+
+def export_for_engine_preset(result: TerrainResult, preset: str, folder: str | os.PathLike, *,
+                             size: int | None = None, tiles: int = 1, name: str = "terrain") -> str:
+    """Write ``result`` for a game engine or DCC tool into ``folder``.
+
+    Parameters
+    ----------
+    result : TerrainResult
+    preset : str
+        A key of :data:`terrasynth_core.export.PRESETS`.
+    folder : str or path-like
+        No existing file in it is replaced.
+    size, tiles, name
+        As in :func:`terrasynth_core.export.export_for_engine`.
+
+    Returns
+    -------
+    str
+        The one-line summary with the numbers to type into the engine.
+    """
+    done = export_for_engine(resampled_field(result), preset, folder, size=size, tiles=tiles, stem=name)
+    return f"{done.summary()} (in {Path(folder) / done.files[-1].name})"
+
+
+def export_masks(result: TerrainResult, folder: str | os.PathLike, *, fmt: str = "png8", name: str = "terrain",
+                 water: np.ndarray | None = None, style_ids: np.ndarray | None = None) -> str:
+    """Write the masks (splat maps) of ``result`` into ``folder``.
+
+    Parameters
+    ----------
+    result : TerrainResult
+    folder : str or path-like
+        No existing file in it is replaced.
+    fmt : {"png8", "png16", "exr"}
+    name : str
+        Start of the file names.
+    water : ndarray of bool, optional
+        The painted water (any shape: resized to the terrain's); without
+        any water painted, water is what lies at or below sea level.
+    style_ids : ndarray of int, optional
+        The painted style regions (-1 none), resized likewise.
+
+    Returns
+    -------
+    str
+        What was written, and the notes.
+    """
+    shape = result.shape
+    if water is not None:
+        water = resize_nearest(np.asarray(water), shape) if water.any() else None
+    if style_ids is not None:
+        style_ids = resize_nearest(np.asarray(style_ids), shape) if (np.asarray(style_ids) >= 0).any() else None
+    masks = terrain_masks(resampled_field(result), water=water, style_ids=style_ids)
+    written = write_masks(masks, folder, fmt=fmt, stem=name)
+    notes = "".join(f"; {note}" for note in masks.notes)
+    return f"{len(written) - 1} masks in {Path(folder)}{notes}"

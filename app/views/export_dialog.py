@@ -1,4 +1,6 @@
-"""The export dialog: every DEM format and mesh, with size and vertical scale."""
+"""The export dialogs: every DEM format and mesh, with size and vertical scale;
+and "Export for…": engine presets (Unreal, Unity, Godot, Blender, Houdini)
+and masks, each into a folder."""
 
 from __future__ import annotations
 
@@ -6,8 +8,10 @@ from pathlib import Path
 
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import (QComboBox, QDialog, QDialogButtonBox, QDoubleSpinBox, QFileDialog, QFormLayout,
-                               QHBoxLayout, QLineEdit, QPushButton, QSpinBox, QWidget)
+                               QHBoxLayout, QLabel, QLineEdit, QPushButton, QSpinBox, QWidget)
 
+from terrasynth_core.export import MASK_FORMATS, PRESETS
+from terrasynth_core.export.engines import default_size
 from terrasynth_core.io import MESH_EXTENSIONS
 
 from ..model.export import EXPORT_EXTENSIONS
@@ -116,3 +120,86 @@ class ExportDialog(QDialog):
 
     def _screenshot(self) -> None:
         self.screenshot_requested.emit()
+
+
+#: "Export for…" entries: the engine presets, then the masks.
+EXPORT_FOR: dict[str, str] = {**{key: preset.title for key, preset in PRESETS.items()},
+                              "masks": "Masks (splat maps)"}
+
+_MASK_FORMAT_NAMES = {"png8": "8-bit PNG", "png16": "16-bit PNG", "exr": "32-bit float OpenEXR"}
+
+
+class PresetExportDialog(QDialog):
+    """Options of "Export for…": the folder, and the preset's size and tiles
+    (or the masks' format).
+
+    Parameters
+    ----------
+    preset : str
+        A key of :data:`EXPORT_FOR`.
+    shape : (rows, cols)
+        The result's size, for the default heightmap size.
+    directory : str
+        Folder proposed.
+    """
+
+    def __init__(self, preset: str, shape: tuple[int, int], *, directory: str = "",
+                 parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.preset = preset
+        self.setWindowTitle(f"Export for {EXPORT_FOR[preset]}")
+        self.folder = QLineEdit(str(Path(directory or ".") / f"terrain_{preset}"))
+        browse = QPushButton("Browse…")
+        browse.clicked.connect(self._browse)
+        folder_row = QHBoxLayout()
+        folder_row.addWidget(self.folder, 1)
+        folder_row.addWidget(browse)
+        self.name = QLineEdit("terrain")
+        self.name.setToolTip("Start of every file name")
+        form = QFormLayout(self)
+        form.addRow("Folder", folder_row)
+        form.addRow("File names", self.name)
+        self.size = QComboBox()
+        self.tiles = QSpinBox(minimum=1, maximum=16, value=1)
+        self.mask_format = QComboBox()
+        if preset == "masks":
+            for fmt in MASK_FORMATS:
+                self.mask_format.addItem(_MASK_FORMAT_NAMES[fmt], fmt)
+            form.addRow("Format", self.mask_format)
+        else:
+            chosen = PRESETS[preset]
+            sizes = chosen.sizes or ()
+            longest = max(shape)
+            if not sizes:
+                self.size.addItem(f"{longest} (as synthesized)", None)
+                sizes = tuple(n for n in (257, 513, 1025, 2049, 4097) if n != longest)
+            for n in sizes:
+                self.size.addItem(f"{n} samples", n)
+            if chosen.sizes:
+                self.size.setCurrentIndex(self.size.findData(default_size(chosen, longest)))
+            form.addRow("Size (longer side)" if not chosen.sizes else "Size (per tile)", self.size)
+            self.tiles.setEnabled(chosen.tiles)
+            self.tiles.setToolTip("A K x K grid of tiles sharing their edges, named _x{i}_y{j}")
+            form.addRow("Tiles (K x K)", self.tiles)
+            note = QLabel(chosen.how_to_import)
+            note.setWordWrap(True)
+            form.addRow(note)
+        buttons = QDialogButtonBox(QDialogButtonBox.Save | QDialogButtonBox.Cancel)
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        form.addRow(buttons)
+
+    def options(self) -> dict:
+        """The folder and the options of :meth:`FilesController.export_preset`."""
+        options = {"folder": self.folder.text(), "name": self.name.text() or "terrain"}
+        if self.preset == "masks":
+            options["fmt"] = self.mask_format.currentData()
+        else:
+            options["size"] = self.size.currentData()
+            options["tiles"] = self.tiles.value()
+        return options
+
+    def _browse(self) -> None:
+        folder = QFileDialog.getExistingDirectory(self, "Export into folder", self.folder.text())
+        if folder:
+            self.folder.setText(folder)
