@@ -152,14 +152,14 @@ def cmd_export(args: argparse.Namespace) -> int:
 def cmd_masks(args: argparse.Namespace) -> int:
     from ..examples import resolve_dem
     from ..export import terrain_masks, write_masks
-    from ..export.engines import PRESETS, engine_ready, preset_shape
+    from ..export.engines import engine_ready, longer_side_shape
     from ..io.resample import resample_nodes
 
     field = resolve_dem(args.input, size=args.input_size, band=args.band)
     if args.size is not None:
         # The EXR presets' rule: SIZE samples on the longer side, square cells.
         ready, notes = engine_ready(field)
-        field = resample_nodes(ready, preset_shape(PRESETS["godot"], ready, args.size, 1))
+        field = resample_nodes(ready, longer_side_shape(ready, args.size))
         for note in notes:
             print(f"terrasynth-cli: note: {note}", file=sys.stderr)
     masks = terrain_masks(field, sea_level=args.sea_level)

@@ -195,13 +195,25 @@ def preset_shape(preset: EnginePreset, field: HeightField, size: int | None, til
     presets: ``size`` on the longer side, the other side keeping the cells
     square (``size`` ``None``: the field's own shape).
     """
-    rows, cols = field.shape
     if preset.sizes is not None:
         side = tiles * (size - 1) + 1
         return side, side
-    if size is None:
-        return rows, cols
-    dy, dx = field.cell_size
+    return field.shape if size is None else longer_side_shape(field, size)
+
+
+def longer_side_shape(field: HeightField, size: int) -> tuple[int, int]:
+    """``(rows, cols)`` with ``size`` samples on the longer side and about
+    square cells over the same span (the EXR presets' and the masks' rule).
+
+    Raises
+    ------
+    ParamsError
+        ``size`` outside 2 to :data:`MAX_EXR_SIDE`.
+    """
+    if not 2 <= size <= MAX_EXR_SIDE:
+        raise ParamsError(f"size {size}: expected 2 to {MAX_EXR_SIDE} samples on the longer side")
+    rows, cols = field.shape
+    dy, dx = field.cell_size or (1.0, 1.0)
     span_y, span_x = (rows - 1) * dy, (cols - 1) * dx
     cell = max(span_y, span_x) / (size - 1)
     return max(2, round(span_y / cell) + 1), max(2, round(span_x / cell) + 1)
