@@ -79,8 +79,9 @@ def flow_receivers(filled: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     -------
     receiver : ndarray of int64, shape (rows * cols,)
         Flat index of the cell each cell drains to; -1 where water leaves
-        the grid (an edge cell or a cell next to nodata without a lower
-        neighbour, and nodata itself).
+        the grid: the outside and nodata count as lower than anything, so
+        edge cells and cells next to nodata drain out (as RichDEM's D8
+        does), and nodata itself is -1.
     flat_distance : ndarray of float64, shape (rows * cols,)
         Path length in cells to the flat's outlet for cells drained across
         a flat, -1 for the others (orders the accumulation).
