@@ -3,17 +3,17 @@
 from __future__ import annotations
 
 import os
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from scipy import ndimage
 
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.export import export_for_engine, terrain_masks, write_masks
 from terrasynth_core.features import resize_nearest
 from terrasynth_core.heightfield import HeightField
 from terrasynth_core.io import MESH_EXTENSIONS, WRITE_EXTENSIONS, save_dem, save_mesh
+from terrasynth_core.io.resample import resample_nodes
+from terrasynth_core.pictures import shaded_relief
 
 from .result import TerrainResult
 
@@ -22,49 +22,35 @@ EXPORT_EXTENSIONS: tuple[str, ...] = tuple(WRITE_EXTENSIONS) + tuple(MESH_EXTENS
 
 
 def resampled_field(result: TerrainResult, size: tuple[int, int] | None = None) -> HeightField:
-    """The result as a :class:`HeightField`, bilinearly resampled to ``size``.
+    """The result as a :class:`HeightField`, resampled to ``size``.
 
     Parameters
     ----------
     result : TerrainResult
     size : (rows, cols), optional
-        Output grid; default the result's.  The ground extent is kept, so
-        the cell size scales inversely.
+        Output grid; default the result's.  The ground span between the
+        first and last samples is kept, so the cell size scales inversely;
+        area average when shrinking, cubic when growing
+        (:func:`terrasynth_core.io.resample.resample_nodes`).
 
     Raises
     ------
     ParamsError
         For a size below 2x2 or above 64 million cells.
     """
-    rows, cols = result.shape
-    if size is None or tuple(size) == (rows, cols):
-        return HeightField(result.heights, cell_size=result.cell_size, georef=result.georef,
-                           source="synthesized terrain")
+    field = HeightField(result.heights, cell_size=result.cell_size, georef=result.georef,
+                        source="synthesized terrain")
+    if size is None or tuple(size) == result.shape:
+        return field
     new_rows, new_cols = (int(v) for v in size)
     if min(new_rows, new_cols) < 2 or new_rows * new_cols > 64_000_000:
         raise ParamsError(f"export size {new_rows}x{new_cols}: expected 2x2 to 64 million cells")
-    # Map the centres of the new grid's corner cells to the old corners so
-    # both grids span the same ground.
-    rr = np.linspace(0, rows - 1, new_rows, dtype=np.float32)
-    cc = np.linspace(0, cols - 1, new_cols, dtype=np.float32)
-    coords = np.meshgrid(rr, cc, indexing="ij")
-    heights = ndimage.map_coordinates(result.heights, coords, order=1, mode="nearest").astype(np.float32)
-    cell_size = georef = None
-    if result.cell_size is not None:
-        dy, dx = result.cell_size
-        cell_size = (dy * (rows - 1) / (new_rows - 1), dx * (cols - 1) / (new_cols - 1))
-    if result.georef is not None:
-        # The corner cells' centres stay where they were on the map.
-        g = result.georef
-        sy = g.y_step * (rows - 1) / (new_rows - 1)
-        sx = g.x_step * (cols - 1) / (new_cols - 1)
-        georef = replace(g, x_origin=g.x_origin + (g.x_step - sx) / 2, y_origin=g.y_origin - (g.y_step - sy) / 2,
-                         x_step=sx, y_step=sy)
-    return HeightField(heights, cell_size=cell_size, georef=georef, source="synthesized terrain")
+    return resample_nodes(field, (new_rows, new_cols))
 
 
 def export_terrain(result: TerrainResult, path: str | os.PathLike, *, size: tuple[int, int] | None = None,
-                   vertical_scale: float = 1.0, step: int = 1) -> Path:
+                   vertical_scale: float = 1.0, step: int = 1, target_triangles: int | None = None,
+                   texture: bool = False) -> Path:
     """Write ``result`` as a DEM or a mesh, chosen by the extension of ``path``.
 
     Parameters
@@ -78,6 +64,11 @@ def export_terrain(result: TerrainResult, path: str | os.PathLike, *, size: tupl
         Height exaggeration, meshes only.
     step : int, default 1
         Keep every ``step``-th row and column, meshes only.
+    target_triangles : int, optional
+        Simplify the mesh to about this many triangles, meshes only.
+    texture : bool, default False
+        ``.glb`` only: drape the height colours under the hillshade (the
+        2D view's picture) over the mesh.
 
     Returns
     -------
@@ -92,7 +83,11 @@ def export_terrain(result: TerrainResult, path: str | os.PathLike, *, size: tupl
     path = Path(path)
     field = resampled_field(result, size)
     if path.suffix.lower() in MESH_EXTENSIONS:
-        save_mesh(field, path, vertical_scale=vertical_scale, step=step)
+        picture = None
+        if texture and path.suffix.lower() == ".glb":
+            picture = shaded_relief(field.heights, cell_size=field.cell_size)[..., :3]
+        save_mesh(field, path, vertical_scale=vertical_scale, step=step, target_triangles=target_triangles,
+                  texture=picture)
     else:
         save_dem(field, path)
     return path

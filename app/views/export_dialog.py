@@ -7,8 +7,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from PySide6.QtCore import Signal
-from PySide6.QtWidgets import (QComboBox, QDialog, QDialogButtonBox, QDoubleSpinBox, QFileDialog, QFormLayout,
-                               QHBoxLayout, QLabel, QLineEdit, QPushButton, QSpinBox, QWidget)
+from PySide6.QtWidgets import (QCheckBox, QComboBox, QDialog, QDialogButtonBox, QDoubleSpinBox, QFileDialog,
+                               QFormLayout, QHBoxLayout, QLabel, QLineEdit, QPushButton, QSpinBox, QWidget)
 
 from terrasynth_core.export import MASK_FORMATS, PRESETS
 from terrasynth_core.export.engines import default_size
@@ -65,6 +65,11 @@ class ExportDialog(QDialog):
         self.vertical_scale.setToolTip("Height exaggeration of the mesh")
         self.step = QSpinBox(minimum=1, maximum=64, value=1)
         self.step.setToolTip("Keep every n-th row and column of the mesh")
+        self.triangles = QSpinBox(minimum=0, maximum=100_000_000, value=0, singleStep=100_000,
+                                  specialValueText="all", suffix=" triangles")
+        self.triangles.setToolTip("Simplify the mesh to about this many triangles (flat ground first)")
+        self.texture = QCheckBox("Height colours under the hillshade")
+        self.texture.setToolTip("GLB only: drape the 2D view's picture over the mesh")
         self.screenshot_button = QPushButton("Save 3D screenshot…")
         self.screenshot_button.setEnabled(screenshot_available)
         self.screenshot_button.clicked.connect(self._screenshot)
@@ -75,6 +80,8 @@ class ExportDialog(QDialog):
         form.addRow("Size", size_row)
         form.addRow("Mesh vertical scale", self.vertical_scale)
         form.addRow("Mesh step", self.step)
+        form.addRow("Mesh simplified to", self.triangles)
+        form.addRow("GLB texture", self.texture)
         form.addRow(self.screenshot_button)
         buttons = QDialogButtonBox(QDialogButtonBox.Save | QDialogButtonBox.Cancel)
         buttons.accepted.connect(self.accept)
@@ -85,21 +92,27 @@ class ExportDialog(QDialog):
         self._format_changed()
 
     def options(self) -> dict:
-        """``export_terrain`` arguments: path, size, vertical_scale, step."""
+        """``export_terrain`` arguments: path, size, vertical_scale, step, target_triangles, texture."""
         return {
             "path": self.path.text(),
             "size": (self.rows.value(), self.cols.value()),
             "vertical_scale": self.vertical_scale.value(),
             "step": self.step.value(),
+            "target_triangles": self.triangles.value() or None,
+            "texture": self.texture.isEnabled() and self.texture.isChecked(),
         }
 
     def _format_changed(self) -> None:
         ext = self.format.currentData()
         path = Path(self.path.text())
         self.path.setText(str(path.with_suffix(ext)))
+        self._enable_mesh_options(ext)
+
+    def _enable_mesh_options(self, ext: str) -> None:
         is_mesh = ext in MESH_EXTENSIONS
-        self.vertical_scale.setEnabled(is_mesh)
-        self.step.setEnabled(is_mesh)
+        for widget in (self.vertical_scale, self.step, self.triangles):
+            widget.setEnabled(is_mesh)
+        self.texture.setEnabled(ext == ".glb")
 
     def _path_edited(self, text: str) -> None:
         index = self.format.findData(Path(text).suffix.lower())
@@ -107,9 +120,7 @@ class ExportDialog(QDialog):
             self.format.blockSignals(True)
             self.format.setCurrentIndex(index)
             self.format.blockSignals(False)
-            is_mesh = self.format.currentData() in MESH_EXTENSIONS
-            self.vertical_scale.setEnabled(is_mesh)
-            self.step.setEnabled(is_mesh)
+            self._enable_mesh_options(self.format.currentData())
 
     def _browse(self) -> None:
         ext = self.format.currentData()

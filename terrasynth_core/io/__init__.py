@@ -337,7 +337,7 @@ def save_mesh(
         Keep every ``step``-th row and column, to thin large grids.
     target_triangles : int, optional
         Simplify the mesh to about this many triangles
-        (:func:`.mesh.decimate`: fewer where the ground is flat).
+        (:func:`.mesh.simplified_mesh`: fewer where the ground is flat).
     texture : ndarray of uint8, shape (rows, cols, 3), optional
         ``.glb`` only: a colour picture of the grid (one pixel per cell),
         draped over the mesh and stored in the file.
@@ -367,9 +367,10 @@ def save_mesh(
     if texture is not None and not glb:
         raise DEMFormatError(f"cannot write {path}: a texture needs a .glb mesh")
     with wrap_errors(path, "write"), atomic_outputs(path) as (temp,):
-        vertices, faces = mesh.mesh_arrays(field, vertical_scale=vertical_scale, step=step)
-        if target_triangles is not None:
-            vertices, faces = mesh.decimate(vertices, faces, target_triangles)
+        if target_triangles is None:
+            vertices, faces = mesh.mesh_arrays(field, vertical_scale=vertical_scale, step=step)
+        else:
+            vertices, faces = mesh.simplified_mesh(field, target_triangles, vertical_scale=vertical_scale, step=step)
         with open_new(temp) as fh:
             if glb:
                 uv = mesh.texture_coordinates(vertices, field)

@@ -332,3 +332,25 @@ def test_export_for_masks_uses_the_painted_water(qtbot, window, tmp_path, monkey
     assert got.shape == (160, 160) and np.all(got[:80] == 255) and np.all(got[80:] == 0)
     with Image.open(tmp_path / "masks" / "terrain_height_bands.png") as image:
         assert image.mode == "RGBA" and image.size == (160, 160)
+
+
+def test_export_a_textured_simplified_glb(qtbot, window, tmp_path, monkeypatch):
+    import trimesh
+
+    window.document.set_result(_fake_result((100, 100)))
+    target = tmp_path / "terrain.glb"
+
+    def accept(dialog):
+        dialog.format.setCurrentIndex(dialog.format.findData(".glb"))
+        assert dialog.texture.isEnabled() and dialog.triangles.isEnabled()
+        dialog.path.setText(str(target))
+        dialog.texture.setChecked(True)
+        dialog.triangles.setValue(2000)
+        return True
+
+    monkeypatch.setattr(ExportDialog, "exec", accept)
+    with qtbot.waitSignal(window.export_finished, timeout=20_000):
+        window.export_terrain()
+    (mesh,) = trimesh.load(target).geometry.values()
+    assert len(mesh.faces) <= 2100
+    assert mesh.visual.material.baseColorTexture.size == (100, 100)
