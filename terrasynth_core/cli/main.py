@@ -152,16 +152,20 @@ def cmd_export(args: argparse.Namespace) -> int:
 def cmd_masks(args: argparse.Namespace) -> int:
     from ..examples import resolve_dem
     from ..export import terrain_masks, write_masks
-    from ..export.engines import engine_ready, longer_side_shape
+    from ..export.engines import engine_ready, longer_side_shape, preset_grid
     from ..io.resample import resample_nodes
 
     field = resolve_dem(args.input, size=args.input_size, band=args.band)
-    if args.size is not None:
+    notes = []
+    if args.preset is not None:
+        # The very grid `export --preset` writes, so masks and heightmap match cell for cell.
+        field, _, notes = preset_grid(field, args.preset, size=args.size)
+    elif args.size is not None:
         # The EXR presets' rule: SIZE samples on the longer side, square cells.
         ready, notes = engine_ready(field)
         field = resample_nodes(ready, longer_side_shape(ready, args.size))
-        for note in notes:
-            print(f"terrasynth-cli: note: {note}", file=sys.stderr)
+    for note in notes:
+        print(f"terrasynth-cli: note: {note}", file=sys.stderr)
     masks = terrain_masks(field, sea_level=args.sea_level)
     written = write_masks(masks, args.out, fmt=args.format, stem=args.name)
     for note in masks.notes:
@@ -475,7 +479,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, metavar="DIR", help="output folder; existing files are never replaced")
     p.add_argument("--format", choices=MASK_FORMATS, default="png8")
     p.add_argument("--size", type=positive_count, metavar="N",
-                   help="samples on the longer side (default: the DEM's own grid)")
+                   help="samples on the longer side (default: the DEM's own grid); with --preset, its size")
+    p.add_argument("--preset", choices=preset_names(),
+                   help="make the masks on the grid 'export --preset' writes (same --size), cell for cell")
     p.add_argument("--sea-level", type=float, default=0.0, metavar="M",
                    help="water mask: cells at or below this height (default 0 m)")
     p.add_argument("--name", default="terrain", help="start of the file names (default terrain)")

@@ -256,6 +256,46 @@ def refuse_existing(paths) -> None:
                                  "or another --name")
 
 
+def preset_grid(field: HeightField, preset: str, *, size: int | None = None,
+                tiles: int = 1) -> tuple[HeightField, int | None, list[str]]:
+    """The whole grid ``preset`` gets from ``field``: engine-ready, resampled to its size.
+
+    Parameters
+    ----------
+    field : HeightField
+    preset : str
+        A key of :data:`PRESETS`.
+    size : int, optional
+        As in :func:`export_for_engine` (default :func:`default_size`).
+    tiles : int, default 1
+
+    Returns
+    -------
+    grid : HeightField
+        Square metres cells, no nodata, of :func:`preset_shape`.
+    size : int or None
+        The size used (per tile), ``None`` for an EXR preset kept as is.
+    notes : list of str
+        What was done (:func:`engine_ready`, the size chosen, the resampling).
+
+    Raises
+    ------
+    ParamsError
+        As :func:`export_for_engine`.
+    """
+    chosen = _check_options(preset, size, tiles)
+    ready, notes = engine_ready(field)
+    if size is None and chosen.sizes is not None:
+        size = default_size(chosen, max(ready.shape), tiles)
+        notes.append(f"size {size} chosen: the smallest {chosen.name} size that keeps every sample")
+    shape = preset_shape(chosen, ready, size, tiles)
+    grid = resample_nodes(ready, shape)
+    if grid is not ready:
+        notes.append(f"resampled from {ready.shape[0]} x {ready.shape[1]} to {shape[0]} x {shape[1]} samples "
+                     f"({'area average' if shape[0] * shape[1] < ready.shape[0] * ready.shape[1] else 'cubic'})")
+    return grid, size, notes
+
+
 def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | None = None, tiles: int = 1,
                       stem: str = "terrain") -> EngineExport:
     """Write ``field`` as ``preset`` heightmaps (and settings) into ``out_dir``.
@@ -291,17 +331,8 @@ def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | N
         A file the export would write exists, or writing failed (the files
         this call wrote are removed).
     """
-    chosen = _check_options(preset, size, tiles)
-    ready, notes = engine_ready(field)
-    if size is None:
-        size = default_size(chosen, max(ready.shape), tiles)
-        if chosen.sizes is not None:
-            notes.append(f"size {size} chosen: the smallest {chosen.name} size that keeps every sample")
-    shape = preset_shape(chosen, ready, size, tiles)
-    grid = resample_nodes(ready, shape)
-    if grid is not ready:
-        notes.append(f"resampled from {ready.shape[0]} x {ready.shape[1]} to {shape[0]} x {shape[1]} samples "
-                     f"({'area average' if shape[0] * shape[1] < ready.shape[0] * ready.shape[1] else 'cubic'})")
+    chosen = PRESETS.get(preset)
+    grid, size, notes = preset_grid(field, preset, size=size, tiles=tiles)
     out_dir = Path(out_dir)
     tile_paths = _tile_paths(out_dir, stem, chosen.extension, tiles)
     settings_path = out_dir / f"{stem}.{chosen.name}.json"
@@ -315,8 +346,11 @@ def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | N
         lo, hi = grid.min, grid.max
         level_range = (lo, hi if hi > lo else lo + 1.0) if chosen.extension != ".exr" else None
         for i, j, path in tile_paths:
-            r0, c0 = j * (size - 1), i * (size - 1)
-            tile = grid if tiles == 1 else grid.window(r0, r0 + size, c0, c0 + size)
+            if tiles == 1:
+                tile = grid
+            else:
+                r0, c0 = j * (size - 1), i * (size - 1)
+                tile = grid.window(r0, r0 + size, c0, c0 + size)
             save_dem(tile, path, level_range=level_range)
             written.append(path)
             if chosen.extension != ".exr":
@@ -385,5 +419,6 @@ def unity_heights_m(levels, settings: dict):
 
 
 __all__ = ["EngineExport", "EnginePreset", "PRESETS", "UNITY_SIZES", "UNREAL_SIZES", "default_size",
-           "engine_ready", "export_for_engine", "preset_names", "preset_shape", "refuse_existing",
+           "engine_ready", "export_for_engine", "longer_side_shape", "preset_grid", "preset_names", "preset_shape",
+           "refuse_existing",
            "unity_heights_m", "unreal_heights_m"]

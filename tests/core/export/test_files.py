@@ -152,3 +152,14 @@ def test_a_tilted_plane_still_meets_the_triangle_target(tmp_path):
     mesh = _only_mesh(tmp_path / "p.glb")
     assert 1000 < len(mesh.faces) <= 2000
     assert mesh.bounds[1][0] == pytest.approx(99 * 30.0, abs=30 * 8)  # still the whole extent
+
+
+def test_cli_masks_on_a_presets_grid(tmp_path, capsys):
+    dem = tmp_path / "terrain.tif"
+    save_dem(_hill(60, 80), dem)
+    code, out, err = run(capsys, "masks", dem, "--out", tmp_path / "m", "--preset", "unreal")
+    assert code == 0, err
+    assert "wrote 7 masks (127 x 127, png8)" in err and "size 127 chosen" in err
+    code, out, err = run(capsys, "export", dem, "--preset", "houdini", "--out", tmp_path / "h")
+    assert code == 0, err
+    assert out.startswith("Houdini (HeightField File): 80 x 60 samples, cell 10.0000 x 10.0000 m")
