@@ -15,19 +15,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 from terrasynth_core.examples import resolve_dem
 from terrasynth_core.export import terrain_masks
 from terrasynth_core.export.engines import engine_ready
-from terrasynth_core.pictures import compose, fit_panel, save_png, shaded_relief
-
-#: Colours of the low, mid, high and peak bands in the picture.
-BAND_COLOURS = np.array([(60, 120, 60), (200, 190, 120), (140, 100, 70), (245, 245, 245)], dtype=np.float64)
-
-
-def _grey(mask: np.ndarray) -> np.ndarray:
-    return np.repeat((np.clip(mask, 0, 1) * 255).astype(np.uint8)[..., None], 3, axis=2)
+from terrasynth_core.pictures import compose, fit_panel, mask_picture, save_png, shaded_relief
 
 
 def main(argv=None) -> int:
@@ -43,13 +34,10 @@ def main(argv=None) -> int:
     masks = terrain_masks(field).masks
     panels = [shaded_relief(field.heights, cell_size=field.cell_size)[..., :3]]
     labels = ["terrain"]
-    for name in ("slope", "convex", "concave", "flow", "wetness"):
-        panels.append(_grey(masks[name]))
-        labels.append(name)
-    panels.append(np.clip(masks["height_bands"] @ BAND_COLOURS, 0, 255).astype(np.uint8))
-    labels.append("height bands (RGBA)")
-    panels.append((masks["normal"] * 255).astype(np.uint8))
-    labels.append("normal map")
+    for name, label in (("slope", "slope"), ("convex", "convex"), ("concave", "concave"), ("flow", "flow"),
+                        ("wetness", "wetness"), ("height_bands", "height bands (RGBA)"), ("normal", "normal map")):
+        panels.append(mask_picture(masks[name]))
+        labels.append(label)
     sheet = compose([fit_panel(p, 300) for p in panels], labels,
                     f"terrasynth-cli masks builtin:{args.example} ({n} x {n}, {field.cell_size[0]:.0f} m cells)",
                     columns=4)

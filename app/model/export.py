@@ -116,6 +116,15 @@ def export_for_engine_preset(result: TerrainResult, preset: str, folder: str | o
     return f"{done.summary()} (in {Path(folder) / done.files[-1].name})"
 
 
+def _painted_layers(shape, water, style_ids):
+    """The painted water and style layers on the terrain's grid; None where nothing is painted."""
+    if water is not None:
+        water = resize_nearest(np.asarray(water), shape) if np.any(water) else None
+    if style_ids is not None:
+        style_ids = resize_nearest(np.asarray(style_ids), shape) if (np.asarray(style_ids) >= 0).any() else None
+    return water, style_ids
+
+
 def export_masks(result: TerrainResult, folder: str | os.PathLike, *, fmt: str = "png8", name: str = "terrain",
                  water: np.ndarray | None = None, style_ids: np.ndarray | None = None) -> str:
     """Write the masks (splat maps) of ``result`` into ``folder``.
@@ -139,12 +148,32 @@ def export_masks(result: TerrainResult, folder: str | os.PathLike, *, fmt: str =
     str
         What was written, and the notes.
     """
-    shape = result.shape
-    if water is not None:
-        water = resize_nearest(np.asarray(water), shape) if water.any() else None
-    if style_ids is not None:
-        style_ids = resize_nearest(np.asarray(style_ids), shape) if (np.asarray(style_ids) >= 0).any() else None
+    water, style_ids = _painted_layers(result.shape, water, style_ids)
     masks = terrain_masks(resampled_field(result), water=water, style_ids=style_ids)
     written = write_masks(masks, folder, fmt=fmt, stem=name)
     notes = "".join(f"; {note}" for note in masks.notes)
     return f"{len(written) - 1} masks in {Path(folder)}{notes}"
+
+
+def mask_preview(result: TerrainResult, name: str, *, water: np.ndarray | None = None,
+                 style_ids: np.ndarray | None = None) -> np.ndarray | None:
+    """One mask of ``result`` as :func:`export_masks` would write it, for the 2D view.
+
+    Parameters
+    ----------
+    result : TerrainResult
+    name : str
+        One of :data:`terrasynth_core.export.MASK_NAMES` or ``"style_regions"``.
+    water, style_ids : ndarray, optional
+        The painted layers, as in :func:`export_masks`.
+
+    Returns
+    -------
+    ndarray or None
+        The mask (see :mod:`terrasynth_core.export.masks`); None when the
+        terrain has none of it (no water, no style regions).
+    """
+    water, style_ids = _painted_layers(result.shape, water, style_ids)
+    names = () if name == "style_regions" else (name,)
+    masks = terrain_masks(resampled_field(result), water=water, style_ids=style_ids, names=names)
+    return masks.masks.get(name)

@@ -19,6 +19,7 @@ from ..controllers import FeatureGraphController
 from ..model.result import TerrainResult
 from ..workers import run_in_background
 from .feature_overlay import FeatureGraphOverlay, legend_text
+from .mask_overlay import MaskOverlay
 
 #: Screen refresh period during a run, in ms.
 REFRESH_MS = 40
@@ -76,6 +77,7 @@ class HeightmapView(QWidget):
             self.view_box.addItem(item)
         self.sketch_overlay = FeatureGraphOverlay(self.view_box)
         self.terrain_overlay = FeatureGraphOverlay(self.view_box)
+        self.mask_overlay = MaskOverlay(self.view_box)
         self.outline = QGraphicsRectItem()
         pen = QPen(QColor(255, 235, 0), 2)
         pen.setCosmetic(True)
@@ -99,6 +101,7 @@ class HeightmapView(QWidget):
             check.toggled.connect(self._update_overlays)
             self.overlay_checks[name] = check
             bar.addWidget(check)
+        bar.addWidget(self.mask_overlay.combo)
         bar.addStretch(1)
         self.legend = QLabel(legend_text())
         self.legend.setVisible(False)
@@ -147,6 +150,7 @@ class HeightmapView(QWidget):
             item.setVisible(False)
         self.sketch_overlay.set_visible(False)
         self.terrain_overlay.set_visible(False)
+        self.mask_overlay.set_result(None)
         self._dirty = True
         self._refresh()
         if reshaped:
@@ -192,6 +196,7 @@ class HeightmapView(QWidget):
         """
         self.end_run()
         self._result = result
+        self.mask_overlay.set_result(result)
         self._features_generation += 1
         self.terrain_overlay.set_maps(None)
         self.patch_image.clear()

@@ -7,6 +7,7 @@
 * :mod:`.overlay`: ridges and valleys over a hillshade;
 * :mod:`.terrain_3d`: arrays and camera for 3D views (the renderer itself
   lives outside the core, in ``terrasynth_app.views.render_3d``);
+* :mod:`.masks`: :func:`mask_picture` (masks and splat maps as RGB);
 * :mod:`.files`: :func:`save_png`;
 * :mod:`.sheet`: :func:`compose` (labelled panels in a grid) and :func:`fit_panel`.
 
@@ -23,12 +24,15 @@ from .colours import (
     thumbnail,
 )
 from .files import save_png
+from .masks import BAND_COLOURS, mask_picture
 from .overlay import RIDGE_COLOUR, VALLEY_COLOUR, render_overlay
 from .shading import grey_hillshade, hillshade, lit
 from .sheet import compose, fit_panel
 from .terrain_3d import camera_direction, surface_grid, trim_background
 
 __all__ = [
+    "BAND_COLOURS",
+    "mask_picture",
     "RIDGE_COLOUR",
     "TERRAIN_LUT",
     "VALLEY_COLOUR",

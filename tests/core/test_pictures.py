@@ -187,3 +187,17 @@ def test_compose_lays_panels_out_in_a_labelled_grid():
     rgb = np.asarray(sheet)
     assert (rgb[34 + 5 + 26 + 10, 10 + 20] == 0).all()  # first panel, first row
     assert (rgb[34 + 5 + 26 + 20 + 5 + 26 + 10, 10 + 20] == 200).all()  # third panel, second row
+
+
+def test_mask_pictures_of_every_kind():
+    from terrasynth_core.pictures import BAND_COLOURS, mask_picture
+
+    grey = mask_picture(np.array([[0.0, 0.5], [1.0, np.nan]], np.float32))
+    assert grey.shape == (2, 2, 3) and grey[0, 1].tolist() == [128, 128, 128] and grey[1, 1].tolist() == [0, 0, 0]
+    bands = np.zeros((2, 2, 4), np.float32)
+    bands[..., 3] = 1
+    assert mask_picture(bands)[0, 0].tolist() == BAND_COLOURS[3].tolist()
+    normal = np.full((2, 2, 3), 0.5, np.float32)
+    assert mask_picture(normal)[0, 0].tolist() == [128, 128, 128]
+    ids = mask_picture(np.array([[0, 1], [2, 1]], np.uint8))
+    assert ids[0, 0].tolist() == [0, 0, 0] and ids[0, 1].tolist() == ids[1, 1].tolist() != ids[1, 0].tolist()

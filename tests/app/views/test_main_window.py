@@ -354,3 +354,16 @@ def test_export_a_textured_simplified_glb(qtbot, window, tmp_path, monkeypatch):
     (mesh,) = trimesh.load(target).geometry.values()
     assert len(mesh.faces) <= 2100
     assert mesh.visual.material.baseColorTexture.size == (100, 100)
+
+
+def test_mask_preview_over_the_2d_view(qtbot, window):
+    overlay = window.heightmap.mask_overlay
+    window.document.set_result(_fake_result((120, 90)))
+    qtbot.waitUntil(lambda: window.heightmap._result is not None)
+    with qtbot.waitSignal(overlay.mask_shown, timeout=20_000, check_params_cb=lambda name: name == "height_bands"):
+        overlay.combo.setCurrentIndex(overlay.combo.findData("height_bands"))
+    assert overlay.image.isVisible() and overlay.image.image.shape == (120, 90, 3)
+    # A new run hides it; no mask chosen shows none.
+    with qtbot.waitSignal(overlay.mask_shown, timeout=5_000, check_params_cb=lambda name: name == ""):
+        overlay.combo.setCurrentIndex(0)
+    assert not overlay.image.isVisible()
