@@ -242,6 +242,17 @@ def _tile_paths(out_dir: Path, stem: str, ext: str, tiles: int) -> list[tuple[in
     return [(i, j, out_dir / f"{stem}_x{i}_y{j}{ext}") for j in range(tiles) for i in range(tiles)]
 
 
+def check_folder(out_dir: Path) -> None:
+    """Refuse an output folder that is a file (one line).
+
+    Raises
+    ------
+    DEMFormatError
+    """
+    if out_dir.exists() and not out_dir.is_dir():
+        raise DEMFormatError(f"{out_dir} is a file; the output must be a folder (it is created if missing)")
+
+
 def refuse_existing(paths) -> None:
     """Refuse (one line) when any of ``paths`` exists: an export never replaces a file.
 
@@ -334,6 +345,7 @@ def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | N
     chosen = PRESETS.get(preset)
     grid, size, notes = preset_grid(field, preset, size=size, tiles=tiles)
     out_dir = Path(out_dir)
+    check_folder(out_dir)
     tile_paths = _tile_paths(out_dir, stem, chosen.extension, tiles)
     settings_path = out_dir / f"{stem}.{chosen.name}.json"
     heightmaps = [p for _, _, p in tile_paths]

@@ -20,7 +20,7 @@ from PIL import Image
 
 from ..errors import ParamsError
 from ..io._common import atomic_outputs, open_new, wrap_errors
-from .engines import refuse_existing
+from .engines import check_folder, refuse_existing
 from .masks import TerrainMasks
 
 #: ``--format`` values.
@@ -106,6 +106,7 @@ def write_masks(masks: TerrainMasks, out_dir, *, fmt: str = "png8", stem: str = 
     if fmt not in MASK_FORMATS:
         raise ParamsError(f"unknown mask format {fmt!r}; expected one of {', '.join(MASK_FORMATS)}")
     out_dir = Path(out_dir)
+    check_folder(out_dir)
     paths = mask_paths(masks.masks, out_dir, stem, fmt)
     key_path = out_dir / f"{stem}_masks.json"
     refuse_existing([*paths.values(), key_path])

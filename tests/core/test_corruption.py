@@ -321,7 +321,7 @@ def c_masks_keep_users_file(tmp):
 def c_export_out_is_a_file(tmp):
     _example(tmp / "x.npy")
     _mine(tmp / "folder", "a file, not a folder")
-    return ["export", tmp / "x.npy", "--preset", "blender", "--out", tmp / "folder"], EXIT_BAD_INPUT, ["folder"]
+    return ["export", tmp / "x.npy", "--preset", "blender", "--out", tmp / "folder"], EXIT_BAD_INPUT, ["folder is a file"]
 
 
 CASES = [
