@@ -16,7 +16,7 @@ from terrasynth_core.errors import TerraSynthError
 from terrasynth_core.features import read_sketch, save_sketch
 
 from ..model import (EXAMPLE_MAPS, Document, RecoveryStore, TerrainResult, dem_file_feature_layers,
-                     example_map_document, export_terrain, load_project, save_project, style_layer_from_png,
+                     example_map_document, export_for_engine_preset, export_masks, export_terrain, load_project, save_project, style_layer_from_png,
                      water_layer_from_png)
 from ..workers import run_in_background
 from .synthesis import SynthesisController
@@ -195,6 +195,24 @@ class FilesController(QObject):
         self.status.emit(f"Exporting {path}…", 0)
         run_in_background(lambda: str(export_terrain(result, path, **options)), self._exported,
                           self._export_failed)
+
+    def export_preset(self, result: TerrainResult, preset: str, folder: str, **options) -> None:
+        """Write ``result`` for an engine (``preset`` a key of
+        :data:`terrasynth_core.export.PRESETS`) or, with ``preset ==
+        "masks"``, its masks, into ``folder`` on the thread pool; the status
+        bar shows the numbers to type into the engine."""
+        self.status.emit(f"Exporting for {preset} into {folder}…", 0)
+        if preset == "masks":
+            # Copies taken here: the user may paint on while the pool thread works.
+            water, style_ids = np.array(self.document.sketch.water), np.array(self.document.sketch.style)
+            job = lambda: export_masks(result, folder, water=water, style_ids=style_ids, **options)  # noqa: E731
+        else:
+            job = lambda: export_for_engine_preset(result, preset, folder, **options)  # noqa: E731
+        run_in_background(job, self._preset_exported, self._export_failed)
+
+    def _preset_exported(self, summary: str) -> None:
+        self.status.emit(summary, 0)
+        self.export_finished.emit(summary)
 
     def _exported(self, path: str) -> None:
         self.status.emit(f"Exported {path}", 8000)

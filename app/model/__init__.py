@@ -21,7 +21,7 @@ from .dem_features import dem_feature_layers, dem_file_feature_layers
 from .document import Document
 from .example_library import ExampleRef, builtin_refs
 from .example_maps import EXAMPLE_MAPS, example_map_document
-from .export import export_terrain
+from .export import export_for_engine_preset, export_masks, export_terrain, mask_preview
 from .feature_graphs import DerivedGraph, SketchGraph, TerrainGraph
 from .history import SketchEdit, SketchHistory
 from .observable import Observable
@@ -67,6 +67,9 @@ __all__ = [
     "fitting_scale",
     "load_project",
     "resize_nearest",
+    "export_for_engine_preset",
+    "export_masks",
+    "mask_preview",
     "run_info",
     "save_project",
     "style_layer_from_png",

@@ -16,7 +16,7 @@ from PySide6.QtWidgets import QFileDialog, QMenu, QMessageBox, QWidget
 from ..controllers import AutosaveController, FilesController
 from ..model import PROJECT_EXTENSION, Document
 from .dialogs import NewSketchDialog
-from .export_dialog import ExportDialog
+from .export_dialog import ExportDialog, PresetExportDialog
 from .panel_widgets import ask_dem_file
 
 APP_NAME = "TerraSynth"
@@ -154,6 +154,19 @@ class FileActions(QObject):
             return
         options = dialog.options()
         self.controller.export(result, options.pop("path"), **options)
+
+    def export_for(self, preset: str) -> None:
+        """"Export for…" an engine preset or the masks: ask the folder and options, then write."""
+        result = self.document.result
+        if result is None:
+            self.controller.error.emit("Nothing to export", "Synthesize a terrain first.")
+            return
+        folder = str(self.document.path.parent) if self.document.path is not None else ""
+        dialog = PresetExportDialog(preset, result.shape, directory=folder, parent=self.window)
+        if not dialog.exec():
+            return
+        options = dialog.options()
+        self.controller.export_preset(result, preset, options.pop("folder"), **options)
 
     # -- recovery -------------------------------------------------------------------------------
     def offer_recovery(self) -> bool:

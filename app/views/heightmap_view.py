@@ -25,6 +25,7 @@ from ..controllers import FeatureGraphController
 from ..model.result import TerrainResult
 from ..workers import run_in_background
 from .feature_overlay import FeatureGraphOverlay, legend_text
+from .mask_overlay import MaskOverlay
 from .overlay_widgets import HeightLegend, WarningBanner, note_label, pin_overlay
 
 #: What the view says before there is a terrain.
@@ -98,6 +99,7 @@ class HeightmapView(QWidget):
             self.view_box.addItem(item)
         self.sketch_overlay = FeatureGraphOverlay(self.view_box)
         self.terrain_overlay = FeatureGraphOverlay(self.view_box)
+        self.mask_overlay = MaskOverlay(self.view_box)
         self.outline = QGraphicsRectItem()
         pen = QPen(QColor(255, 235, 0), 2)
         pen.setCosmetic(True)
@@ -129,6 +131,7 @@ class HeightmapView(QWidget):
             "Connected water", toolTip="Draw as water only the cells below the level that connect to painted "
                                        "water (else every cell below the level)")
         bar.addWidget(self.connected_water_check)
+        bar.addWidget(self.mask_overlay.combo)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.view, 1)
@@ -183,6 +186,7 @@ class HeightmapView(QWidget):
             item.setVisible(False)
         self.sketch_overlay.set_visible(False)
         self.terrain_overlay.set_visible(False)
+        self.mask_overlay.set_result(None)
         self._dirty = True
         self._refresh()
         if reshaped:
@@ -228,6 +232,7 @@ class HeightmapView(QWidget):
         """
         self.end_run()
         self._result = result
+        self.mask_overlay.set_result(result)
         self._features_generation += 1
         self.terrain_overlay.set_maps(None)
         self.patch_image.clear()

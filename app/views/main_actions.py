@@ -6,6 +6,7 @@ from PySide6.QtGui import QAction, QKeySequence
 from PySide6.QtWidgets import QMainWindow
 
 from ..model import EXAMPLE_MAPS
+from .export_dialog import EXPORT_FOR
 
 
 class MainActions:
@@ -22,6 +23,8 @@ class MainActions:
     synthesize, cancel, randomize, resynthesize, variations, export, save : QAction
     example_maps : dict of str -> QAction
         One per built-in example map.
+    export_for : dict of str -> QAction
+        "Export for…" one engine preset each, and the masks.
     """
 
     def __init__(self, window: QMainWindow) -> None:
@@ -39,6 +42,12 @@ class MainActions:
                                        tip="Synthesize several terrains with different seeds and pick one")
         self.export = self._action("Export terrain…", window.export_terrain, shortcut=QKeySequence("Ctrl+E"),
                                    tip="Write the terrain as a DEM or a mesh")
+        self.export_for = {
+            key: self._action(f"{title}…", lambda _=False, key=key: files.export_for(key),
+                              tip="Heightmaps sized and scaled for this tool, with its import settings"
+                              if key != "masks" else "Slope, curvature, flow, wetness, water, height bands, "
+                                                     "normal map and style regions")
+            for key, title in EXPORT_FOR.items()}
         new_project = self._action("New project", files.new_project, shortcut=QKeySequence.New)
         open_project = self._action("Open project…", lambda: files.open_project(), shortcut=QKeySequence.Open)
         self.save = self._action("Save project", files.save, shortcut=QKeySequence.Save)
@@ -71,6 +80,7 @@ class MainActions:
         file_menu.addActions([new_sketch, open_sketch, save_sketch, import_features, import_styles, import_water])
         file_menu.addSeparator()
         file_menu.addAction(self.export)
+        file_menu.addMenu("Export for…").addActions(list(self.export_for.values()))
         file_menu.addSeparator()
         file_menu.addAction(quit_action)
 

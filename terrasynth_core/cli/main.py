@@ -108,15 +108,70 @@ def cmd_convert(args: argparse.Namespace) -> int:
 
     out = Path(args.output)
     _check_cog(args, out)
+    is_mesh = out.suffix.lower() in MESH_EXTENSIONS
+    if (args.texture or args.triangles) and not is_mesh:
+        raise TerraSynthError(f"--texture and --triangles are for meshes; {out} is not one "
+                              f"({', '.join(MESH_EXTENSIONS)})")
+    if args.texture and out.suffix.lower() != ".glb":
+        raise TerraSynthError(f"--texture needs a .glb output, got {out}")
     field = resolve_dem(args.input, size=args.size, band=args.band)
-    if out.suffix.lower() in MESH_EXTENSIONS:
-        save_mesh(field, out, vertical_scale=args.vertical_scale)
+    if is_mesh:
+        texture = None
+        if args.texture:
+            from ..pictures import shaded_relief
+
+            # The app's colours: the height ramp under the hillshade.
+            texture = shaded_relief(field.heights, cell_size=field.cell_size)[..., :3]
+        save_mesh(field, out, vertical_scale=args.vertical_scale, target_triangles=args.triangles,
+                  texture=texture)
     else:
         save_dem(field, out, cog=args.cog)
     print(f"wrote {out} ({field.shape[0]} x {field.shape[1]})", file=sys.stderr)
     if out.suffix.lower() == ".ter" and field.nodata_count:
         print(f"terrasynth-cli: note: Terragen has no nodata: {field.nodata_count} nodata cells of {args.input} "
               f"were written as the minimum height {field.min:g} m", file=sys.stderr)
+    return EXIT_OK
+
+
+# -- export and masks -----------------------------------------------------------
+def cmd_export(args: argparse.Namespace) -> int:
+    from ..examples import resolve_dem
+    from ..export import export_for_engine
+
+    field = resolve_dem(args.input, size=args.input_size, band=args.band)
+    done = export_for_engine(field, args.preset, args.out, size=args.size, tiles=args.tiles, stem=args.name)
+    for note in done.notes:
+        print(f"terrasynth-cli: note: {note}", file=sys.stderr)
+    heightmaps = [f for f in done.files if f.name in done.settings["files"]]
+    settings = done.files[-1]
+    print(f"wrote {len(heightmaps)} heightmap{'s' * (len(heightmaps) > 1)} and {settings}", file=sys.stderr)
+    print(done.summary())
+    return EXIT_OK
+
+
+def cmd_masks(args: argparse.Namespace) -> int:
+    from ..examples import resolve_dem
+    from ..export import terrain_masks, write_masks
+    from ..export.engines import engine_ready, longer_side_shape, preset_grid
+    from ..io.resample import resample_nodes
+
+    field = resolve_dem(args.input, size=args.input_size, band=args.band)
+    notes = []
+    if args.preset is not None:
+        # The very grid `export --preset` writes, so masks and heightmap match cell for cell.
+        field, _, notes = preset_grid(field, args.preset, size=args.size)
+    elif args.size is not None:
+        # The EXR presets' rule: SIZE samples on the longer side, square cells.
+        ready, notes = engine_ready(field)
+        field = resample_nodes(ready, longer_side_shape(ready, args.size))
+    for note in notes:
+        print(f"terrasynth-cli: note: {note}", file=sys.stderr)
+    masks = terrain_masks(field, sea_level=args.sea_level)
+    written = write_masks(masks, args.out, fmt=args.format, stem=args.name)
+    for note in masks.notes:
+        print(f"terrasynth-cli: note: {note}", file=sys.stderr)
+    print(f"wrote {len(written) - 1} masks ({field.shape[0]} x {field.shape[1]}, {args.format}) and "
+          f"{written[-1]}", file=sys.stderr)
     return EXIT_OK
 
 
@@ -455,9 +510,46 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("output")
     p.add_argument("--size", type=parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
     p.add_argument("--vertical-scale", type=float, default=1.0, help="height multiplier for meshes")
+    p.add_argument("--triangles", type=positive_count, metavar="N",
+                   help="meshes: simplify to about N triangles (fewer where the ground is flat)")
+    p.add_argument("--texture", action="store_true",
+                   help=".glb: drape the height colours under the hillshade (stored in the file)")
     _add_band(p)
     _add_cog(p)
     p.set_defaults(func=cmd_convert)
+
+    from ..export import MASK_FORMATS, preset_names
+
+    p = sub.add_parser("export", help="heightmaps for a game engine or DCC tool (unreal, unity, godot, "
+                                      "blender, houdini), with their import settings")
+    p.add_argument("input", help="a DEM (any readable format, a synth output, or builtin:KEY)")
+    p.add_argument("--preset", required=True, choices=preset_names())
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder; existing files are never replaced")
+    p.add_argument("--size", type=positive_count, metavar="N",
+                   help="samples a side per tile (unreal: 127..8129, unity: 33..4097 = 2^n+1), or on the longer "
+                        "side (EXR presets); default: the smallest that keeps every sample")
+    p.add_argument("--tiles", type=positive_count, default=1, metavar="K", help="a K x K grid of tiles "
+                   "sharing their edges, named _x{i}_y{j} (unreal, unity)")
+    p.add_argument("--name", default="terrain", help="start of the file names (default terrain)")
+    p.add_argument("--input-size", type=parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
+    _add_band(p)
+    p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser("masks", help="masks (splat maps): slope, curvature, flow, wetness, water, height bands, "
+                                     "normal map")
+    p.add_argument("input", help="a DEM (any readable format, a synth output, or builtin:KEY)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder; existing files are never replaced")
+    p.add_argument("--format", choices=MASK_FORMATS, default="png8")
+    p.add_argument("--size", type=positive_count, metavar="N",
+                   help="samples on the longer side (default: the DEM's own grid); with --preset, its size")
+    p.add_argument("--preset", choices=preset_names(),
+                   help="make the masks on the grid 'export --preset' writes (same --size), cell for cell")
+    p.add_argument("--sea-level", type=float, default=0.0, metavar="M",
+                   help="water mask: cells at or below this height (default 0 m)")
+    p.add_argument("--name", default="terrain", help="start of the file names (default terrain)")
+    p.add_argument("--input-size", type=parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
+    _add_band(p)
+    p.set_defaults(func=cmd_masks)
 
     p = sub.add_parser("features", help="ridges and valleys (PPA) of a DEM or a sketch")
     p.add_argument("input", help="a DEM, or a sketch PNG with --sketch")
@@ -523,6 +615,17 @@ def positive_metres(text: str) -> float:
     return value
 
 
+def positive_count(text: str) -> int:
+    """A whole number >= 1 (a size, a tile count, a triangle count)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number >= 1")
+    return value
+
+
 def positive_band(text: str) -> int:
     """A band number, 1-based."""
     try:
@@ -556,7 +659,8 @@ def cmd_examples(args: argparse.Namespace) -> int:
 #: argparse would take such a value for an option and say "expected one argument".
 _SIGNED_VALUE_OPTIONS = frozenset({"--size", "--height-range", "--pin", "--stamp", "--water-level", "--water-depth",
                                    "--bank-width", "--pin-radius", "--vertical-scale", "--seed", "--patch-size",
-                                   "--overlap", "--variations"})
+                                   "--overlap", "--variations", "--sea-level", "--tiles",
+                                   "--triangles"})
 
 
 def _join_signed_values(argv: list[str]) -> list[str]:

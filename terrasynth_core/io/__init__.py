@@ -42,6 +42,8 @@ Extension          Name            Read   Write  Notes
 .ter               terragen        own    yes    int16 with scale; no nodata
 .r16               r16             own    yes    LE uint16 levels; metres via sidecar
 .r32               r32             own    yes    LE float32 metres
+.exr               exr             own    yes    OpenEXR float32 Y channel; cell
+                                                 size in header attributes
 =================  ==============  =====  =====  ===============================
 
 PNG, ``.r16``, ``.r32`` and ``.npy`` files are written with a JSON sidecar
@@ -62,7 +64,7 @@ from pathlib import Path
 
 from ..errors import DEMFormatError
 from ..heightfield import HeightField
-from . import esri_ascii, gdal, hgt, mesh, npy, png, raw, terragen, usgs_dem
+from . import esri_ascii, exr, gdal, gltf, hgt, mesh, npy, png, raw, terragen, usgs_dem
 from ._common import (SIDECAR_EXTENSIONS, atomic_outputs, check_sidecar_free, open_new, remove_unfinished,
                       sidecar_path, wrap_errors, write_sidecar)
 
@@ -110,6 +112,7 @@ _FORMAT_NAMES = {
     ".ter": "terragen",
     ".r16": "r16",
     ".r32": "r32",
+    ".exr": "exr",
 }
 
 #: The project's own readers; every other format is read through GDAL.
@@ -120,6 +123,7 @@ _READERS: dict[str, Callable[[Path], HeightField]] = {
     "png": png.read_png,
     "npy": npy.read_npy,
     "terragen": terragen.read_terragen,
+    "exr": exr.read_exr,
 }
 
 #: Readers of headerless files, which take the grid ``size``.
@@ -137,12 +141,15 @@ _WRITERS = {
 }
 
 #: Writers given the (temporary) path instead of an open file.
-_PATH_WRITERS = {"geotiff": gdal.write_geotiff}
+_PATH_WRITERS = {"geotiff": gdal.write_geotiff, "exr": lambda field, path, cog: exr.write_exr(field, path)}
+
+#: Formats of 16-bit levels, whose writers take a ``level_range``.
+_LEVEL_FORMATS = {"png", "r16"}
 
 #: Formats written with a JSON sidecar (see :func:`._common.make_sidecar`).
 _SIDECAR_FORMATS = {_FORMAT_NAMES[ext] for ext in SIDECAR_EXTENSIONS}
 
-_MESH_WRITERS = {".obj": mesh.write_obj, ".stl": mesh.write_stl, ".ply": mesh.write_ply}
+_MESH_WRITERS = {".obj": mesh.write_obj, ".stl": mesh.write_stl, ".ply": mesh.write_ply, ".glb": gltf.write_glb}
 
 #: Extensions :func:`load_dem` reads.
 READ_EXTENSIONS: tuple[str, ...] = tuple(_FORMAT_NAMES)
@@ -234,7 +241,8 @@ def load_dem(
         return gdal.read_gdal(path, band=band, fmt=name)
 
 
-def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False) -> None:
+def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False,
+             level_range: tuple[float, float] | None = None) -> None:
     """Write ``field`` in the format given by the extension of ``path``.
 
     Parameters
@@ -250,6 +258,10 @@ def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False) -> 
     cog : bool, default False
         For ``.tif``/``.tiff``: write a Cloud-Optimized GeoTIFF (tiled,
         with overviews, readable over HTTP range requests).
+    level_range : (low, high) metres, optional
+        For PNG and ``.r16``: the heights of the first and last 16-bit
+        level instead of the field's min and max (tiles of one terrain
+        share one range); must contain the heights.
 
     Notes
     -----
@@ -265,6 +277,8 @@ def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False) -> 
       the sidecar.
     * ``.ter``: int16 with scale, error below range / 30000 for a range
       over about 0.6 cell sizes; nodata filled with the minimum.
+    * ``.exr``: float32 heights exactly, NaN nodata; cell size and
+      georeference in header attributes.
 
     Raises
     ------
@@ -282,6 +296,8 @@ def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False) -> 
         )
     if cog and name != "geotiff":
         raise DEMFormatError(f"cannot write {path}: a Cloud-Optimized GeoTIFF needs a .tif or .tiff name")
+    if level_range is not None and name not in _LEVEL_FORMATS:
+        raise DEMFormatError(f"cannot write {path}: a level range is for 16-bit PNG and .r16 files only")
     if not isinstance(field, HeightField):
         raise TypeError(f"save_dem expects a HeightField, got {type(field).__name__}")
     if name in _PATH_WRITERS:
@@ -291,7 +307,8 @@ def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False) -> 
     targets = (path, sidecar_path(path)) if name in _SIDECAR_FORMATS else (path,)
     with wrap_errors(path, "write"), atomic_outputs(*targets) as temps:
         with open_new(temps[0]) as fh:
-            sidecar = _WRITERS[name](field, fh)
+            options = {"level_range": level_range} if level_range is not None else {}
+            sidecar = _WRITERS[name](field, fh, **options)
         if len(temps) > 1:
             check_sidecar_free(path, sidecar)
             write_sidecar(sidecar, temps[1])
@@ -303,6 +320,8 @@ def save_mesh(
     *,
     vertical_scale: float = 1.0,
     step: int = 1,
+    target_triangles: int | None = None,
+    texture=None,
 ) -> None:
     """Write the surface of ``field`` as a triangle mesh.
 
@@ -310,12 +329,19 @@ def save_mesh(
     ----------
     field : HeightField
     path : str or path-like
-        ``.obj`` (text), ``.stl`` (binary) or ``.ply`` (binary
-        little-endian), any case.
+        ``.obj`` (text), ``.stl`` (binary), ``.ply`` (binary
+        little-endian) or ``.glb`` (binary glTF 2.0 with normals and
+        texture coordinates, Y up: see :mod:`.gltf`), any case.
     vertical_scale : float, default 1.0
         Factor on heights (vertical exaggeration).
     step : int, default 1
         Keep every ``step``-th row and column, to thin large grids.
+    target_triangles : int, optional
+        Simplify the mesh to about this many triangles
+        (:func:`.mesh.simplified_mesh`: fewer where the ground is flat).
+    texture : ndarray of uint8, shape (rows, cols, 3), optional
+        ``.glb`` only: a colour picture of the grid (one pixel per cell),
+        draped over the mesh and stored in the file.
 
     Notes
     -----
@@ -338,7 +364,17 @@ def save_mesh(
             f"cannot write {path}: unsupported mesh extension {path.suffix!r}; "
             f"supported: {', '.join(MESH_EXTENSIONS)}"
         )
+    glb = path.suffix.lower() == ".glb"
+    if texture is not None and not glb:
+        raise DEMFormatError(f"cannot write {path}: a texture needs a .glb mesh")
     with wrap_errors(path, "write"), atomic_outputs(path) as (temp,):
-        vertices, faces = mesh.mesh_arrays(field, vertical_scale=vertical_scale, step=step)
+        if target_triangles is None:
+            vertices, faces = mesh.mesh_arrays(field, vertical_scale=vertical_scale, step=step)
+        else:
+            vertices, faces = mesh.simplified_mesh(field, target_triangles, vertical_scale=vertical_scale, step=step)
         with open_new(temp) as fh:
-            writer(vertices, faces, fh)
+            if glb:
+                uv = mesh.texture_coordinates(vertices, field)
+                writer(vertices, faces, fh, uv=uv, texture=texture)
+            else:
+                writer(vertices, faces, fh)

@@ -357,11 +357,19 @@ def read_sidecar(path: Path) -> dict | None:
 # -- 16-bit levels ----------------------------------------------------------
 
 
-def encode_levels(field: HeightField) -> tuple[np.ndarray, dict]:
+def encode_levels(field: HeightField, *, level_range: tuple[float, float] | None = None) -> tuple[np.ndarray, dict]:
     """Heights as 16-bit levels and the sidecar that maps them back.
 
     Without nodata the range ``min..max`` maps linearly to ``0..65535``.  With
     nodata, level 0 is reserved for it and valid cells use ``1..65535``.
+
+    Parameters
+    ----------
+    field : HeightField
+    level_range : (low, high) metres, optional
+        The heights the first and last levels stand for instead of the
+        field's min and max (the tiles of one terrain share one range, as
+        an engine's single height scale needs); must contain them.
 
     Returns
     -------
@@ -372,6 +380,11 @@ def encode_levels(field: HeightField) -> tuple[np.ndarray, dict]:
     heights = field.heights
     nodata = field.nodata
     lo, hi = field.min, field.max
+    if level_range is not None:
+        low, high = (float(v) for v in level_range)
+        if not (math.isfinite(low) and math.isfinite(high) and low <= lo and hi <= high):
+            raise DEMFormatError(f"level range {low:g}..{high:g} m does not contain the heights {lo:g}..{hi:g} m")
+        lo, hi = low, high
     has_nodata = bool(nodata.any())
     first = 1 if has_nodata else 0
     span = 65535 - first
@@ -382,7 +395,9 @@ def encode_levels(field: HeightField) -> tuple[np.ndarray, dict]:
         # A flat field has no range: every valid cell takes the top level.
         levels = np.full(heights.shape, 65535.0)
     levels = np.where(nodata, 0, levels).astype(np.uint16)
-    return levels, make_sidecar(field, nodata_value=0 if has_nodata else None)
+    sidecar = make_sidecar(field, nodata_value=0 if has_nodata else None)
+    sidecar["min"], sidecar["max"] = lo, hi
+    return levels, sidecar
 
 
 def decode_levels(levels: np.ndarray, top: int, sidecar: dict | None) -> np.ndarray:

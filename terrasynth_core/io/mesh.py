@@ -96,6 +96,86 @@ def mesh_arrays(
     return vertices, faces
 
 
+def decimate(vertices: np.ndarray, faces: np.ndarray, target_triangles: int) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh simplified to about ``target_triangles`` triangles.
+
+    Quadric error metric edge collapses (Garland and Heckbert 1997, through
+    pyfqmr, the Python binding of Fast Quadric Mesh Simplification): flat
+    ground loses its vertices first, ridges and valleys keep theirs; the
+    border is kept, so tiles still meet.  A mesh already at or under the
+    target is returned as is.
+
+    Parameters
+    ----------
+    vertices : ndarray of float32, shape (n, 3)
+    faces : ndarray of int32, shape (m, 3)
+    target_triangles : int
+        At least 2.
+
+    Returns
+    -------
+    vertices : ndarray of float32, shape (n', 3)
+    faces : ndarray of int32, shape (m', 3)
+        ``m'`` is about the target (more when the border alone needs more).
+    """
+    if not (isinstance(target_triangles, (int, np.integer)) and target_triangles >= 2):
+        raise ParamsError(f"target triangle count must be a whole number >= 2, got {target_triangles!r}")
+    if len(faces) <= target_triangles:
+        return vertices, faces
+    import pyfqmr
+
+    simplifier = pyfqmr.Simplify()
+    simplifier.setMesh(vertices.astype(np.float64), faces.astype(np.int32))
+    simplifier.simplify_mesh(target_count=int(target_triangles), aggressiveness=7, preserve_border=True,
+                             verbose=False)
+    new_vertices, new_faces, _ = simplifier.getMesh()
+    return new_vertices.astype(np.float32), new_faces.astype(np.int32)
+
+
+def simplified_mesh(field: HeightField, target_triangles: int, *, vertical_scale: float = 1.0,
+                    step: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`mesh_arrays` of ``field`` with about ``target_triangles`` triangles at most.
+
+    :func:`decimate` first.  Quadric simplification stalls on exactly planar
+    ground (every collapse costs nothing, so its numerical ties block it: a
+    tilted plane of 100 x 100 nodes keeps 97 % of its triangles), so when it
+    leaves more than 10 % over the target the grid is thinned instead: every
+    ``k``-th row and column, ``k`` the smallest stride meeting the target.
+
+    Returns
+    -------
+    vertices : ndarray of float32, shape (n, 3)
+    faces : ndarray of int32, shape (m, 3)
+    """
+    vertices, faces = mesh_arrays(field, vertical_scale=vertical_scale, step=step)
+    vertices, faces = decimate(vertices, faces, target_triangles)
+    if len(faces) <= 1.1 * target_triangles:
+        return vertices, faces
+    rows, cols = field.shape
+    stride = step
+    while 2 * (-(-rows // stride) - 1) * (-(-cols // stride) - 1) > target_triangles and min(rows, cols) > 2 * stride:
+        stride += 1
+    return mesh_arrays(field, vertical_scale=vertical_scale, step=stride)
+
+
+def texture_coordinates(vertices: np.ndarray, field: HeightField) -> np.ndarray:
+    """Texture coordinates of mesh vertices over a picture of the whole grid.
+
+    ``u`` runs west to east, ``v`` north to south, through the centres of
+    the picture's pixels (one per cell of ``field``), so a picture of the
+    same shape as the heightmap drapes cell for cell.
+
+    Returns
+    -------
+    ndarray of float32, shape (n, 2)
+    """
+    rows, cols = field.shape
+    dy, dx = field.cell_size or (1.0, 1.0)
+    u = (vertices[:, 0] / dx + 0.5) / cols
+    v = ((rows - 1) - vertices[:, 1] / dy + 0.5) / rows
+    return np.stack([u, v], axis=1).astype(np.float32)
+
+
 def write_stl(vertices: np.ndarray, faces: np.ndarray, fh: BinaryIO) -> None:
     """Binary STL: 80-byte header, uint32 count, 50 bytes per triangle."""
     header = b"TerraSynth height field mesh".ljust(80, b" ")

@@ -125,7 +125,7 @@ def read_png(path: Path) -> HeightField:
                       metadata={"bit_depth": 8 if top == 255 else 16, "sidecar": sidecar is not None})
 
 
-def write_png(field: HeightField, fh: BinaryIO) -> dict:
+def write_png(field: HeightField, fh: BinaryIO, *, level_range: tuple[float, float] | None = None) -> dict:
     """Write ``field`` as a 16-bit grayscale PNG.
 
     Parameters
@@ -133,6 +133,9 @@ def write_png(field: HeightField, fh: BinaryIO) -> dict:
     field : HeightField
     fh : binary file
         Open for writing.
+    level_range : (low, high) metres, optional
+        Heights of the first and last level (default min and max; see
+        :func:`._common.encode_levels`).
 
     Returns
     -------
@@ -140,7 +143,7 @@ def write_png(field: HeightField, fh: BinaryIO) -> dict:
         The sidecar to save beside it: ``min``..``max`` map to levels
         0..65535, or 1..65535 with level 0 for nodata when there is nodata.
     """
-    levels, sidecar = encode_levels(field)
+    levels, sidecar = encode_levels(field, level_range=level_range)
     # Level 1 deflate: five times faster than Pillow's default for files
     # only about 5 % larger.
     Image.fromarray(levels).save(fh, format="PNG", compress_level=1)

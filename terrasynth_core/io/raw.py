@@ -95,9 +95,9 @@ def read_r32(path: Path, *, size: tuple[int, int] | None = None) -> HeightField:
     return _read_raw(path, "r32", size)
 
 
-def write_r16(field: HeightField, fh: BinaryIO) -> dict:
-    """Write 16-bit levels spanning min..max; returns the sidecar (see PNG)."""
-    levels, sidecar = encode_levels(field)
+def write_r16(field: HeightField, fh: BinaryIO, *, level_range: tuple[float, float] | None = None) -> dict:
+    """Write 16-bit levels spanning min..max (or ``level_range``); returns the sidecar (see PNG)."""
+    levels, sidecar = encode_levels(field, level_range=level_range)
     fh.write(levels.astype("<u2").tobytes())
     return sidecar
 

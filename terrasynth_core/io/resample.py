@@ -43,7 +43,8 @@ from ..heightfield import GeoReference, HeightField
 from ._common import looks_geographic
 from .gdal import field_crs, georef_transform
 
-__all__ = ["already_square", "ground_cell_size", "local_projection", "output_georeference", "to_square_cells"]
+__all__ = ["already_square", "ground_cell_size", "local_projection", "output_georeference", "resample_nodes",
+           "to_square_cells"]
 
 
 def ground_cell_size(field: HeightField) -> float | None:
@@ -275,3 +276,113 @@ def _zoom(field: HeightField, size: float, method: Resampling, metadata: dict) -
     if geo is not None:
         geo = replace(geo, x_step=geo.x_step * size / dx, y_step=geo.y_step * size / dy)
     return replace(field, heights=heights, cell_size=(size, size), georef=geo, metadata=metadata)
+
+
+# -- node grids (engine heightmaps) -------------------------------------------
+
+
+def _node_weights(n_in: int, n_out: int) -> sparse.csr_matrix:
+    """Sparse ``(n_out, n_in)`` weights from ``n_in`` samples to ``n_out`` nodes
+    spanning the same first-to-last-sample extent (rows sum to 1).
+
+    Shrinking: each node is the area-weighted mean of the old cells (each
+    covering ``[i - 1/2, i + 1/2]``) under a box one new spacing wide
+    centred on it (anti-aliased); near the edges the box narrows
+    symmetrically, so a slope is not biased there.  Growing: Keys' cubic
+    convolution (a = -1/2, Catmull-Rom), the grid extended linearly past
+    its edges.  Both are exact on planes.
+    """
+    scale = (n_in - 1) / (n_out - 1)
+    centres = np.arange(n_out) * scale
+    rows, cols, vals = [], [], []
+    if n_out < n_in:
+        for j, t in enumerate(centres):
+            half = min(scale / 2, t + 0.5, n_in - 0.5 - t)
+            left, right = t - half, t + half
+            first, last = int(math.floor(left + 0.5)), int(math.ceil(right - 0.5))
+            for i in range(max(first, 0), min(last, n_in - 1) + 1):
+                overlap = min(right, i + 0.5) - max(left, i - 0.5)
+                if overlap > 0:
+                    rows.append(j), cols.append(i), vals.append(overlap)
+        weights = sparse.csr_matrix((vals, (rows, cols)), shape=(n_out, n_in))
+    else:
+        base = np.floor(centres).astype(np.int64)
+        frac = centres - base
+        for k in range(-1, 3):
+            d = np.abs(frac - k)
+            w = np.where(d <= 1, 1.5 * d**3 - 2.5 * d**2 + 1, np.where(d < 2, -0.5 * d**3 + 2.5 * d**2 - 4 * d + 2, 0))
+            index = base + k
+            # Past an edge, the linear extension v[-1] = 2 v[0] - v[1]
+            # (and likewise at the end) keeps planes exact.
+            for outside, edge, inner in ((index < 0, 0, 1), (index > n_in - 1, n_in - 1, n_in - 2)):
+                index = np.where(outside, edge, index)
+                rows.append(np.arange(n_out)[outside]), cols.append(np.full(outside.sum(), inner))
+                vals.append(-w[outside])
+                w = np.where(outside, 2 * w, w)
+            rows.append(np.arange(n_out)), cols.append(index), vals.append(w)
+        # Duplicate (row, col) pairs are summed by the constructor.
+        weights = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                                    shape=(n_out, n_in))
+    totals = np.asarray(weights.sum(axis=1)).ravel()
+    return sparse.diags(1 / totals) @ weights
+
+
+def resample_nodes(field: HeightField, shape: tuple[int, int]) -> HeightField:
+    """``field`` resampled to a grid of ``shape`` covering the same ground.
+
+    The grids are taken as nodes (an engine's vertices): the first and last
+    samples of each axis stay where they are, so a grid of ``n`` samples
+    spaced ``d`` metres becomes ``m`` samples spaced ``d (n - 1) / (m - 1)``
+    metres, and the heights stay in metres.  Each axis is filtered for its
+    own change: area average when it shrinks (no aliasing), cubic
+    convolution when it grows (smooth, sharper than bilinear; it may
+    overshoot next to cliffs by a few percent of the step).
+
+    Parameters
+    ----------
+    field : HeightField
+        Heights in metres, shape (rows, cols); NaN nodata.
+    shape : (rows, cols)
+        The new grid, each at least 2.
+
+    Returns
+    -------
+    HeightField
+        float32 heights of ``shape``; ``cell_size`` scaled as above (kept
+        ``None`` when unknown); ``georef`` with the first cell's centre
+        in place.  A new cell is nodata where the old cell nearest to it is.
+        The field itself when ``shape`` is its own.
+
+    Raises
+    ------
+    ParamsError
+        A side below 2.
+    """
+    new_rows, new_cols = (int(v) for v in shape)
+    if min(new_rows, new_cols) < 2:
+        raise ParamsError(f"resampled size must be at least 2 x 2, got {new_rows} x {new_cols}")
+    rows, cols = field.shape
+    if (new_rows, new_cols) == (rows, cols):
+        return field
+    wy, wx = _node_weights(rows, new_rows), _node_weights(cols, new_cols)
+    nodata = field.nodata
+    heights = field.heights
+    if nodata.any():
+        # Filters need every sample: nodata takes its nearest valid height,
+        # and comes back where the nearest old cell was nodata.
+        heights = field.fill_nodata().heights
+    out = (wx @ (wy @ heights.astype(np.float64)).T).T.astype(np.float32)
+    if nodata.any():
+        near_r = np.rint(np.arange(new_rows) * (rows - 1) / (new_rows - 1)).astype(np.int64)
+        near_c = np.rint(np.arange(new_cols) * (cols - 1) / (new_cols - 1)).astype(np.int64)
+        out[nodata[np.ix_(near_r, near_c)]] = np.nan
+    sy, sx = (rows - 1) / (new_rows - 1), (cols - 1) / (new_cols - 1)
+    cell_size = None if field.cell_size is None else (field.cell_size[0] * sy, field.cell_size[1] * sx)
+    geo = field.georef
+    if geo is not None:
+        # The first cell's centre stays put; the origin is its corner.
+        geo = replace(geo, x_origin=geo.x_origin + geo.x_step * (1 - sx) / 2,
+                      y_origin=geo.y_origin - geo.y_step * (1 - sy) / 2, x_step=geo.x_step * sx,
+                      y_step=geo.y_step * sy)
+    return replace(field, heights=out, cell_size=cell_size, georef=geo,
+                   metadata={**field.metadata, "resampled_from_shape": (rows, cols)})

@@ -8,6 +8,7 @@
 * :mod:`.overlay`: ridges and valleys over a hillshade;
 * :mod:`.terrain_3d`: arrays and camera for 3D views (the renderer itself
   lives outside the core, in ``terrasynth_app.views.render_3d``);
+* :mod:`.masks`: :func:`mask_picture` (masks and splat maps as RGB);
 * :mod:`.files`: :func:`save_png`;
 * :mod:`.sheet`: :func:`compose` (labelled panels in a grid) and :func:`fit_panel`.
 
@@ -26,6 +27,7 @@ from .colours import (
     thumbnail,
 )
 from .files import save_png
+from .masks import BAND_COLOURS, mask_picture
 from .overlay import RIDGE_COLOUR, VALLEY_COLOUR, render_overlay
 from .shading import grey_hillshade, hillshade, lit
 from .sheet import compose, fit_panel
@@ -33,7 +35,9 @@ from .terrain_3d import camera_direction, surface_grid, trim_background
 from .water import DEEP_RGB, SHALLOW_RGB, SHORE_RGB, depth_colours, water_cells, water_rgba
 
 __all__ = [
+    "BAND_COLOURS",
     "DEEP_RGB",
+    "mask_picture",
     "RIDGE_COLOUR",
     "SHALLOW_RGB",
     "SHORE_RGB",

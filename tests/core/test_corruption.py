@@ -679,7 +679,50 @@ def c_cache_folder_is_a_file(tmp, monkeypatch):
             EXIT_OK, ["wrote", "t.tif"])
 
 
+def c_truncated_exr(tmp):
+    """An .exr cut short is one line naming it."""
+    _example(tmp / "x.npy")
+    main(["convert", str(tmp / "x.npy"), str(tmp / "whole.exr")])
+    data = (tmp / "whole.exr").read_bytes()
+    (tmp / "whole.exr").unlink()
+    (tmp / "cut.exr").write_bytes(data[: len(data) // 2])
+    return ["info", tmp / "cut.exr"], EXIT_BAD_INPUT, ["cut.exr"]
+
+
+def c_export_keeps_users_tile(tmp):
+    """An export into a folder holding one of its tile names refuses before writing any tile."""
+    _example(tmp / "x.npy", shape=(253, 253))
+    (tmp / "ue").mkdir()
+    _mine(tmp / "ue" / "terrain_x1_y1.png", "my picture")
+    return (["export", tmp / "x.npy", "--preset", "unreal", "--out", tmp / "ue", "--size", "127", "--tiles", "2"],
+            EXIT_BAD_INPUT, ["terrain_x1_y1.png", "never replaces"])
+
+
+def c_export_keeps_users_settings_json(tmp):
+    _example(tmp / "x.npy")
+    _mine(tmp / "terrain.godot.json", '{"mine": true}')
+    return (["export", tmp / "x.npy", "--preset", "godot", "--out", tmp],
+            EXIT_BAD_INPUT, ["terrain.godot.json", "never replaces"])
+
+
+def c_masks_keep_users_file(tmp):
+    _example(tmp / "x.npy")
+    _mine(tmp / "terrain_masks.json", "my notes")
+    return ["masks", tmp / "x.npy", "--out", tmp], EXIT_BAD_INPUT, ["terrain_masks.json", "never replaces"]
+
+
+def c_export_out_is_a_file(tmp):
+    _example(tmp / "x.npy")
+    _mine(tmp / "folder", "a file, not a folder")
+    return ["export", tmp / "x.npy", "--preset", "blender", "--out", tmp / "folder"], EXIT_BAD_INPUT, ["folder is a file"]
+
+
 CASES = [
+    c_truncated_exr,
+    c_export_keeps_users_tile,
+    c_export_keeps_users_settings_json,
+    c_masks_keep_users_file,
+    c_export_out_is_a_file,
     _keeps_users_json(".png", '{"mine": 1}\n'),
     _keeps_users_json(".npy", "[1, 2]"),
     _keeps_users_json(".r16", "not json at all"),

@@ -443,4 +443,4 @@ def test_read_extensions_are_all_dispatched():
     names = {format_name(f"x{ext.upper()}") for ext in READ_EXTENSIONS}
     assert names == {"hgt", "geotiff", "envi", "usgs-dem", "esri-ascii", "png", "npy", "terragen", "r16", "r32",
                      "erdas-imagine", "gdal-vrt", "netcdf", "dted", "gridfloat", "grd", "saga", "er-mapper",
-                     "idrisi", "vtp-bt", "hf2", "geopackage", "jpeg2000", "bag", "gtx"}
+                     "idrisi", "vtp-bt", "hf2", "geopackage", "jpeg2000", "bag", "gtx", "exr"}

@@ -44,8 +44,8 @@ def test_same_field_in_two_formats_of_one_stem_shares_its_sidecar(tmp_path):
 
 
 def test_write_extensions():
-    assert set(WRITE_EXTENSIONS) == {".tif", ".tiff", ".asc", ".png", ".npy", ".ter", ".r16", ".r32"}
-    assert MESH_EXTENSIONS == (".obj", ".stl", ".ply")
+    assert set(WRITE_EXTENSIONS) == {".tif", ".tiff", ".asc", ".png", ".npy", ".ter", ".r16", ".r32", ".exr"}
+    assert MESH_EXTENSIONS == (".obj", ".stl", ".ply", ".glb")
 
 
 @pytest.mark.parametrize("ext", EXACT)
@@ -292,6 +292,13 @@ def test_mesh_files_parse_back(tmp_path, ext):
         parsed_vertices, parsed_faces = _parse_ply(path)
         np.testing.assert_array_equal(parsed_vertices, vertices)
         np.testing.assert_array_equal(parsed_faces, faces)
+    elif ext == ".glb":
+        import trimesh
+
+        (mesh,) = trimesh.load(path, process=False).geometry.values()
+        # glTF is Y-up: (x, y, z) -> (x, z, -y).
+        np.testing.assert_array_equal(mesh.vertices, vertices[:, [0, 2, 1]] * [1, 1, -1])
+        np.testing.assert_array_equal(mesh.faces, faces)
     else:
         content = path.read_bytes()
         (count,) = struct.unpack_from("<I", content, 80)

@@ -228,3 +228,17 @@ def test_connected_water_leaves_a_basin_without_painted_water_dry():
     assert water_cells(heights, 5.0).sum() == 12
     connected = water_cells(heights, 5.0, painted=painted)
     assert connected.sum() == 6 and connected[2, 2] and not connected[2, 6]
+
+
+def test_mask_pictures_of_every_kind():
+    from terrasynth_core.pictures import BAND_COLOURS, mask_picture
+
+    grey = mask_picture(np.array([[0.0, 0.5], [1.0, np.nan]], np.float32))
+    assert grey.shape == (2, 2, 3) and grey[0, 1].tolist() == [128, 128, 128] and grey[1, 1].tolist() == [0, 0, 0]
+    bands = np.zeros((2, 2, 4), np.float32)
+    bands[..., 3] = 1
+    assert mask_picture(bands)[0, 0].tolist() == BAND_COLOURS[3].tolist()
+    normal = np.full((2, 2, 3), 0.5, np.float32)
+    assert mask_picture(normal)[0, 0].tolist() == [128, 128, 128]
+    ids = mask_picture(np.array([[0, 1], [2, 1]], np.uint8))
+    assert ids[0, 0].tolist() == [0, 0, 0] and ids[0, 1].tolist() == ids[1, 1].tolist() != ids[1, 0].tolist()

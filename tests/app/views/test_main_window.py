@@ -276,3 +276,94 @@ def test_import_dem_features_as_sketch(qtbot, window):
     assert sketch.to_sketch_map().valley_mask.any()
     sketch.undo()
     assert not sketch.has_strokes
+
+
+def test_export_for_unreal_writes_the_preset_and_says_its_scale(qtbot, window, tmp_path, monkeypatch):
+    import json
+
+    from terrasynth_app.views.export_dialog import EXPORT_FOR, PresetExportDialog
+
+    assert list(EXPORT_FOR) == ["unreal", "unity", "godot", "blender", "houdini", "masks"]
+    menu_titles = [a.text() for a in window.actions.export_for.values()]
+    assert menu_titles[0] == "Unreal Engine (Landscape)…"
+    window.document.set_result(_fake_result((160, 160)))
+    seen = {}
+
+    def accept(dialog):
+        seen["sizes"] = [dialog.size.itemData(i) for i in range(dialog.size.count())]
+        seen["default"] = dialog.size.currentData()
+        dialog.folder.setText(str(tmp_path / "ue"))
+        dialog.size.setCurrentIndex(dialog.size.findData(127))
+        dialog.tiles.setValue(2)
+        return True
+
+    monkeypatch.setattr(PresetExportDialog, "exec", accept)
+    with qtbot.waitSignal(window.export_finished, timeout=10_000) as blocker:
+        window.actions.export_for["unreal"].trigger()
+    assert seen["sizes"][:3] == [127, 253, 505] and seen["default"] == 253  # keeps all 160 samples
+    assert blocker.args[0].startswith("Unreal: Scale X")
+    settings = json.loads((tmp_path / "ue" / "terrain.unreal.json").read_text())
+    assert settings["tiles"] == 2 and settings["shape"] == [253, 253]
+    assert window.statusBar().currentMessage().startswith("Unreal: Scale X")
+
+
+def test_export_for_masks_uses_the_painted_water(qtbot, window, tmp_path, monkeypatch):
+    from PIL import Image
+
+    from terrasynth_app.views.export_dialog import PresetExportDialog
+
+    window.document.set_result(_fake_result((160, 160)))
+    sketch = window.document.sketch
+    water = np.zeros(sketch.shape, bool)
+    water[: sketch.shape[0] // 2] = True  # the northern half, on the sketch's grid
+    sketch.replace_regions(water=water)
+
+    def accept(dialog):
+        dialog.folder.setText(str(tmp_path / "masks"))
+        dialog.mask_format.setCurrentIndex(dialog.mask_format.findData("png8"))
+        return True
+
+    monkeypatch.setattr(PresetExportDialog, "exec", accept)
+    with qtbot.waitSignal(window.export_finished, timeout=20_000) as blocker:
+        window.actions.export_for["masks"].trigger()
+    assert blocker.args[0].startswith("8 masks in")  # the seven from heights, and the painted water
+    with Image.open(tmp_path / "masks" / "terrain_water.png") as image:
+        got = np.asarray(image)
+    assert got.shape == (160, 160) and np.all(got[:80] == 255) and np.all(got[80:] == 0)
+    with Image.open(tmp_path / "masks" / "terrain_height_bands.png") as image:
+        assert image.mode == "RGBA" and image.size == (160, 160)
+
+
+def test_export_a_textured_simplified_glb(qtbot, window, tmp_path, monkeypatch):
+    import trimesh
+
+    window.document.set_result(_fake_result((100, 100)))
+    target = tmp_path / "terrain.glb"
+
+    def accept(dialog):
+        dialog.format.setCurrentIndex(dialog.format.findData(".glb"))
+        assert dialog.texture.isEnabled() and dialog.triangles.isEnabled()
+        dialog.path.setText(str(target))
+        dialog.texture.setChecked(True)
+        dialog.triangles.setValue(2000)
+        return True
+
+    monkeypatch.setattr(ExportDialog, "exec", accept)
+    with qtbot.waitSignal(window.export_finished, timeout=20_000):
+        window.export_terrain()
+    (mesh,) = trimesh.load(target).geometry.values()
+    assert len(mesh.faces) <= 2100
+    assert mesh.visual.material.baseColorTexture.size == (100, 100)
+
+
+def test_mask_preview_over_the_2d_view(qtbot, window):
+    overlay = window.heightmap.mask_overlay
+    window.document.set_result(_fake_result((120, 90)))
+    qtbot.waitUntil(lambda: window.heightmap._result is not None)
+    with qtbot.waitSignal(overlay.mask_shown, timeout=20_000, check_params_cb=lambda name: name == "height_bands"):
+        overlay.combo.setCurrentIndex(overlay.combo.findData("height_bands"))
+    assert overlay.image.isVisible() and overlay.image.image.shape == (120, 90, 3)
+    # A new run hides it; no mask chosen shows none.
+    with qtbot.waitSignal(overlay.mask_shown, timeout=5_000, check_params_cb=lambda name: name == ""):
+        overlay.combo.setCurrentIndex(0)
+    assert not overlay.image.isVisible()
