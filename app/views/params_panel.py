@@ -32,6 +32,9 @@ _TIPS = {
     "mirror": "Also consider the mirror image of each example feature patch.",
     "drainage": "Shape the finished terrain so painted valleys drain to an outlet (the border, water or "
                 "their lowest end) and no stream cuts a painted ridge.",
+    "landform": "First synthesize the sketch on a grid 2-4 times coarser, where a patch spans whole "
+                "landforms, and build the detail on that terrain: structure larger than a patch. Off: one "
+                "pass on a flat level per style, as in the paper.",
     "coarse_factor": "Down-sampling of the example for the fast search of fill patches; the best "
                      "positions are refined at full resolution. auto: from the example's size.",
     "workers": "Threads for FFTs and candidate evaluation; 0 uses every core.",
@@ -79,6 +82,7 @@ class ParamsPanel(QWidget):
         self.blend.addItems(["poisson", "c1", "none"])
         self.mirror = QCheckBox("use mirrored patches")
         self.drainage = QCheckBox("valleys drain, ridges divide")
+        self.landform = QCheckBox("coarse landform pass first")
         self.coarse_factor = QSpinBox(minimum=0, maximum=8, specialValueText="auto")
         self.workers = QSpinBox(minimum=0, maximum=256, specialValueText="all cores")
         self.feature_weight = QDoubleSpinBox(minimum=0.0, maximum=100.0, singleStep=0.1, decimals=2)
@@ -98,6 +102,7 @@ class ParamsPanel(QWidget):
             ("Blend", self.blend, "blend"),
             ("Mirror", self.mirror, "mirror"),
             ("Drainage", self.drainage, "drainage"),
+            ("Landforms", self.landform, "landform"),
             ("Coarse factor", self.coarse_factor, "coarse_factor"),
             ("Threads", self.workers, "workers"),
             ("Feature weight", self.feature_weight, "feature_weight"),
@@ -119,7 +124,7 @@ class ParamsPanel(QWidget):
         self.cell_size.valueChanged.connect(self._apply)
         for combo in (self.order, self.seam, self.blend):
             combo.currentTextChanged.connect(self._apply)
-        for check in (self.overlap_auto, self.mirror, self.drainage):
+        for check in (self.overlap_auto, self.mirror, self.drainage, self.landform):
             check.toggled.connect(self._apply)
 
         self._show(document.params)
@@ -148,6 +153,7 @@ class ParamsPanel(QWidget):
             self.blend.setCurrentText(params.blend)
             self.mirror.setChecked(params.mirror)
             self.drainage.setChecked(params.drainage)
+            self.landform.setChecked(params.landform)
             self.coarse_factor.setValue(params.coarse_factor)
             self.workers.setValue(params.workers)
             self.feature_weight.setValue(params.feature_weight)
@@ -179,6 +185,7 @@ class ParamsPanel(QWidget):
             "blend": self.blend.currentText(),
             "mirror": self.mirror.isChecked(),
             "drainage": self.drainage.isChecked(),
+            "landform": self.landform.isChecked(),
             "coarse_factor": self.coarse_factor.value(),
             "workers": self.workers.value(),
             "feature_weight": self.feature_weight.value(),

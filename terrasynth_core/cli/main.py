@@ -242,7 +242,7 @@ def cmd_synth(args: argparse.Namespace) -> int:
     sketch = read_sketch(args.sketch) if args.sketch else None
     params = SynthesisParams(
         patch_size=args.patch_size, seed=args.seed, order=args.order, seam=args.seam, blend=args.blend,
-        cell_size=args.cell_size, drainage=not args.no_drainage,
+        cell_size=args.cell_size, drainage=not args.no_drainage, landform=not args.no_landform,
         **({"overlap": args.overlap} if args.overlap is not None else {}),
     )
     controls = controls_from_args(args, have_examples=bool(examples))
@@ -252,7 +252,7 @@ def cmd_synth(args: argparse.Namespace) -> int:
 #: ``synth`` options that set up a run, and their defaults; given with
 #: ``--project`` they would contradict the project (which holds them all).
 _RUN_OPTIONS = {"example": None, "sketch": None, "patch_size": 80, "overlap": None, "order": "bfs", "seam": "cut",
-                "blend": "c1", "cell_size": None, "no_drainage": None, "band": None, "styles": None, "style": None,
+                "blend": "c1", "cell_size": None, "no_drainage": None, "no_landform": None, "band": None, "styles": None, "style": None,
                 "water": None, "water_level": None, "water_depth": None, "bank_width": None, "stamp": None,
                 "pin": None, "pin_radius": None, "height_range": None}
 
@@ -263,6 +263,7 @@ def _fill_run_defaults(args: argparse.Namespace) -> None:
         if getattr(args, name) is None:
             setattr(args, name, [] if name in ("style", "stamp", "pin") else default)
     args.no_drainage = bool(args.no_drainage)
+    args.no_landform = bool(args.no_landform)
     if args.seed is None:
         args.seed = 0
 
@@ -579,6 +580,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seam", choices=("cut", "paste"), help="seams (default cut)")
     p.add_argument("--no-drainage", action="store_true", default=None,
                    help="leave the finished heights as synthesized (default: painted valleys drain, ridges divide)")
+    p.add_argument("--no-landform", action="store_true", default=None,
+                   help="one pass on a flat level, as in the paper (default: a coarse landform pass first)")
     p.add_argument("--blend", choices=("poisson", "c1", "none"), help="seam blend (default c1)")
     p.add_argument("--cell-size", type=positive_metres, metavar="M",
                    help="output cell size in metres, square (default: the finest example's)")

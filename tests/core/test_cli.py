@@ -355,15 +355,18 @@ def test_synth_same_seed_same_bytes(capsys, example_200, sketch_dir, tmp_path):
     assert outputs[0] == outputs[1]
 
 
-def test_synth_no_drainage_reaches_the_params(capsys, example_200, sketch_dir, tmp_path):
-    """``--no-drainage`` turns the finish-stage drainage shaping off."""
+def test_synth_no_drainage_and_no_landform_reach_the_params(capsys, example_200, sketch_dir, tmp_path):
+    """``--no-drainage`` turns the finish-stage drainage shaping off,
+    ``--no-landform`` the coarse landform pass."""
     import json
 
     report = tmp_path / "r.json"
-    args = synth_args(example_200, sketch_dir / Y_JUNCTION, tmp_path / "t.npy", "--no-drainage", "--report", str(report))
+    args = synth_args(example_200, sketch_dir / Y_JUNCTION, tmp_path / "t.npy", "--no-drainage", "--no-landform",
+                      "--report", str(report))
     code, _, err = run(capsys, *args)
     assert code == EXIT_OK, err
-    assert json.loads(report.read_text())["params"]["drainage"] is False
+    params = json.loads(report.read_text())["params"]
+    assert params["drainage"] is False and params["landform"] is False
 
 
 # -- bad input ------------------------------------------------------------------

@@ -47,7 +47,7 @@ def test_a_run_updates_the_views_patch_by_patch_then_shows_the_result(qtbot, win
     kinds = [k for k, _ in log]
     assert kinds[0] == "run_started" and kinds[-1] == "synthesis_finished"
     stages = [arg for k, arg in log if k == "stage_started"]
-    assert stages == ["analyse", "features", "fill", "finish"]
+    assert stages == ["landform", "analyse", "features", "fill", "finish"]
     patches = [arg for k, arg in log if k == "patch_placed"]
     assert [p.index for p in patches] == list(range(len(patches)))
     assert any(p.kind == "fill" for p in patches) and any(p.kind != "fill" for p in patches)

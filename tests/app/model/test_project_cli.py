@@ -52,7 +52,7 @@ def test_a_project_at_another_size_and_seed_moves_its_pins(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("option", [["--example", "builtin:himalaya"], ["--pin", "1,1,1"], ["--patch-size", "40"],
-                                    ["--no-drainage"]])
+                                    ["--no-drainage"], ["--no-landform"]])
 def test_run_options_contradicting_a_project_are_refused(tmp_path, capsys, option):
     path = save_project(_styled_document(), tmp_path / "design.tsproj")
     assert main(["synth", "--project", str(path), "--out", str(tmp_path / "t.tif"), *option]) == EXIT_BAD_INPUT

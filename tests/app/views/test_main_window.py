@@ -54,9 +54,11 @@ def test_params_panel_edits_the_document(qtbot, window):
     assert doc.params.overlap == 20 and panel.error_label.text() == ""
     panel.drainage.setChecked(False)
     assert doc.params.drainage is False
+    panel.landform.setChecked(False)
+    assert doc.params.landform is False
     doc.set_params(SynthesisParams(patch_size=64, k=9))
     assert panel.patch_size.value() == 64 and panel.k.value() == 9 and panel.overlap_auto.isChecked()
-    assert panel.drainage.isChecked()
+    assert panel.drainage.isChecked() and panel.landform.isChecked()
     assert panel.patch_size.toolTip()
 
 
