@@ -11,9 +11,12 @@ river, Mount St. Helens stamped in the volcanic land, three elevation pins)
 is synthesized with ``Session([], sketch, controls=Controls(...))`` at
 ``--size`` (default the map's own 768x1024; maps, stamp and pins are scaled
 to it, and the patch with them unless ``--patch`` is given).  Slopes and
-curvatures are per output cell: the gradient magnitude (``np.gradient``,
-metres per cell) and the 5-point Laplacian (metres per cell squared), for
-the output and alike for every example DEM.
+curvatures are on the ground: the gradient magnitude (``np.gradient`` over
+the run's cell size, metres per metre) and the 5-point Laplacian (per
+metre), for the output and alike for every example DEM brought to the
+run's square cell size as the engine sees it (``on_ground``): a DEM's slope
+depends on the cell it is measured at, so that is the slope synthesis can
+reproduce.
 
 Tables
 ------
@@ -72,6 +75,7 @@ from scipy.stats import wasserstein_distance
 from eval_synthesis import _json_ready, high_frequency
 from terrasynth_core.cli.main import parse_size
 from terrasynth_core.examples import resolve_dem
+from terrasynth_core.exemplars.ground import on_ground
 from terrasynth_core.synthesis import Controls, Session
 
 REPO = Path(__file__).resolve().parents[1]
@@ -92,11 +96,12 @@ MIN_BAND_CELLS = 200
 
 
 # -- measures -------------------------------------------------------------------
-def slope_and_curvature(heights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Gradient magnitude (m per cell) and 5-point Laplacian (m per cell^2)."""
+def slope_and_curvature(heights: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """Gradient magnitude (m/m) and 5-point Laplacian (1/m) on square
+    cells of ``cell`` metres."""
     h = np.asarray(heights, dtype=np.float64)
-    dr, dc = np.gradient(h)
-    return np.hypot(dr, dc), ndimage.laplace(h)
+    dr, dc = np.gradient(h, cell)
+    return np.hypot(dr, dc), ndimage.laplace(h) / cell**2
 
 
 def masked_high_frequency(slope: np.ndarray, curvature: np.ndarray, mask: np.ndarray) -> float:
@@ -119,13 +124,15 @@ def _p(values: np.ndarray, q: float) -> float:
     return float(np.percentile(values, q)) if values.size else float("nan")
 
 
-def example_statistics(keys: list[str], rng: np.random.Generator) -> list[dict]:
+def example_statistics(keys: list[str], rng: np.random.Generator, cell: float) -> list[dict]:
     """Slope and |curvature| samples, percentiles and HF of each example DEM
-    (its valid crop, less a one-cell rim where differences are one-sided)."""
+    at square cells of ``cell`` metres (its valid crop, less a one-cell rim
+    where differences are one-sided)."""
     out = []
     for key in keys:
-        h = resolve_dem(key).heights.astype(np.float64)
-        slope, curv = (a[1:-1, 1:-1] for a in slope_and_curvature(h))
+        field, _ = on_ground(resolve_dem(key), cell, name=key)
+        h = np.asarray(field.heights if hasattr(field, "heights") else field, dtype=np.float64)
+        slope, curv = (a[1:-1, 1:-1] for a in slope_and_curvature(h, cell))
         out.append({
             "example": key,
             "slope": subsample(slope, rng), "curv": subsample(np.abs(curv), rng),
@@ -283,7 +290,7 @@ def resynthesis_check(before, after, selection) -> dict:
         "changed_inside_pct": 100 * float(changed[selection].mean()),
     }
     for name, result in (("before", before), ("after", after)):
-        slope, curv = slope_and_curvature(result.heights)
+        slope, curv = slope_and_curvature(result.heights, result.cell_size)
         out[f"hf_edge_{name}"] = masked_high_frequency(slope, curv, band)
         out[f"slope999_edge_{name}"] = _p(slope[band], 99.9)
     out["hf_all"] = masked_high_frequency(slope, curv, np.ones(selection.shape, bool))
@@ -309,9 +316,8 @@ def evaluate(*, shape, patch: int | None, seed: int, log=print) -> dict:
     patch = params.patch_size
     names = [name for name, _, _ in STYLES]
     rng = np.random.default_rng(0)
-    examples = example_statistics([dem for _, _, dem in STYLES], rng)
-
     result, t_session, t_total = timed_run(sketch, controls, shape, params)
+    examples = example_statistics([dem for _, _, dem in STYLES], rng, result.cell_size)
     unpinned, _, t_unpinned = timed_run(sketch, replace(controls, pins=()), shape, params)
     box = np.zeros(shape, bool)
     r0, r1, c0, c1 = (round(f * n) for f, n in zip(RESYNTH_BOX, (shape[0], shape[0], shape[1], shape[1])))
@@ -320,12 +326,12 @@ def evaluate(*, shape, patch: int | None, seed: int, log=print) -> dict:
                                   replace(params, seed=seed + 1))
 
     heights = result.heights.astype(np.float64)
-    slope, curv = slope_and_curvature(heights)
+    slope, curv = slope_and_curvature(heights, result.cell_size)
     labels = result.style_map
     excluded = excluded_cells(result, controls, patch)
     inner = interiors(labels, excluded, patch)
     report = {
-        "shape": list(shape), "patch": patch, "seed": seed,
+        "shape": list(shape), "patch": patch, "seed": seed, "cell_size": result.cell_size,
         "examples": [{k: v for k, v in ex.items() if k not in ("slope", "curv")} for ex in examples],
         "styles": style_table(slope, curv, heights, labels, inner, names, examples, rng),
         "borders": border_table(slope, curv, border_bands(labels, excluded, patch), inner, names),
@@ -353,11 +359,21 @@ def _table(header: list[str], rows: list[list[str]]) -> str:
     return "\n".join(lines)
 
 
+#: Format of slopes (m/m).
+S = ".3f"
+
+
+def _km(v) -> str:
+    """A curvature in 1/m, shown per km."""
+    return _f(None if v is None else v * 1000.0, ".2f")
+
+
 def markdown(report: dict) -> str:
     ex = report["examples"]
     short = [e["example"].removeprefix("builtin:") for e in ex]
     out = [f"Middle-earth demo at {report['shape'][0]}x{report['shape'][1]}, patch {report['patch']}, "
-           f"seed {report['seed']}; slope in m/cell, abs curv = |Laplacian| in m/cell^2.", ""]
+           f"seed {report['seed']}; cells of {report['cell_size']:g} m; slope in m/m, abs curv = |Laplacian| "
+           "in 1/km; the examples at the same cell size.", ""]
 
     out.append("**Styles** (region interiors; example figures in brackets; W1 to each example, * = nearest)")
     out.append("")
@@ -366,18 +382,18 @@ def markdown(report: dict) -> str:
     rows = []
     for i, r in enumerate(report["styles"]):
         e = ex[i]
-        w = [_f(v) + ("*" if j == r["nearest_slope"] else "") for j, v in enumerate(r["w1_slope"])]
+        w = [_f(v, S) + ("*" if j == r["nearest_slope"] else "") for j, v in enumerate(r["w1_slope"])]
         rows.append([r["region"], str(r["cells"]),
-                     f"{_f(r['slope_p50'])} ({_f(e['slope_p50'])})", f"{_f(r['slope_p90'])} ({_f(e['slope_p90'])})",
-                     f"{_f(r['curv_p50'], '.2f')} ({_f(e['curv_p50'], '.2f')})",
-                     f"{_f(r['curv_p90'], '.2f')} ({_f(e['curv_p90'], '.2f')})",
+                     f"{_f(r['slope_p50'], S)} ({_f(e['slope_p50'], S)})",
+                     f"{_f(r['slope_p90'], S)} ({_f(e['slope_p90'], S)})",
+                     f"{_km(r['curv_p50'])} ({_km(e['curv_p50'])})", f"{_km(r['curv_p90'])} ({_km(e['curv_p90'])})",
                      *w, "yes" if r["nearest_slope"] == i else "**no**"])
     out += [_table(header, rows), ""]
     header = ["region"] + [f"W1 curv {k}" for k in short] + ["own?", "height p5/p50/p95 (example)"]
     rows = []
     for i, r in enumerate(report["styles"]):
         e = ex[i]
-        w = [_f(v, ".2f") + ("*" if j == r["nearest_curv"] else "") for j, v in enumerate(r["w1_curv"])]
+        w = [_km(v) + ("*" if j == r["nearest_curv"] else "") for j, v in enumerate(r["w1_curv"])]
         rows.append([r["region"], *w, "yes" if r["nearest_curv"] == i else "**no**",
                      f"{_f(r['height_p5'], '.0f')}/{_f(r['height_p50'], '.0f')}/{_f(r['height_p95'], '.0f')} "
                      f"({_f(e['height_p5'], '.0f')}/{_f(e['height_p50'], '.0f')}/{_f(e['height_p95'], '.0f')})"])
@@ -389,8 +405,8 @@ def markdown(report: dict) -> str:
     header = ["border", "band cells", "HF band", "HF interiors", "HF ratio", "p99.9 slope band",
               "p99.9 slope a / b", "cliff ratio"]
     rows = [[r["pair"], str(r["band_cells"]), _f(r["hf_band"], ".2f"), _f(r["hf_interiors"], ".2f"),
-             _f(r["hf_ratio"], ".2f"), _f(r["slope999_band"]),
-             f"{_f(r['slope999_a'])} / {_f(r['slope999_b'])}", _f(r["cliff_ratio"], ".2f")]
+             _f(r["hf_ratio"], ".2f"), _f(r["slope999_band"], S),
+             f"{_f(r['slope999_a'], S)} / {_f(r['slope999_b'], S)}", _f(r["cliff_ratio"], ".2f")]
             for r in report["borders"]]
     out += [_table(header, rows), ""]
 
@@ -409,9 +425,9 @@ def markdown(report: dict) -> str:
               "slope p50 bank / lowland", "HF bank / lowland", "p99.9 slope shore / lowland"]
     rows = [[str(w["flooded_land"]), str(w["flooded_far"]), _f(w["water_height_max"]),
              f"{_f(w['shore_step_p50'])} / {_f(w['shore_step_p99'])}",
-             f"{_f(w['bank_slope_p50'])} / {_f(w['lowland_slope_p50'])}",
+             f"{_f(w['bank_slope_p50'], S)} / {_f(w['lowland_slope_p50'], S)}",
              f"{_f(w['bank_hf'], '.2f')} / {_f(w['lowland_hf'], '.2f')}",
-             f"{_f(w['shore_slope999'])} / {_f(w['lowland_slope999'])}"]]
+             f"{_f(w['shore_slope999'], S)} / {_f(w['lowland_slope999'], S)}"]]
     out += [_table(header, rows), ""]
 
     r = report["resynthesis"]
@@ -422,7 +438,7 @@ def markdown(report: dict) -> str:
               "p99.9 slope edge after / before"]
     rows = [[str(r["box_cells"]), str(r["changed_outside"]), _f(r["changed_inside_pct"]),
              f"{_f(r['hf_edge_after'], '.2f')} / {_f(r['hf_edge_before'], '.2f')}", _f(r["hf_all"], ".2f"),
-             f"{_f(r['slope999_edge_after'])} / {_f(r['slope999_edge_before'])}"]]
+             f"{_f(r['slope999_edge_after'], S)} / {_f(r['slope999_edge_before'], S)}"]]
     out += [_table(header, rows), ""]
 
     t = report["timings"]

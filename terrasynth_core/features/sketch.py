@@ -42,6 +42,10 @@ BACKGROUND_RGB = (255, 255, 255)
 _COLOUR_MODES = {"RGB", "RGBA", "RGBX", "RGBa", "P", "PA", "CMYK", "YCbCr"}
 
 
+#: Rows of a sketch image classified at a time by :func:`read_sketch`.
+_CLASSIFY_ROWS = 512
+
+
 @dataclass(frozen=True, eq=False)
 class SketchMap:
     """Where the user asks for ridges and valleys.
@@ -154,7 +158,9 @@ class SketchMap:
             return self
 
         def coverage(mask: np.ndarray) -> np.ndarray:
-            image = Image.fromarray(mask.astype(np.float32), mode="F")
+            # 0/1 bytes made float inside Pillow: no float copy of a large
+            # sketch on the numpy side.
+            image = Image.fromarray(mask.view(np.uint8), mode="L").convert("F")
             return np.asarray(image.resize((cols, rows), Image.Resampling.BOX))
 
         ridge, valley = coverage(self.ridge_mask), coverage(self.valley_mask)
@@ -247,20 +253,30 @@ def read_sketch(path) -> SketchMap:
                     "palette image with red ridge and blue valley strokes"
                 )
             has_alpha = mode in ("RGBA", "RGBa", "PA") or (mode == "P" and "transparency" in image.info)
-            rgb = np.asarray(image.convert("RGBA" if has_alpha else "RGB"))
+            target = "RGBA" if has_alpha else "RGB"
+            cols, rows = image.size
+            if min(rows, cols) < 2:
+                raise SketchError(f"sketch {path} is only {cols}x{rows} pixels; expected at least 2x2")
+            # Band by band: a whole large image as one array (and its
+            # conversion) would take several times the image's size.
+            ridge = np.empty((rows, cols), bool)
+            valley = np.empty((rows, cols), bool)
+            for r0 in range(0, rows, _CLASSIFY_ROWS):
+                r1 = min(r0 + _CLASSIFY_ROWS, rows)
+                band = SketchMap.from_rgb(np.asarray(image.crop((0, r0, cols, r1)).convert(target)))
+                ridge[r0:r1], valley[r0:r1] = band.ridge_mask, band.valley_mask
+            sketch = SketchMap(ridge, valley)
+            if not sketch.has_strokes:
+                # Transparent pixels say nothing, whatever colour they keep underneath.
+                rgb = np.asarray(image.convert(target))
+                opaque = rgb[..., 3] >= 128 if rgb.shape[2] == 4 else np.ones(rgb.shape[:2], bool)
+                _refuse_other_colours(rgb[..., :3][opaque], path)
     except FileNotFoundError:
         raise SketchError(f"sketch file {path} does not exist") from None
     except (UnidentifiedImageError, OSError, ValueError) as exc:
         if isinstance(exc, SketchError):
             raise
         raise SketchError(f"cannot read sketch {path}: not a readable image ({exc})") from None
-    if min(rgb.shape[:2]) < 2:
-        raise SketchError(f"sketch {path} is only {rgb.shape[1]}x{rgb.shape[0]} pixels; expected at least 2x2")
-    sketch = SketchMap.from_rgb(rgb)
-    if not sketch.has_strokes:
-        # Transparent pixels say nothing, whatever colour they keep underneath.
-        opaque = rgb[..., 3] >= 128 if rgb.shape[2] == 4 else np.ones(rgb.shape[:2], bool)
-        _refuse_other_colours(rgb[..., :3][opaque], path)
     return sketch
 
 

@@ -895,8 +895,11 @@ def test_sigterm_during_a_write_leaves_no_temporary_file(tmp_path):
     import sys
 
     _example(tmp_path / "x.npy")
+    # (A shell that starts the test suite in the background hands its
+    # children SIGINT ignored; Python then installs no handler for it.)
     script = (
         "import os, signal, sys\n"
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
         "import numpy as np\n"
         "real = np.save\n"
         "def save(fh, array, **kw):\n"
