@@ -258,9 +258,11 @@ def order_differences(rows: list[dict]) -> str:
     by = {(r["sketch"], r["example"], r["seed"], r["order"]): r for r in rows}
     lines = ["Paired BFS - raster (same sketch, example, seed): mean +- standard error (pairs)"]
     for key, title, _ in TARGETS:
-        d = [b[key] - by[(s, e, seed, "raster")][key] for (s, e, seed, o), b in by.items()
-             if o == "bfs" and (s, e, seed, "raster") in by]
-        d = [v for v in d if v is not None and not np.isnan(v)]
+        pairs = [(b[key], by[(s, e, seed, "raster")][key]) for (s, e, seed, o), b in by.items()
+                 if o == "bfs" and (s, e, seed, "raster") in by]
+        # (None: a figure saved as JSON that did not apply, e.g. valleys of a ridge-only sketch.)
+        d = [a - b for a, b in pairs if a is not None and b is not None]
+        d = [v for v in d if not np.isnan(v)]
         if len(d) > 1:
             lines.append(f"  {title:<24} {np.mean(d):>+8.3f} +- {np.std(d, ddof=1) / np.sqrt(len(d)):.3f} ({len(d)})")
     return "\n".join(lines) if len(lines) > 1 else ""
@@ -306,6 +308,22 @@ def _names(text: str) -> list[str]:
     return [t.strip() for t in text.split(",") if t.strip()]
 
 
+def report(rows: list[dict], examples: list[str], orders: list[str], wall: float, log=print) -> None:
+    """The summary, the order differences, times and run warnings."""
+    log(f"\nSummary against issue 10's targets over {len(rows)} runs "
+        f"(met = runs meeting the target; PASS only if every run does)")
+    log(summary(rows, examples))
+    if len(orders) > 1:
+        log("\n" + order_differences(rows))
+    secs = [r["seconds"] for r in rows]
+    log(f"\nTime per case: mean {np.mean(secs):.1f} s, max {np.max(secs):.1f} s; whole evaluation {wall / 60:.1f} min")
+    notes = sorted({f"{r['example']}: {w}" for r in rows for w in r["warnings"]})
+    if any(r["fallback"] for r in rows):
+        notes.insert(0, "48* = the 80-cell patch raised ParamsError; run with 48-cell patches")
+    if notes:
+        log("\nNotes and run warnings:\n" + "\n".join(f"  {n}" for n in notes))
+
+
 def _param(text: str) -> tuple[str, object]:
     name, sep, value = text.partition("=")
     if not sep or name.strip() not in {f.name for f in dataclasses.fields(SynthesisParams)}:
@@ -328,6 +346,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sheets", type=Path, default=REPO / "docs" / "images", metavar="DIR",
                         help="folder of the contact sheets (default docs/images)")
     parser.add_argument("--no-sheets", action="store_true", help="write no contact sheets")
+    parser.add_argument("--replay", type=Path, default=None, metavar="JSON",
+                        help="print the tables of a run saved with --json, run nothing")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", type=_param,
                         help="a SynthesisParams field for every run (JSON value), e.g. landform=false; repeatable")
     args = parser.parse_args(argv)
@@ -341,6 +361,15 @@ def main(argv: list[str] | None = None) -> int:
     def log(line: str) -> None:
         print(line, flush=True)
 
+    if args.replay is not None:
+        saved = json.loads(args.replay.read_text())
+        rows = saved["rows"]
+        log(_header())
+        for row in rows:
+            log(_line(row))
+        report(rows, list(dict.fromkeys(r["example"] for r in rows)), sorted({r["order"] for r in rows}),
+               saved["wall_seconds"], log)
+        return 0
     log(f"Fidelity at {args.size}x{args.size}: examples {', '.join(examples)}; seeds 0..{seeds[-1]}; "
         f"orders {', '.join(orders)}; TPI radii {args.size / 40:g} (local) and {args.size / 10:g} (landform) cells")
     start = time.perf_counter()
@@ -350,18 +379,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = evaluate(examples, sketches, seeds, orders, args.size, None if args.no_sheets else args.sheets, log=log,
                     extra=extra)
     wall = time.perf_counter() - start
-    log(f"\nSummary against issue 10's targets over {len(rows)} runs "
-        f"(met = runs meeting the target; PASS only if every run does)")
-    log(summary(rows, examples))
-    if len(orders) > 1:
-        log("\n" + order_differences(rows))
-    secs = [r["seconds"] for r in rows]
-    log(f"\nTime per case: mean {np.mean(secs):.1f} s, max {np.max(secs):.1f} s; whole evaluation {wall / 60:.1f} min")
-    notes = sorted({f"{r['example']}: {w}" for r in rows for w in r["warnings"]})
-    if any(r["fallback"] for r in rows):
-        notes.insert(0, "48* = the 80-cell patch raised ParamsError; run with 48-cell patches")
-    if notes:
-        log("\nNotes and run warnings:\n" + "\n".join(f"  {n}" for n in notes))
+    report(rows, examples, orders, wall, log)
     if args.json is not None:
         args.json.write_text(json.dumps(_json_ready({"rows": rows, "wall_seconds": wall}), indent=2))
     return 0
