@@ -125,6 +125,12 @@ def landform_pass(session: Session) -> tuple[Landform | None, str | None]:
     """
     p, lay = session.params, session.layout
     rows, cols = session.shape
+    if len(lay.members) > 1:
+        # Measured on the Middle-earth map, a coarse pass over several
+        # styles let regions stray from their own heights (its height
+        # squeeze is global, not per region) and drowned more lowland.
+        return None, ("landform pass not used with several style regions: each region is built on its own "
+                      "flat level")
     smallest = min(min(ex.heights.shape) for ex in lay.examples)
     f = coarse_factor(p.patch_size, smallest)
     if f is None:

@@ -76,7 +76,7 @@ CASES = {
 GOLDEN = {
     "y_junction": "1d06994e5fc133566961baf9fec005aee0250e2ff979e0c6bccddb274a4c8274",
     "ring_cross_raster": "74d2423d543cfcbcd057b6fdb888eb940fe7593443e23385f0e88bcb6ef29d1f",
-    "styles_stamp_water_pin": "7d19db5f81580504f5e36d1b9361bf6fe44fef62f07128c10b7b799b3ed114de",
+    "styles_stamp_water_pin": "9f77a106a9f05a2473d46f006366d6b2b6caa5ce480164dd5ce1c3501cf6e96e",
 }
 
 

@@ -124,3 +124,14 @@ def test_stamps_stand_on_a_flat_level(white_mountains, helens):
     r0, r1, c0, c1 = st.bbox
     under = landform.level[r0:r1, c0:c1][st.core]
     assert np.ptp(under) < 1e-3
+
+
+def test_several_style_regions_keep_their_flat_levels(white_mountains, lowland, y_sketch):
+    from terrasynth_core.synthesis import Controls, Style
+
+    style_map = np.zeros((256, 256), np.int16)
+    style_map[:, 128:] = 1
+    controls = Controls(styles=(Style(white_mountains), Style(lowland)), style_map=style_map)
+    session = Session([], y_sketch, params=P, controls=controls)
+    landform, note = landform_pass(session)
+    assert landform is None and "several style regions" in note
