@@ -20,7 +20,8 @@ A painted stroke should become one of the example's main features, not a
 minor crest: candidates are also ranked by their *prominence*, how far
 above (ridges) or below (valleys) their surroundings within a patch they
 stand, as a rank among the pool's samples (:func:`prominence_ranks`); the
-least prominent pay :data:`PROMINENCE_WEIGHT` more.  Mirrors double the pool (paper §4.1.1).  All of it is
+least prominent pay :data:`PROMINENCE_WEIGHT` more.  Only candidates that
+fit within :data:`PROMINENCE_SLACK` of the best are reordered so.  Mirrors double the pool (paper §4.1.1).  All of it is
 batched over candidates with numpy.
 """
 
@@ -37,6 +38,10 @@ from ..warping.thin_plate import bending_energies
 #: Ranking cost of the pool's least prominent sample over its most
 #: prominent one, in the deformation cost's units.
 PROMINENCE_WEIGHT = 0.15
+
+#: Candidates deformed more than this beyond the least deformed one rank as
+#: least prominent, whatever their prominence.
+PROMINENCE_SLACK = 0.03
 
 
 @dataclass(frozen=True, eq=False)
@@ -172,7 +177,11 @@ class FeaturePool:
             centre = np.zeros((len(flat), 1, 2))
             cost = cost + bending_energies(np.vstack([[0.0, 0.0], src]), np.concatenate([centre, flat], axis=1))
         cost = cost + rng.random(cost.shape) * 1e-6  # random tie-break, seeded
-        ranked = cost + PROMINENCE_WEIGHT * (1.0 - np.repeat(prominence, n_align))
+        # Prominence reorders only candidates that fit nearly as well as
+        # the best: a prominent feature warped far from its shape would be
+        # stretched into streaks.
+        fits = cost <= cost.min() + PROMINENCE_SLACK
+        ranked = cost + PROMINENCE_WEIGHT * np.where(fits, 1.0 - np.repeat(prominence, n_align), 1.0)
         if exclude is None:
             take = np.argsort(ranked, kind="stable")[:count]
         else:

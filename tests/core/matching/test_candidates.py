@@ -146,3 +146,17 @@ def test_equally_shaped_candidates_rank_by_prominence():
     ranked = pool.rank(_sample((50, 50), [0, 180]), 4, _rng())
     assert ranked[0].example == 1 and ranked[0].prominence == 1.0
     assert ranked[-1].prominence == 0.0 and ranked[-1].plainness > 0
+
+
+def test_prominence_does_not_promote_a_candidate_that_fits_badly():
+    from terrasynth_core.matching.candidates import PROMINENCE_SLACK
+
+    # Example 1 is more prominent but bent 60 degrees away from the straight
+    # sketch sample: far beyond the slack, it must not outrank the straight one.
+    straight = [_sample((100, 100), [0, 180])]
+    bent = [_sample((100, 100), [0, 120])]
+    pool = FeaturePool([(0, straight), (1, bent)], RADIUS, mirror=False,
+                       prominence=[np.array([0.0]), np.array([9.0])])
+    ranked = pool.rank(_sample((50, 50), [0, 180]), 4, _rng())
+    assert ranked[0].example == 0
+    assert ranked[0].deformation + PROMINENCE_SLACK < min(c.deformation for c in ranked if c.example == 1)

@@ -74,8 +74,8 @@ CASES = {
 #: landform pass, the level anchor scaled by the examples' spread of window
 #: levels and the prominence ranking of feature candidates.
 GOLDEN = {
-    "y_junction": "1d06994e5fc133566961baf9fec005aee0250e2ff979e0c6bccddb274a4c8274",
-    "ring_cross_raster": "74d2423d543cfcbcd057b6fdb888eb940fe7593443e23385f0e88bcb6ef29d1f",
+    "y_junction": "3801459d4201f57b05e81fde658d249443c45c675335a2c916aaaa859fdab87c",
+    "ring_cross_raster": "f852f2cd0970074c5fb93ad0099d5893fb79fa096c8f3793b8e8bf57b3d386f0",
     "styles_stamp_water_pin": "9f77a106a9f05a2473d46f006366d6b2b6caa5ce480164dd5ce1c3501cf6e96e",
 }
 
