@@ -94,7 +94,9 @@ def _read(key: str, read):
     if path is None or not path.is_file():
         return None
     try:
-        with np.load(path, allow_pickle=False) as z:
+        # The file is opened here, not by np.load: given a path, np.load
+        # leaves the file open when a truncated archive fails to open.
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as z:
             if not _same_key(z, key):
                 return None  # another grid's file under this name (or one from before keys)
             return read(z)

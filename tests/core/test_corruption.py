@@ -813,13 +813,9 @@ CASES = [
     c_project_nan_water_level,
     # caches
     c_cache_files_are_garbage,
-    # numpy's np.load leaves the file open when a truncated .npz fails to
-    # open as a zip, and exemplars/cache.py (the engine's, not changed here)
-    # passes it a path: the run is right (exit 0, the analysis recomputed) but
-    # one file handle leaks until garbage collection.  Reported in the README.
-    pytest.param(c_cache_files_truncated, marks=[
-        pytest.mark.filterwarnings("ignore::ResourceWarning"),
-        pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")]),
+    # (exemplars/cache.py opens the file itself: np.load given a path would
+    # leave a truncated archive's file open.)
+    pytest.param(c_cache_files_truncated, marks=[pytest.mark.filterwarnings("error::ResourceWarning")]),
     c_cache_folder_is_a_file,
 ]
 
