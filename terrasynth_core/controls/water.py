@@ -141,10 +141,14 @@ def apply_water(heights: np.ndarray, water: Water, *, bank_width: float,
     broad = ndimage.gaussian_filter(h, max(width / 4.0, 1.0), mode="nearest")
     t_fine = _smoothstep((d_out - 1.0) / max(width / 4.0, 1.0))
     dry = shore + t * (broad - shore) + t_fine * (h - broad)
-    # Land below the shore level is lifted too, fully at the shore and not
-    # at all at the bank's outer edge; beyond the bank it is left alone
-    # (see flooded_land()).
-    dry = dry + (1.0 - t) * np.maximum(shore - dry, 0.0)
+    # Land below the shore level is lifted too: fully over the inner half of
+    # the bank (the fine detail, back within its first quarter, would dip
+    # there below the water beside it), then less and less, not at all at
+    # the bank's outer edge; beyond the bank it is left alone (see
+    # flooded_land()).
+    half = max(width / 2.0, 0.5)
+    lift = 1.0 - _smoothstep((d_out - 1.0 - half) / half) if width > 0 else np.zeros(mask.shape)
+    dry = dry + lift * np.maximum(shore - dry, 0.0)
     new = np.where(mask, wet, dry)
     if locked is not None and locked.any():
         # Ease the change in from the locked cells over the bank width, so

@@ -72,11 +72,12 @@ CASES = {
 #: of feature candidates (issue 10, "Variety"), with the fill windows'
 #: roughness prior, with drainage shaping (on by default), and with the
 #: landform pass, the level anchor scaled by the examples' spread of window
-#: levels and the prominence ranking of feature candidates.
+#: levels and the prominence ranking of feature candidates, and with the
+#: water shaping lifting the inner half of a bank fully to the shore.
 GOLDEN = {
     "y_junction": "3801459d4201f57b05e81fde658d249443c45c675335a2c916aaaa859fdab87c",
     "ring_cross_raster": "f852f2cd0970074c5fb93ad0099d5893fb79fa096c8f3793b8e8bf57b3d386f0",
-    "styles_stamp_water_pin": "9f77a106a9f05a2473d46f006366d6b2b6caa5ce480164dd5ce1c3501cf6e96e",
+    "styles_stamp_water_pin": "ddfeaf8309d4b3858d2330f6b6494723c37d48adf22d172f30e09d77f1a0541b",
 }
 
 
