@@ -318,7 +318,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     from tqdm import tqdm
 
-    from ..synthesis import PatchPlaced, Session, StageStarted, SynthesisFinished
+    from ..synthesis import LandformProgress, PatchPlaced, Session, StageStarted, SynthesisFinished
 
     from ..project import check_stamp_footprints
 
@@ -336,6 +336,11 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
         for event in session.iter_run():
             if isinstance(event, StageStarted):
                 bar.set_description(event.stage)
+                if event.stage == "analyse":  # the landform pass counted its own patches
+                    bar.reset(total=0)
+            elif isinstance(event, LandformProgress):
+                bar.total = event.total
+                bar.update(event.done - bar.n)
             elif isinstance(event, PatchPlaced):
                 bar.total = event.total
                 bar.update(event.index + 1 - bar.n)

@@ -4,7 +4,7 @@ parameters, artist controls, events and result."""
 from ..controls.pins import Pin, PinError
 from ..controls.water import Water
 from ..controls.options import Controls, Stamp, Style
-from .events import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
+from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
 from .session import Session
@@ -17,6 +17,7 @@ __all__ = [
     "Stamp",
     "Style",
     "Water",
+    "LandformProgress",
     "PatchPlaced",
     "PatchRecord",
     "Session",

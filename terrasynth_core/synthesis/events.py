@@ -12,7 +12,7 @@ from typing import Literal
 import numpy as np
 
 #: Stages of a run, in order.
-STAGES = ("analyse", "features", "fill", "finish")
+STAGES = ("landform", "analyse", "features", "fill", "finish")
 
 PatchKind = Literal["stamp", "branch", "end", "path", "fill"]
 
@@ -53,6 +53,16 @@ class PatchPlaced:
     bbox: tuple[int, int, int, int]
     heights: np.ndarray
     cost: float
+
+
+@dataclass(frozen=True)
+class LandformProgress:
+    """A patch of the coarse landform pass was placed (in the coarse grid,
+    not shown): ``done`` of about ``total``.  Lets a consumer show that the
+    run moves, and cancel it, during the pass."""
+
+    done: int
+    total: int
 
 
 @dataclass(frozen=True)

@@ -106,7 +106,25 @@ def coarse_factor(patch_size: int, smallest: int) -> int | None:
 
 
 def landform_pass(session: Session) -> tuple[Landform | None, str | None]:
-    """Synthesize the session's problem on a coarse grid.
+    """Synthesize the session's problem on a coarse grid, in one call (see
+    :func:`coarse_session` and :func:`landform_from`).
+
+    Returns
+    -------
+    landform : Landform or None
+        None when the pass cannot serve (see :func:`coarse_session`).
+    note : str or None
+        Why the pass was skipped, for the run's warnings.
+    """
+    coarse, f, note = coarse_session(session)
+    if coarse is None:
+        return None, note
+    return landform_from(session, coarse.run(), f), None
+
+
+def coarse_session(session: Session) -> tuple[Session | None, int, str | None]:
+    """The landform pass's session: the same problem on a grid ``f`` times
+    coarser.
 
     Parameters
     ----------
@@ -116,10 +134,12 @@ def landform_pass(session: Session) -> tuple[Landform | None, str | None]:
 
     Returns
     -------
-    landform : Landform or None
-        None when the pass cannot serve: the output or an example is too
-        small for coarse patches, or the coarse examples lack a feature
-        kind the sketch has.
+    coarse : Session or None
+        None when the pass cannot serve: several style regions, the output
+        or an example too small for coarse patches, or coarse examples
+        lacking a feature kind the sketch has.
+    factor : int
+        The down-sampling (0 when ``coarse`` is None).
     note : str or None
         Why the pass was skipped, for the run's warnings.
     """
@@ -129,19 +149,19 @@ def landform_pass(session: Session) -> tuple[Landform | None, str | None]:
         # Measured on the Middle-earth map, a coarse pass over several
         # styles let regions stray from their own heights (its height
         # squeeze is global, not per region) and drowned more lowland.
-        return None, ("landform pass not used with several style regions: each region is built on its own "
-                      "flat level")
+        return None, 0, ("landform pass not used with several style regions: each region is built on its own "
+                         "flat level")
     smallest = min(min(ex.heights.shape) for ex in lay.examples)
     f = coarse_factor(p.patch_size, smallest)
     if f is None:
         need = int(np.ceil(MIN_EXAMPLE_PATCHES * coarse_patch(p.patch_size, FACTORS[-1]) * FACTORS[-1]))
-        return None, (f"landform pass skipped: an example is only {smallest} cells across at "
-                      f"{_cells(lay.cell_size)}; structure larger than a patch needs {need}: a larger example, "
-                      "a coarser --cell-size or a smaller patch would help")
+        return None, 0, (f"landform pass skipped: an example is only {smallest} cells across at "
+                         f"{_cells(lay.cell_size)}; structure larger than a patch needs {need}: a larger example, "
+                         "a coarser --cell-size or a smaller patch would help")
     pc = coarse_patch(p.patch_size, f)
     shape = (-(-rows // f), -(-cols // f))
     if min(shape) < pc:
-        return None, None  # the whole output is about one landform: nothing to structure
+        return None, 0, None  # the whole output is about one landform: nothing to structure
     cell = None if lay.cell_size is None else lay.cell_size * f
     fields = [_coarsened(ex.heights, f, cell) for ex in lay.examples]
     c = session.controls
@@ -153,25 +173,40 @@ def landform_pass(session: Session) -> tuple[Landform | None, str | None]:
     sketch = None if session.sketch is None else session.sketch.resized(shape)
     from .session import Session  # the pass is a session of its own
     try:
-        coarse_session = Session(fields[:n_plain], sketch, shape=shape, params=params, controls=controls)
+        coarse = Session(fields[:n_plain], sketch, shape=shape, params=params, controls=controls)
     except ParamsError as exc:
-        return None, f"landform pass skipped: {exc}"
+        return None, 0, f"landform pass skipped: {exc}"
     for graph in (session.sketch_maps.ridges, session.sketch_maps.valleys):
-        have = sum(len(ex.samples[graph.kind]) for ex in coarse_session.examples)
+        have = sum(len(ex.samples[graph.kind]) for ex in coarse.examples)
         if graph.paths and have < MIN_COARSE_SAMPLES:
             # Every stroke would be built from the same one or two
             # landforms, chained patch after patch: a repeated, drifting
             # cross-section rather than structure.
-            return None, (f"landform pass skipped: the examples hold only {have} {graph.kind}(s) at the landform "
-                          f"scale ({pc * f} cells); a larger or more varied example would give structure "
-                          "larger than a patch")
-    coarse = coarse_session.run()
+            return None, 0, (f"landform pass skipped: the examples hold only {have} {graph.kind}(s) at the "
+                             f"landform scale ({pc * f} cells); a larger or more varied example would give "
+                             "structure larger than a patch")
+    return coarse, f, None
+
+
+def landform_from(session: Session, coarse, f: int) -> Landform:
+    """The level field of ``session`` from the coarse run's result.
+
+    Parameters
+    ----------
+    session : Session
+        The full-resolution session.
+    coarse : SynthesisResult
+        What :func:`coarse_session`'s session gave.
+    f : int
+        Its down-sampling.
+    """
+    p, lay, c = session.params, session.layout, session.controls
     heights = coarse.heights
     if c.height_range is None:  # (a height range maps the result onto itself at the end)
         heights = within_range(heights, float(lay.level.min()) + min(float(d.min()) for d in lay.detail),
                                float(lay.level.max()) + max(float(d.max()) for d in lay.detail))
     sigma = split_sigma(p.patch_size)
-    up = _upsampled(heights, f, (rows, cols))
+    up = _upsampled(heights, f, session.shape)
     level = landform_lowpass(up, sigma)
     if c.selection is not None:
         # A re-synthesis keeps the landforms it does not select: the level
@@ -183,7 +218,7 @@ def landform_pass(session: Session) -> tuple[Landform | None, str | None]:
         level = (previous + weight * (level - previous)).astype(np.float32)
     else:
         level = steer_level(level, c.pins, p.patch_size)
-    return Landform(level_under_stamps(level, lay.stamps, p.patch_size), sigma, coarse, f), None
+    return Landform(level_under_stamps(level, lay.stamps, p.patch_size), sigma, coarse, f)
 
 
 def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray:

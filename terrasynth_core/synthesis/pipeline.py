@@ -24,11 +24,11 @@ from ..matching.usage import UsageRegistry, window_cap
 from ..order.bfs import feature_order
 from ..placing.canvas import Canvas
 from ..placing.windows import WindowQueue, estimate_fill_count, fill_windows, region_seeds
-from .events import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
+from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 from .feature_patches import feature_pools, place_feature, place_stamp, pool_for, prepare_feature
 from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
 from .finish import finish_heights
-from .landform import landform_pass
+from .landform import coarse_session, landform_from
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
 
@@ -91,15 +91,28 @@ def run_pipeline(state: RunState) -> Iterator[object]:
 
 def landform_stage(state: RunState):
     """The coarse pass (:mod:`.landform`): its terrain becomes the level
-    field and the examples' detail is taken above the same low-pass."""
+    field and the examples' detail is taken above the same split.  Its
+    patches are announced as :class:`LandformProgress`, so a run can be
+    cancelled during it."""
     if not state.params.landform:
         return
     t = time.perf_counter()
     yield StageStarted("landform", 0)
-    landform, note = landform_pass(state.session)
+    coarse, f, note = coarse_session(state.session)
     if note:
         state.warnings.append(note)
-    if landform is not None:
+    if coarse is not None:
+        result = None
+        events = coarse.iter_run()
+        try:
+            for event in events:
+                if isinstance(event, PatchPlaced):
+                    yield LandformProgress(event.index + 1, event.total)
+                elif isinstance(event, SynthesisFinished):
+                    result = event.result
+        finally:
+            events.close()
+        landform = landform_from(state.session, result, f)
         detail, anchor = state.session.detail_above(landform.sigma)
         state.layout = replace(state.layout, level=landform.level, detail=detail, anchor=anchor)
     state.timings["landform"] = time.perf_counter() - t

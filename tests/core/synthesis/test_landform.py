@@ -135,3 +135,15 @@ def test_several_style_regions_keep_their_flat_levels(white_mountains, lowland, 
     session = Session([], y_sketch, params=P, controls=controls)
     landform, note = landform_pass(session)
     assert landform is None and "several style regions" in note
+
+
+def test_the_pass_reports_its_patches_and_can_be_cancelled_during_it(white_mountains, y_sketch):
+    from terrasynth_core.errors import SynthesisCancelled
+    from terrasynth_core.synthesis import LandformProgress
+
+    session = Session([white_mountains], y_sketch, params=P)
+    seen = []
+    with pytest.raises(SynthesisCancelled):
+        session.run(progress=seen.append, cancel=lambda: len(seen) >= 4)
+    assert [type(e).__name__ for e in seen] == ["StageStarted"] + ["LandformProgress"] * 3
+    assert all(isinstance(e, LandformProgress) and 0 < e.done <= e.total for e in seen[1:])
