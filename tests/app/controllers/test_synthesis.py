@@ -5,15 +5,15 @@ import time
 import numpy as np
 from PySide6.QtCore import QTimer
 
-from terrasynth_core.synthesis import PatchPlaced, StageFinished, StageStarted, SynthesisFinished
+from terrasynth_core.synthesis import LandformProgress, PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 from terrasynth_app.model import ExampleRef, RunStarted
 
 RUN_TIMEOUT_MS = 90_000
 
 
 #: The name each event of a run is logged under.
-_KINDS = {RunStarted: "run_started", StageStarted: "stage_started", PatchPlaced: "patch_placed",
-          StageFinished: "stage_finished", SynthesisFinished: "synthesis_finished"}
+_KINDS = {RunStarted: "run_started", StageStarted: "stage_started", LandformProgress: "landform_progress",
+          PatchPlaced: "patch_placed", StageFinished: "stage_finished", SynthesisFinished: "synthesis_finished"}
 
 
 def _record(runner):
@@ -48,6 +48,10 @@ def test_a_run_updates_the_views_patch_by_patch_then_shows_the_result(qtbot, win
     assert kinds[0] == "run_started" and kinds[-1] == "synthesis_finished"
     stages = [arg for k, arg in log if k == "stage_started"]
     assert stages == ["landform", "analyse", "features", "fill", "finish"]
+    # The coarse landform pass reports its patches before the analysis starts.
+    landform = [i for i, (k, _) in enumerate(log) if k == "landform_progress"]
+    analyse = log.index(("stage_started", "analyse"))
+    assert landform and max(landform) < analyse
     patches = [arg for k, arg in log if k == "patch_placed"]
     assert [p.index for p in patches] == list(range(len(patches)))
     assert any(p.kind == "fill" for p in patches) and any(p.kind != "fill" for p in patches)
