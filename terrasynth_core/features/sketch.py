@@ -115,10 +115,7 @@ class SketchMap:
             raise SketchError(
                 f"sketch image must be a uint8 array of shape (rows, cols, 3 or 4), got {a.dtype} {a.shape}"
             )
-        high = a[:, :, :3] >= 128
-        r, g, b = high[:, :, 0], high[:, :, 1], high[:, :, 2]
-        opaque = a[:, :, 3] >= 128 if a.shape[2] == 4 else True
-        return cls(r & ~g & ~b & opaque, b & ~r & ~g & opaque)
+        return cls(*_stroke_masks(a))
 
     def to_rgb(self) -> np.ndarray:
         """The sketch as an image: white background, red ridges, blue valleys.
@@ -223,6 +220,15 @@ def open_image(path: Path, what: str) -> Image.Image:
     return image
 
 
+def _stroke_masks(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ridge (red) and valley (blue) pixels of uint8 RGB(A) pixels; with
+    alpha, pixels under 128 are neither."""
+    high = rgb[:, :, :3] >= 128
+    r, g, b = high[:, :, 0], high[:, :, 1], high[:, :, 2]
+    opaque = rgb[:, :, 3] >= 128 if rgb.shape[2] == 4 else True
+    return r & ~g & ~b & opaque, b & ~r & ~g & opaque
+
+
 def read_sketch(path) -> SketchMap:
     """Read a sketch image file.
 
@@ -263,8 +269,7 @@ def read_sketch(path) -> SketchMap:
             valley = np.empty((rows, cols), bool)
             for r0 in range(0, rows, _CLASSIFY_ROWS):
                 r1 = min(r0 + _CLASSIFY_ROWS, rows)
-                band = SketchMap.from_rgb(np.asarray(image.crop((0, r0, cols, r1)).convert(target)))
-                ridge[r0:r1], valley[r0:r1] = band.ridge_mask, band.valley_mask
+                ridge[r0:r1], valley[r0:r1] = _stroke_masks(np.asarray(image.crop((0, r0, cols, r1)).convert(target)))
             sketch = SketchMap(ridge, valley)
             if not sketch.has_strokes:
                 # Transparent pixels say nothing, whatever colour they keep underneath.

@@ -64,7 +64,8 @@ class Candidate:
     deformation : float
         Cost described in the module docstring.
     prominence : float, default 1
-        The sample's prominence rank in its pool, 0 (least) to 1 (most).
+        The sample's prominence rank in its pool, 0 (least) to 1 (most); 0
+        when it fits more than :data:`PROMINENCE_SLACK` worse than the best.
     """
 
     example: int
@@ -136,7 +137,8 @@ class FeaturePool:
 
     def rank(self, sample: FeatureSample, count: int, rng: np.random.Generator, *,
              exclude: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> list[Candidate]:
-        """The ``count`` candidates of least deformation for ``sample``.
+        """The ``count`` candidates of least deformation (plus plainness,
+        see the module docstring) for ``sample``.
 
         Uses the pool's nearest degree when the exact one is missing (the
         session reports it).  Ties (e.g. all endpoints cost nothing) are
@@ -180,20 +182,20 @@ class FeaturePool:
         # Prominence reorders only candidates that fit nearly as well as
         # the best: a prominent feature warped far from its shape would be
         # stretched into streaks.
-        fits = cost <= cost.min() + PROMINENCE_SLACK
-        ranked = cost + PROMINENCE_WEIGHT * np.where(fits, 1.0 - np.repeat(prominence, n_align), 1.0)
-        if exclude is None:
-            take = np.argsort(ranked, kind="stable")[:count]
-        else:
-            penalty = np.repeat(np.asarray(exclude(ex_idx, centers)), n_align)
-            take = np.lexsort((ranked, penalty))[:count]
+        penalty = np.zeros(cost.shape) if exclude is None else np.repeat(np.asarray(exclude(ex_idx, centers)),
+                                                                          n_align)
+        # (Measured against the best candidate that may be used.)
+        fits = cost <= cost[penalty == penalty.min()].min() + PROMINENCE_SLACK
+        standing = np.where(fits, np.repeat(prominence, n_align), 0.0)
+        ranked = cost + PROMINENCE_WEIGHT * (1.0 - standing)
+        take = np.lexsort((ranked, penalty))[:count]
         target = np.vstack([[0.0, 0.0], src]) * self.radius + sample.center
         out = []
         for t in take:
             ci, ai = divmod(int(t), n_align)
             ctrl = np.vstack([[0.0, 0.0], flat[t]]) * self.radius + centers[ci]
             out.append(Candidate(int(ex_idx[ci]), centers[ci].copy(), ctrl, target, bool(mflat[t]), float(cost[t]),
-                                 float(prominence[ci])))
+                                 float(standing[t])))
         return out
 
 

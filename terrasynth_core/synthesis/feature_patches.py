@@ -197,8 +197,8 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
     existing = canvas.heights[r0:r1, c0:c1] - level
     relief = float(layout.relief[warped[0][0].example])
     evaluated = []
-    weight = float(layout.anchor[warped[0][0].example])
     for cand, patch in warped:
+        weight = float(layout.anchor[cand.example])
         ssd, offset = settle(*overlap_ssd(existing, patch, filled), weight=weight)
         score = match_cost(ssd, offset, relief, weight) + feature_weight * cand.deformation + cand.plainness
         evaluated.append((score, ssd, offset, patch, cand))

@@ -69,12 +69,14 @@ class Landform:
     ----------
     level : ndarray of float32, shape (rows, cols)
         Coarse terrain at the output's size, low-passed
-        (:func:`landform_lowpass`), metres (pins already steer it).
+        (:func:`landform_lowpass`), metres: bent through the pins, flat
+        under stamps, and in a re-synthesis the previous terrain's outside
+        the selection.
     sigma : float
         The low-pass's standard deviation, output cells: the examples'
         detail is each example minus the same low-pass of itself.
     coarse : SynthesisResult
-        The coarse run (for debugging and the report).
+        The coarse run (for inspection and the tests).
     factor : int
         The coarse grid's down-sampling.
     """
@@ -206,15 +208,14 @@ def landform_from(session: Session, coarse, f: int) -> Landform:
         heights = within_range(heights, float(lay.level.min()) + min(float(d.min()) for d in lay.detail),
                                float(lay.level.max()) + max(float(d.max()) for d in lay.detail))
     sigma = split_sigma(p.patch_size)
-    up = _upsampled(heights, f, session.shape)
+    up = _upsampled(heights, session.shape)
     level = landform_lowpass(up, sigma)
     if c.selection is not None:
         # A re-synthesis keeps the landforms it does not select: the level
         # follows the previous terrain outside the selection and moves to
         # the new landforms over about a patch inside it.
         previous = ndimage.gaussian_filter(c.previous.astype(np.float64), sigma, mode="reflect")
-        weight = ndimage.gaussian_filter(c.selection.astype(np.float64), p.patch_size / 4, mode="constant")
-        weight = np.where(c.selection, weight, 0.0)
+        weight = _smoothstep(ndimage.distance_transform_edt(c.selection) / max(p.patch_size / 4, 1.0))
         level = (previous + weight * (level - previous)).astype(np.float32)
     else:
         level = steer_level(level, c.pins, p.patch_size)
@@ -226,7 +227,8 @@ def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray
 
     A stamp is a landmark the artist placed as it is: it stands on the
     landform's mean height there instead of being tilted by it; the level
-    returns to the landform over about an eighth of a patch around it.
+    returns to the landform over half a patch around it, smoothly (no step
+    where the core ends).
 
     Parameters
     ----------
@@ -244,7 +246,8 @@ def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray
         core[r0:r1, c0:c1] = st.core
         if not core.any():
             continue
-        weight = np.maximum(ndimage.gaussian_filter(core.astype(np.float64), patch_size / 8), core)
+        # 1 on the core, easing to 0 over half a patch around it.
+        weight = 1.0 - _smoothstep(ndimage.distance_transform_edt(~core) / max(patch_size / 2, 1.0))
         level = (level + weight * (float(level[core].mean()) - level)).astype(np.float32)
     return level
 
@@ -262,8 +265,9 @@ def within_range(heights: np.ndarray, lo: float, hi: float) -> np.ndarray:
     (a ridge that climbs in its example climbs again in the next patch);
     over a long stroke that adds up to heights no example has.  At the
     landform scale the terrain is smooth, so a uniform squeeze of its
-    spread about the median (and a shift when the median itself is out)
-    fixes that without bending any feature.
+    spread about the median (only when the spread is wider than the
+    examples') and the least shift that brings it inside fix that without
+    bending any feature.
 
     Parameters
     ----------
@@ -281,13 +285,13 @@ def within_range(heights: np.ndarray, lo: float, hi: float) -> np.ndarray:
     p_lo, med, p_hi = np.percentile(heights, [RANGE_TAIL, 50, 100 - RANGE_TAIL])
     if lo <= p_lo and p_hi <= hi:
         return heights
-    centre = min(max(float(med), lo), hi)
-    scale = 1.0
-    if p_hi > centre:
-        scale = min(scale, (hi - centre) / (p_hi - med + 1e-9))
-    if p_lo < centre:
-        scale = min(scale, (centre - lo) / (med - p_lo + 1e-9))
-    return (centre + max(scale, 0.0) * (heights - med)).astype(np.float32)
+    # Squeeze about the median only as much as the spread must, then shift
+    # by the least that brings both percentiles inside.
+    scale = min(1.0, (hi - lo) / max(float(p_hi - p_lo), 1e-9))
+    out = med + scale * (heights.astype(np.float64) - med)
+    new_lo, new_hi = med + scale * (p_lo - med), med + scale * (p_hi - med)
+    shift = max(lo - new_lo, 0.0) + min(hi - new_hi, 0.0)
+    return (out + shift).astype(np.float32)
 
 
 def detail_above(heights: np.ndarray, sigma: float) -> np.ndarray:
@@ -353,13 +357,20 @@ def _coarsened(heights: np.ndarray, f: int, cell: float | None) -> HeightField:
     return HeightField(coarse, cell_size=None if cell is None else (cell, cell))
 
 
-def _upsampled(coarse: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
+def _upsampled(coarse: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Cubic interpolation of the coarse grid at the output's cell centres."""
+    # The coarse grid spans the whole output (the sketch was scaled onto
+    # it), so a coarse cell covers rows / R output rows, not exactly f.
     rows, cols = shape
-    r = (np.arange(rows) + 0.5) / f - 0.5
-    c = (np.arange(cols) + 0.5) / f - 0.5
+    r = (np.arange(rows) + 0.5) * coarse.shape[0] / rows - 0.5
+    c = (np.arange(cols) + 0.5) * coarse.shape[1] / cols - 0.5
     rr, cc = np.meshgrid(r, c, indexing="ij")
     return ndimage.map_coordinates(coarse.astype(np.float64), [rr, cc], order=3, mode="nearest")
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
 
 
 def _cells(cell_size: float | None) -> str:

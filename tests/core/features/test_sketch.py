@@ -349,3 +349,18 @@ def test_sketch_in_other_colours_is_refused_but_a_blank_canvas_is_not(tmp_path):
         read_sketch(tmp_path / "paper_style.png")
     Image.fromarray(np.full((50, 50, 3), 255, np.uint8)).save(tmp_path / "blank.png")
     assert not read_sketch(tmp_path / "blank.png").has_strokes
+
+
+@pytest.mark.parametrize("rows", [513, 1025])
+def test_a_sketch_read_in_bands_keeps_every_row(tmp_path, rows):
+    """Images are classified band by band: a last band of one row is read too."""
+    from PIL import Image
+
+    rgb = np.full((rows, 40, 3), 255, np.uint8)
+    rgb[-1, 5:30] = (255, 0, 0)  # a ridge on the very last row
+    rgb[0, 5:30] = (0, 0, 255)
+    Image.fromarray(rgb).save(tmp_path / "tall.png")
+    sketch = read_sketch(tmp_path / "tall.png")
+    assert sketch.shape == (rows, 40)
+    assert sketch.ridge_mask[-1, 5:30].all() and sketch.ridge_mask.sum() == 25
+    assert sketch.valley_mask[0, 5:30].all() and sketch.valley_mask.sum() == 25

@@ -75,8 +75,8 @@ CASES = {
 #: levels and the prominence ranking of feature candidates, and with the
 #: water shaping lifting the inner half of a bank fully to the shore.
 GOLDEN = {
-    "y_junction": "3801459d4201f57b05e81fde658d249443c45c675335a2c916aaaa859fdab87c",
-    "ring_cross_raster": "f852f2cd0970074c5fb93ad0099d5893fb79fa096c8f3793b8e8bf57b3d386f0",
+    "y_junction": "607e6dd3d27d5ccdaa53ca750a3033cacb3f0305259c474b10c666c54ff9c6d4",
+    "ring_cross_raster": "7bde6ec00d976198370c6f6040c9192a21115b05efaabd85f384750938d2bcc4",
     "styles_stamp_water_pin": "ddfeaf8309d4b3858d2330f6b6494723c37d48adf22d172f30e09d77f1a0541b",
 }
 
