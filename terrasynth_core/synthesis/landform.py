@@ -265,9 +265,8 @@ def within_range(heights: np.ndarray, lo: float, hi: float) -> np.ndarray:
     (a ridge that climbs in its example climbs again in the next patch);
     over a long stroke that adds up to heights no example has.  At the
     landform scale the terrain is smooth, so a uniform squeeze of its
-    spread about the median (only when the spread is wider than the
-    examples') and the least shift that brings it inside fix that without
-    bending any feature.
+    spread about the median (after moving a median that lies outside the
+    range to the range's middle) fixes that without bending any feature.
 
     Parameters
     ----------
@@ -285,13 +284,19 @@ def within_range(heights: np.ndarray, lo: float, hi: float) -> np.ndarray:
     p_lo, med, p_hi = np.percentile(heights, [RANGE_TAIL, 50, 100 - RANGE_TAIL])
     if lo <= p_lo and p_hi <= hi:
         return heights
-    # Squeeze about the median only as much as the spread must, then shift
-    # by the least that brings both percentiles inside.
-    scale = min(1.0, (hi - lo) / max(float(p_hi - p_lo), 1e-9))
-    out = med + scale * (heights.astype(np.float64) - med)
-    new_lo, new_hi = med + scale * (p_lo - med), med + scale * (p_hi - med)
-    shift = max(lo - new_lo, 0.0) + min(hi - new_hi, 0.0)
-    return (out + shift).astype(np.float32)
+    out = heights.astype(np.float64)
+    if not lo <= med <= hi:
+        # The whole terrain sank or rose: bring its median to the middle of
+        # the range first (a squeeze about an outside median would flatten it).
+        shift = (lo + hi) / 2.0 - med
+        out, p_lo, med, p_hi = out + shift, p_lo + shift, med + shift, p_hi + shift
+    # Squeeze the spread about the median into the room on either side.
+    scale = 1.0
+    if p_hi > hi:
+        scale = min(scale, (hi - med) / max(float(p_hi - med), 1e-9))
+    if p_lo < lo:
+        scale = min(scale, (med - lo) / max(float(med - p_lo), 1e-9))
+    return (med + scale * (out - med)).astype(np.float32)
 
 
 def detail_above(heights: np.ndarray, sigma: float) -> np.ndarray:
