@@ -75,7 +75,9 @@ FULL_DEPTH_CELLS = 12.0
 SHORE_SMOOTHING = 1.5
 
 
-def _smoothstep(x: np.ndarray) -> np.ndarray:
+def smoothstep(x: np.ndarray) -> np.ndarray:
+    """0 below 0, 1 above 1, and the cubic 3x^2 - 2x^3 between: a ramp
+    with no kink at either end."""
     x = np.clip(x, 0.0, 1.0)
     return x * x * (3.0 - 2.0 * x)
 
@@ -125,7 +127,7 @@ def apply_water(heights: np.ndarray, water: Water, *, bank_width: float,
         signed = ndimage.gaussian_filter(signed, SHORE_SMOOTHING)
         d_in = np.where(mask, np.maximum(-signed, 0.0) + 0.5, 0.0)
         d_out = np.where(mask, 0.0, np.maximum(signed, 0.0) + 0.5)
-    t_in = _smoothstep((d_in - 0.5) / FULL_DEPTH_CELLS)
+    t_in = smoothstep((d_in - 0.5) / FULL_DEPTH_CELLS)
     bed = level - lip - depth * t_in
     # Terrain deeper than the bed keeps its shape (a soft minimum, smooth
     # where they cross), fading in with the bed's depth so the water still
@@ -134,12 +136,12 @@ def apply_water(heights: np.ndarray, water: Water, *, bank_width: float,
     deeper = np.minimum(-k * np.logaddexp(0.0, (bed - h) / k) + k * math.log(2.0), 0.0)
     wet = bed + t_in * deeper
     shore = level + lip
-    t = _smoothstep((d_out - 1.0) / max(width, 1.0)) if width > 0 else np.ones(mask.shape)
+    t = smoothstep((d_out - 1.0) / max(width, 1.0)) if width > 0 else np.ones(mask.shape)
     # The broad shape eases down over the whole bank; the fine detail
     # returns within its first quarter, so banks keep the style's texture
     # instead of becoming smooth ramps.
     broad = ndimage.gaussian_filter(h, max(width / 4.0, 1.0), mode="nearest")
-    t_fine = _smoothstep((d_out - 1.0) / max(width / 4.0, 1.0))
+    t_fine = smoothstep((d_out - 1.0) / max(width / 4.0, 1.0))
     dry = shore + t * (broad - shore) + t_fine * (h - broad)
     # Land below the shore level is lifted too: fully over the inner half of
     # the bank (the fine detail, back within its first quarter, would dip
@@ -147,13 +149,13 @@ def apply_water(heights: np.ndarray, water: Water, *, bank_width: float,
     # the bank's outer edge; beyond the bank it is left alone (see
     # flooded_land()).
     half = max(width / 2.0, 0.5)
-    lift = 1.0 - _smoothstep((d_out - 1.0 - half) / half) if width > 0 else np.zeros(mask.shape)
+    lift = 1.0 - smoothstep((d_out - 1.0 - half) / half) if width > 0 else np.zeros(mask.shape)
     dry = dry + lift * np.maximum(shore - dry, 0.0)
     new = np.where(mask, wet, dry)
     if locked is not None and locked.any():
         # Ease the change in from the locked cells over the bank width, so
         # water shaped inside a re-synthesis does not end in a step.
-        ease = _smoothstep((ndimage.distance_transform_edt(~locked) - 0.5) / max(width, 1.0))
+        ease = smoothstep((ndimage.distance_transform_edt(~locked) - 0.5) / max(width, 1.0))
         new = np.where(locked, h, h + ease * (new - h))
     return new.astype(np.float32)
 

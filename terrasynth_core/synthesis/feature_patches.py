@@ -40,8 +40,11 @@ def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
     """
     pools = {}
     everyone = list(range(len(layout.examples)))
+    # One map per example serves both kinds.
+    maps = [standing_map(ex.heights, 2 * radius) if any(ex.samples[k] for k in ("ridge", "valley")) else None
+            for ex in layout.examples]
     for kind in ("ridge", "valley"):
-        standing = [sample_prominence(ex.heights, ex.samples[kind], kind, 2 * radius) for ex in layout.examples]
+        standing = [sample_prominence(m, ex.samples[kind], kind) for m, ex in zip(maps, layout.examples)]
         for g, members in enumerate(layout.members + [everyone]):
             key = (kind, g if g < len(layout.members) else None)
             pools[key] = FeaturePool([(i, layout.examples[i].samples[kind]) for i in members], radius,
@@ -49,10 +52,9 @@ def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
     return pools
 
 
-def sample_prominence(heights: np.ndarray, samples: list[FeatureSample], kind: str, size: float) -> np.ndarray:
-    """How far each sample's centre stands above (ridges) or below
-    (valleys) the mean of the ``size`` x ``size`` cells around it, in
-    standard deviations of those cells.
+def standing_map(heights: np.ndarray, size: float) -> np.ndarray:
+    """How far each cell stands above the mean of the ``size`` x ``size``
+    cells around it, in standard deviations of those cells.
 
     In units of the surroundings' own spread, a main ridge of gentle
     country ranks with one of rugged country: strokes get their
@@ -63,10 +65,33 @@ def sample_prominence(heights: np.ndarray, samples: list[FeatureSample], kind: s
     ----------
     heights : ndarray of float32, shape (H, W)
         The example, metres.
-    samples : list of FeatureSample
-    kind : {"ridge", "valley"}
     size : float
         Neighbourhood side, cells (a patch).
+
+    Returns
+    -------
+    ndarray of float64, shape (H, W)
+        Standard deviations (negative below the surroundings).
+    """
+    h = heights.astype(np.float64)
+    around = ndimage.uniform_filter(h, int(size) | 1, mode="reflect")
+    spread = np.sqrt(np.maximum(ndimage.uniform_filter(h * h, int(size) | 1, mode="reflect") - around**2, 1e-6))
+    # The centre's own height is read over a small disc so that a sample a
+    # cell off its crest or floor is not demoted.
+    local = ndimage.uniform_filter(h, max(3, int(size) // 16 | 1), mode="reflect")
+    return (local - around) / spread
+
+
+def sample_prominence(standing: np.ndarray | None, samples: list[FeatureSample], kind: str) -> np.ndarray:
+    """Each sample's prominence: its centre's :func:`standing_map` value,
+    upwards for ridges, downwards for valleys.
+
+    Parameters
+    ----------
+    standing : ndarray of float, shape (H, W), or None
+        The example's :func:`standing_map` (None only without samples).
+    samples : list of FeatureSample
+    kind : {"ridge", "valley"}
 
     Returns
     -------
@@ -75,16 +100,10 @@ def sample_prominence(heights: np.ndarray, samples: list[FeatureSample], kind: s
     """
     if not samples:
         return np.zeros(0)
-    h = heights.astype(np.float64)
-    around = ndimage.uniform_filter(h, int(size) | 1, mode="reflect")
-    spread = np.sqrt(np.maximum(ndimage.uniform_filter(h * h, int(size) | 1, mode="reflect") - around**2, 1e-6))
-    # The centre's own height is read over a small disc so that a sample a
-    # cell off its crest or floor is not demoted.
-    local = ndimage.uniform_filter(h, max(3, int(size) // 16 | 1), mode="reflect")
-    rows, cols = h.shape
+    rows, cols = standing.shape
     at = np.array([[min(max(int(round(s.center[0])), 0), rows - 1), min(max(int(round(s.center[1])), 0), cols - 1)]
                    for s in samples])
-    above = (local[at[:, 0], at[:, 1]] - around[at[:, 0], at[:, 1]]) / spread[at[:, 0], at[:, 1]]
+    above = standing[at[:, 0], at[:, 1]]
     return above if kind == "ridge" else -above
 
 

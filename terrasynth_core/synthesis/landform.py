@@ -29,6 +29,7 @@ from scipy import ndimage
 
 from ..controls.levels import steer_level
 from ..controls.options import Controls
+from ..controls.water import smoothstep
 from ..errors import ParamsError
 from ..heightfield import HeightField
 
@@ -215,7 +216,7 @@ def landform_from(session: Session, coarse, f: int) -> Landform:
         # follows the previous terrain outside the selection and moves to
         # the new landforms over about a patch inside it.
         previous = ndimage.gaussian_filter(c.previous.astype(np.float64), sigma, mode="reflect")
-        weight = _smoothstep(ndimage.distance_transform_edt(c.selection) / max(p.patch_size / 4, 1.0))
+        weight = smoothstep(ndimage.distance_transform_edt(c.selection) / max(p.patch_size / 4, 1.0))
         level = (previous + weight * (level - previous)).astype(np.float32)
     else:
         level = steer_level(level, c.pins, p.patch_size)
@@ -247,7 +248,7 @@ def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray
         if not core.any():
             continue
         # 1 on the core, easing to 0 over half a patch around it.
-        weight = 1.0 - _smoothstep(ndimage.distance_transform_edt(~core) / max(patch_size / 2, 1.0))
+        weight = 1.0 - smoothstep(ndimage.distance_transform_edt(~core) / max(patch_size / 2, 1.0))
         level = (level + weight * (float(level[core].mean()) - level)).astype(np.float32)
     return level
 
@@ -371,11 +372,6 @@ def _upsampled(coarse: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     c = (np.arange(cols) + 0.5) * coarse.shape[1] / cols - 0.5
     rr, cc = np.meshgrid(r, c, indexing="ij")
     return ndimage.map_coordinates(coarse.astype(np.float64), [rr, cc], order=3, mode="nearest")
-
-
-def _smoothstep(x: np.ndarray) -> np.ndarray:
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)
 
 
 def _cells(cell_size: float | None) -> str:
