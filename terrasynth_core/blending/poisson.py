@@ -26,6 +26,7 @@ from scipy import ndimage, sparse
 from scipy.sparse.linalg import splu
 
 from ..errors import ParamsError
+from .rectangle import open_edges, rectangle_solver
 
 BlendMode = Literal["poisson", "c1"]
 
@@ -103,10 +104,10 @@ def remove_seam(
     on edges crossing the seam (``take_new`` differs at the two ends).  A
     connected group of free pixels with no edge to a fixed pixel
     has nothing to anchor it and is returned unchanged.  The normal
-    equations (a sparse graph Laplacian) are solved directly; the last few
-    factorizations are cached by mask, so windows with the same region and
-    fixed pixels (common in a regular fill) only pay for the
-    back-substitution.
+    equations (a sparse graph Laplacian) are solved directly: by sine
+    transforms and a small dense system when the free pixels form a solid
+    rectangle (:mod:`.rectangle`, nearly every fill window), else by a
+    sparse LU whose last few factorizations are cached by mask.
     """
     h0 = np.asarray(heights)
     if h0.ndim != 2 or min(h0.shape) < 1:
@@ -175,9 +176,26 @@ def remove_seam(
     rhs = np.bincount(q_idx[q_idx >= 0], r[q_idx >= 0], minlength=n) - np.bincount(
         p_idx[p_idx >= 0], r[p_idx >= 0], minlength=n
     )
-    solver = _laplacian_solver(free, known, p_idx, q_idx)
-    result[free] = (values[free] + solver.solve(rhs)).astype(np.float32)
+    result[free] = (values[free] + _solve(free, known, p_idx, q_idx, rhs)).astype(np.float32)
     return result
+
+
+def _solve(free: np.ndarray, known: np.ndarray, p_idx: np.ndarray, q_idx: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """The change at the free pixels (row-major), ``L^-1 rhs``.
+
+    A solid rectangle of free pixels (a fill window, nearly always) goes to
+    the fast rectangle solver; any other shape to a sparse factorization.
+    """
+    rows = np.flatnonzero(free.any(axis=1))
+    cols = np.flatnonzero(free.any(axis=0))
+    block = (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
+    if rhs.size == (block[1] - block[0]) * (block[3] - block[2]):
+        solver = rectangle_solver((block[1] - block[0], block[3] - block[2]))
+        try:
+            return solver.solve(rhs, *solver.capacitance(open_edges(block, known)))
+        except np.linalg.LinAlgError:
+            pass  # too weakly anchored for the small dense system: factorize
+    return _laplacian_solver(free, known, p_idx, q_idx).solve(rhs)
 
 
 #: Factorizations kept for reuse, keyed by the free and known masks.  The
