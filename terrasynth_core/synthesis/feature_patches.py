@@ -226,6 +226,8 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
     keep_new = (rr - sample.center[0]) ** 2 + (cc - sample.center[1]) ** 2 <= (radius / 2) ** 2
     best = None
     for score, ssd, offset, patch, cand in evaluated[:k]:
+        if best is not None and score >= best[0]:
+            break  # cheapest first, and a seam never costs less than 0
         placed = patch + np.float32(offset) + level
         cut = canvas.cut(bbox, placed, keep_new=keep_new, relief=relief)
         total = score + cut.normalized_cost

@@ -103,6 +103,8 @@ def choose_fill(canvas: Canvas, bbox, options: list[tuple], layout: StyleLayout,
     level = layout.level[r0:r1, c0:c1]
     best = None
     for score, ssd, offset, ei, (er, ec), relief in options:
+        if best is not None and score >= best[0]:
+            break  # options come cheapest first and a seam never costs less than 0
         patch = layout.detail[ei][er:er + patch_size, ec:ec + patch_size] + np.float32(offset) + level
         cut = canvas.cut(bbox, patch, relief=relief)
         total = score + cut.normalized_cost
