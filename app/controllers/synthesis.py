@@ -18,7 +18,7 @@ import time
 from PySide6.QtCore import QObject, QTimer, Signal
 
 from terrasynth_core.errors import TerraSynthError
-from terrasynth_core.synthesis import PatchPlaced, StageStarted, SynthesisFinished
+from terrasynth_core.synthesis import LandformProgress, PatchPlaced, StageStarted, SynthesisFinished
 
 from ..model import (MAX_SEED, Document, RunStarted, TerrainResult, VariationMade, synthesis_events,
                      variation_events)
@@ -96,6 +96,10 @@ class SynthesisController(_RunController):
         A :class:`~terrasynth_app.model.RunInfo`: views start a new canvas.
     patch_placed(object)
         The core's ``PatchPlaced`` event.
+    landform_preview(object)
+        The core's ``LandformProgress`` event: a coarse patch stretched onto
+        the output (``bbox`` and ``heights`` as a patch's), shown until the
+        full-resolution patches replace it.
     stage_changed(str)
         What the run is doing, for a status label.
     progress_changed(int, int, str)
@@ -116,6 +120,7 @@ class SynthesisController(_RunController):
 
     run_started = Signal(object)
     patch_placed = Signal(object)
+    landform_preview = Signal(object)
     stage_changed = Signal(str)
     progress_changed = Signal(int, int, str)
     finished = Signal(object)
@@ -129,7 +134,8 @@ class SynthesisController(_RunController):
         self._progress_timer = QTimer(self, singleShot=True, interval=progress_ms)
         self._progress_timer.timeout.connect(self._send_progress)
         self._handlers = {RunStarted: self._run_started, StageStarted: self._stage_started,
-                          PatchPlaced: self._patch_placed, SynthesisFinished: self._synthesis_finished}
+                          PatchPlaced: self._patch_placed, SynthesisFinished: self._synthesis_finished,
+                          LandformProgress: self.landform_preview.emit}
 
     def synthesize(self) -> None:
         """Start a run with the document as it is now (cancelling a running one)."""

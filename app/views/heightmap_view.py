@@ -194,7 +194,7 @@ class HeightmapView(QWidget):
         self._timer.start()
 
     def paste_patch(self, event) -> None:
-        """Paste a core ``PatchPlaced`` event into the buffer and outline it."""
+        """Paste a core ``PatchPlaced`` event (or a ``LandformProgress`` preview) into the buffer and outline it."""
         if self.heights is None:
             return
         r0, r1, c0, c1 = event.bbox

@@ -168,6 +168,8 @@ class MainWindow(QMainWindow):
         s.run_started.connect(self._begin_run)
         s.patch_placed.connect(self.heightmap.paste_patch)
         s.patch_placed.connect(self.view3d.paste_patch)
+        s.landform_preview.connect(self.heightmap.paste_patch)
+        s.landform_preview.connect(self.view3d.paste_patch)
         s.failed.connect(self._show_document_result)
         s.cancelled.connect(self._show_document_result)
 

@@ -195,7 +195,7 @@ class TerrainView3D(QWidget):
         self._schedule()
 
     def paste_patch(self, event) -> None:
-        """Paste a core ``PatchPlaced`` event; the next timer tick redraws."""
+        """Paste a core ``PatchPlaced`` event (or a ``LandformProgress`` preview); the next timer tick redraws."""
         if self.heights is None:
             return
         r0, r1, c0, c1 = event.bbox

@@ -57,12 +57,24 @@ class PatchPlaced:
 
 @dataclass(frozen=True)
 class LandformProgress:
-    """A patch of the coarse landform pass was placed (in the coarse grid,
-    not shown): ``done`` of about ``total``.  Lets a consumer show that the
-    run moves, and cancel it, during the pass."""
+    """A patch of the coarse landform pass was placed: ``done`` of about
+    ``total``.  Lets a consumer show that the run moves, and cancel it,
+    during the pass, and paint a preview of the landforms as they grow.
+
+    Parameters
+    ----------
+    done, total : int
+    bbox : (r0, r1, c0, c1)
+        The coarse patch's window, in output cells.
+    heights : ndarray of float32, shape (r1 - r0, c1 - c0)
+        The coarse terrain there, stretched onto the output's cells
+        (metres; a preview: the full-resolution pass replaces it).
+    """
 
     done: int
     total: int
+    bbox: tuple[int, int, int, int]
+    heights: np.ndarray
 
 
 @dataclass(frozen=True)

@@ -363,6 +363,38 @@ def _coarsened(heights: np.ndarray, f: int, cell: float | None) -> HeightField:
     return HeightField(coarse, cell_size=None if cell is None else (cell, cell))
 
 
+def preview_patch(bbox: tuple[int, int, int, int], heights: np.ndarray, coarse_shape: tuple[int, int],
+                  shape: tuple[int, int]) -> tuple[tuple[int, int, int, int], np.ndarray]:
+    """A coarse patch as it would look on the output: its window in output
+    cells and its heights stretched bilinearly onto it (a preview that the
+    full-resolution pass soon replaces).
+
+    Parameters
+    ----------
+    bbox : (r0, r1, c0, c1)
+        The patch's window on the coarse grid.
+    heights : ndarray of float32, shape (r1 - r0, c1 - c0)
+        Its heights, metres.
+    coarse_shape, shape : (rows, cols)
+        The coarse grid and the output.
+
+    Returns
+    -------
+    bbox : (r0, r1, c0, c1)
+        The window on the output, clipped to it.
+    heights : ndarray of float32
+        The window's shape.
+    """
+    sr, sc = shape[0] / coarse_shape[0], shape[1] / coarse_shape[1]
+    r0, r1, c0, c1 = bbox
+    out = (int(r0 * sr), min(shape[0], int(np.ceil(r1 * sr))), int(c0 * sc), min(shape[1], int(np.ceil(c1 * sc))))
+    # Output cell centres in the patch's own coarse coordinates.
+    r = (np.arange(out[0], out[1]) + 0.5) / sr - 0.5 - r0
+    c = (np.arange(out[2], out[3]) + 0.5) / sc - 0.5 - c0
+    rr, cc = np.meshgrid(r, c, indexing="ij")
+    return out, ndimage.map_coordinates(heights, [rr, cc], order=1, mode="nearest").astype(np.float32)
+
+
 def _upsampled(coarse: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Cubic interpolation of the coarse grid at the output's cell centres."""
     # The coarse grid spans the whole output (the sketch was scaled onto

@@ -10,13 +10,14 @@ draws depends neither on thread timing nor on the other patches.
 
 from __future__ import annotations
 
+import functools
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 from ..controls.layout import StyleLayout
 from ..controls.options import Controls
@@ -29,7 +30,7 @@ from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, 
 from .feature_patches import feature_pools, place_feature, place_stamp, pool_for, prepare_feature
 from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
 from .finish import finish_heights
-from .landform import coarse_session, landform_from
+from .landform import landform_from, preview_patch
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
 
@@ -73,6 +74,12 @@ class RunState:
                            self.canvas.heights[r0:r1, c0:c1].copy(), rec.cost)
 
 
+@functools.cache
+def _blas_threads() -> ThreadpoolController:
+    """The process's BLAS libraries, found once (a search takes ~10 ms)."""
+    return ThreadpoolController()
+
+
 def run_pipeline(state: RunState) -> Iterator[object]:
     """Run stage by stage, yielding the events; the last is
     :class:`SynthesisFinished` with the result.
@@ -86,7 +93,7 @@ def run_pipeline(state: RunState) -> Iterator[object]:
     # The run's own threads keep both cores busy; BLAS threads on top of
     # them only contend (a 300x300 Cholesky of a seam solve took 60x longer
     # with OpenBLAS's threads fighting the search thread).
-    with threadpool_limits(limits=1, user_api="blas"):
+    with _blas_threads().limit(limits=1, user_api="blas"):
         yield from landform_stage(state)
         samples, pools = yield from analyse_stage(state)
         yield from feature_stage(state, samples, pools)
@@ -97,13 +104,14 @@ def run_pipeline(state: RunState) -> Iterator[object]:
 def landform_stage(state: RunState):
     """The coarse pass (:mod:`.landform`): its terrain becomes the level
     field and the examples' detail is taken above the same split.  Its
-    patches are announced as :class:`LandformProgress`, so a run can be
-    cancelled during it."""
+    patches are announced as :class:`LandformProgress` with a preview on
+    the output's grid, so a viewer shows landforms within a tenth of a
+    second and a run can be cancelled during the pass."""
     if not state.params.landform:
         return
     t = time.perf_counter()
     yield StageStarted("landform", 0)
-    coarse, f, note = coarse_session(state.session)
+    coarse, f, note = state.session.coarse_pass()
     if note:
         state.warnings.append(note)
     if coarse is not None:
@@ -112,7 +120,8 @@ def landform_stage(state: RunState):
         try:
             for event in events:
                 if isinstance(event, PatchPlaced):
-                    yield LandformProgress(event.index + 1, event.total)
+                    bbox, heights = preview_patch(event.bbox, event.heights, coarse.shape, state.session.shape)
+                    yield LandformProgress(event.index + 1, event.total, bbox, heights)
                 elif isinstance(event, SynthesisFinished):
                     result = event.result
         finally:

@@ -29,7 +29,7 @@ from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
 from ..io.resample import output_georeference
 from .events import SynthesisFinished
-from .landform import detail_above
+from .landform import coarse_session, detail_above
 from .params import SynthesisParams
 from .pipeline import RunState, run_pipeline
 from .result import SynthesisResult
@@ -108,6 +108,7 @@ class Session:
         #: How many of the layout's examples are plain ones (the rest are styles').
         self.n_plain = len(examples)
         self._detail_above: dict[float, list] = {}
+        self._coarse = None
         self.warnings: list[str] = list(self.layout.notes)
         self.sketch_maps = self._sketch_maps()
         self._check_features()
@@ -138,6 +139,13 @@ class Session:
                     f"from its border for a {self.params.patch_size}-cell patch: choose a larger or more "
                     "rugged example, or a smaller patch size"
                 )
+
+    def coarse_pass(self):
+        """The landform pass's session, factor and note (memoised: a session
+        may run again), see :func:`.landform.coarse_session`."""
+        if self._coarse is None:
+            self._coarse = coarse_session(self)
+        return self._coarse
 
     def detail_above(self, sigma: float) -> tuple[list[np.ndarray], np.ndarray]:
         """Each example's detail above its low-pass and its shift weight

@@ -55,7 +55,11 @@ def test_a_run_updates_the_views_patch_by_patch_then_shows_the_result(qtbot, win
     patches = [arg for k, arg in log if k == "patch_placed"]
     assert [p.index for p in patches] == list(range(len(patches)))
     assert any(p.kind == "fill" for p in patches) and any(p.kind != "fill" for p in patches)
-    assert mismatches == [] and view.patches_pasted == len(patches)
+    # The views paint each landform preview as it comes, then every patch.
+    previews = [arg for k, arg in log if k == "landform_progress"]
+    assert all(event.heights.shape == (event.bbox[1] - event.bbox[0], event.bbox[3] - event.bbox[2])
+               for event in previews)
+    assert mismatches == [] and view.patches_pasted == len(previews) + len(patches)
     # Feature patches come while the "features" stage runs, fill patches after.
     first_fill = kinds.index("stage_started", kinds.index("stage_finished"))
     assert all(p.kind != "fill" for k, p in log[:first_fill] if k == "patch_placed")

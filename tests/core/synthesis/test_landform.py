@@ -156,3 +156,27 @@ def test_the_pass_reports_its_patches_and_can_be_cancelled_during_it(white_mount
         session.run(progress=seen.append, cancel=lambda: len(seen) >= 4)
     assert [type(e).__name__ for e in seen] == ["StageStarted"] + ["LandformProgress"] * 3
     assert all(isinstance(e, LandformProgress) and 0 < e.done <= e.total for e in seen[1:])
+
+
+def test_the_pass_previews_its_patches_on_the_output_grid(white_mountains, y_sketch):
+    """Each coarse patch comes with its terrain stretched onto the output's
+    cells, so a viewer paints landforms long before the first fine patch;
+    the previews cover the output and hold the coarse run's heights."""
+    from terrasynth_core.synthesis import LandformProgress
+
+    session = Session([white_mountains], y_sketch, params=P)
+    covered = np.zeros(session.shape, bool)
+    previews = []
+    for event in session.iter_run():
+        if isinstance(event, LandformProgress):
+            r0, r1, c0, c1 = event.bbox
+            assert 0 <= r0 < r1 <= 256 and 0 <= c0 < c1 <= 256
+            assert event.heights.shape == (r1 - r0, c1 - c0) and event.heights.dtype == np.float32
+            covered[r0:r1, c0:c1] = True
+            previews.append(event.heights)
+        elif type(event).__name__ == "PatchPlaced":
+            break
+    assert covered.all()
+    lo, hi = float(white_mountains.heights.min()), float(white_mountains.heights.max())
+    values = np.concatenate([p.ravel() for p in previews])
+    assert np.isfinite(values).all() and lo - 0.2 * (hi - lo) < np.median(values) < hi
