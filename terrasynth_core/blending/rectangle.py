@@ -130,13 +130,26 @@ _SOLVERS_KEPT = 12
 _LOCK = threading.Lock()
 
 
-def rectangle_solver(shape: tuple[int, int]) -> RectangleSolver:
-    """The (cached) solver for blocks of ``shape``."""
+#: Block shapes asked for so far, and how often (a solver is built on the
+#: second request: building one costs several sparse factorizations, worth
+#: it for the patch's shape, which recurs hundreds of times, not for a
+#: one-off window clipped by the map's edge).
+_ASKED: dict = {}
+
+
+def rectangle_solver(shape: tuple[int, int], *, build: int = 2) -> RectangleSolver | None:
+    """The cached solver for blocks of ``shape``, built on the ``build``-th
+    request for that shape (None before)."""
     with _LOCK:
         solver = _SOLVERS.get(shape)
         if solver is not None:
             _SOLVERS.move_to_end(shape)
             return solver
+        if len(_ASKED) > 4096:
+            _ASKED.clear()
+        _ASKED[shape] = _ASKED.get(shape, 0) + 1
+        if _ASKED[shape] < build:
+            return None
     solver = RectangleSolver(shape)
     with _LOCK:
         _SOLVERS[shape] = solver
