@@ -3,6 +3,12 @@
 Usage::
 
     python benchmarks/bench_synth.py [--sizes 1000x1000,2000x2000,4000x2000] [--quick] [--json OUT]
+                                     [--baseline REV [--repeats N]]
+
+With ``--baseline REV`` the engine of commit ``REV`` (checked out in a
+temporary ``git worktree``) and this tree's are first timed side by side on
+the first size, alternating fresh processes (``compare_engines.py``): the
+ratio is the figure to trust on a shared machine.
 
 Each row synthesizes ``s_valley_1000.png`` (scaled to the row's size by
 ``Session(shape=...)``) from the SRTM tile ``N44W072.hgt`` with default
@@ -19,11 +25,12 @@ Columns:
 * ``load+analyse``: from before reading the DEM and sketch to the end of the
   run's ``analyse`` stage (constructing the :class:`Session` is nearly all
   of it: PPA on the example, candidate samples, sketch graphs);
-* ``features``, ``fill``, ``finish``: the run's stages, as its
-  ``StageFinished`` events report them;
+* ``landform``, ``features``, ``fill``, ``finish``: the run's stages, as
+  its ``StageFinished`` events report them (``landform``: the coarse pass);
 * ``total``: wall seconds from before loading to the result;
-* ``1st patch``: seconds from calling ``iter_run`` to the first
-  ``PatchPlaced`` event (how soon a viewer sees something);
+* ``1st shown``: seconds from calling ``iter_run`` to the first event a
+  viewer paints (a landform preview or a patch);
+* ``1st patch``: the same to the first full-resolution ``PatchPlaced``;
 * ``patches``: placed patches as branch/end/path/fill;
 * ``peak MB``: peak resident set size of the child process;
 * ``s/Mcell``: total seconds per million output cells; flat means the cost
@@ -92,16 +99,18 @@ def measure_one(shape: tuple[int, int]) -> dict:
         ``fill``, ``finish``), ``total``, ``first_patch``, ``counts``,
         ``peak_mb`` and ``s_per_mcell``.
     """
-    from terrasynth_core.synthesis import PatchPlaced, StageFinished, SynthesisFinished
+    from terrasynth_core.synthesis import LandformProgress, PatchPlaced, StageFinished, SynthesisFinished
 
     t_start = time.perf_counter()
     session = _load_session(shape)
     t_session = time.perf_counter()
     stages: dict[str, float] = {}
-    first_patch = None
+    first_patch = first_shown = None
     result = None
     t_iter = time.perf_counter()
     for event in session.iter_run():
+        if isinstance(event, (PatchPlaced, LandformProgress)) and first_shown is None:
+            first_shown = time.perf_counter() - t_iter
         if isinstance(event, PatchPlaced) and first_patch is None:
             first_patch = time.perf_counter() - t_iter
         elif isinstance(event, StageFinished):
@@ -117,12 +126,14 @@ def measure_one(shape: tuple[int, int]) -> dict:
         "shape": list(shape),
         "stages": {
             "load+analyse": (t_session - t_start) + stages.get("analyse", 0.0),
+            "landform": stages.get("landform", 0.0),
             "features": stages.get("features", 0.0),
             "fill": stages.get("fill", 0.0),
             "finish": stages.get("finish", 0.0),
         },
         "total": total,
         "first_patch": first_patch,
+        "first_shown": first_shown,
         "counts": result.counts(),
         "peak_mb": peak_mb,
         "s_per_mcell": total / (cells / 1e6),
@@ -206,16 +217,17 @@ def measure_determinism() -> dict:
 
 def format_table(rows: list[dict]) -> str:
     header = (
-        f"{'output':>10} {'load+analyse':>12} {'features':>9} {'fill':>8} {'finish':>7} {'total':>8} "
-        f"{'1st patch':>9} {'patches b/e/p/f':>16} {'peak MB':>8} {'s/Mcell':>8}"
+        f"{'output':>10} {'load+analyse':>12} {'landform':>8} {'features':>9} {'fill':>8} {'finish':>7} "
+        f"{'total':>8} {'1st shown':>9} {'1st patch':>9} {'patches b/e/p/f':>16} {'peak MB':>8} {'s/Mcell':>8}"
     )
     lines = [header, "-" * len(header)]
     for r in rows:
         s, c = r["stages"], r["counts"]
         kinds = f"{c['branch']}/{c['end']}/{c['path']}/{c['fill']}"
         lines.append(
-            f"{'x'.join(map(str, r['shape'])):>10} {s['load+analyse']:>12.2f} {s['features']:>9.2f} "
-            f"{s['fill']:>8.2f} {s['finish']:>7.2f} {r['total']:>8.2f} {r['first_patch']:>9.2f} "
+            f"{'x'.join(map(str, r['shape'])):>10} {s['load+analyse']:>12.2f} {s['landform']:>8.2f} "
+            f"{s['features']:>9.2f} {s['fill']:>8.2f} {s['finish']:>7.2f} {r['total']:>8.2f} "
+            f"{r['first_shown']:>9.2f} {r['first_patch']:>9.2f} "
             f"{kinds:>16} {r['peak_mb']:>8.0f} {r['s_per_mcell']:>8.2f}"
         )
     return "\n".join(lines)
@@ -227,6 +239,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="comma-separated ROWSxCOLS outputs (default: %(default)s)")
     parser.add_argument("--quick", action="store_true", help="only the 1000x1000 row (and the checks)")
     parser.add_argument("--json", type=Path, default=None, metavar="OUT", help="also write the figures as JSON")
+    parser.add_argument("--baseline", default=None, metavar="REV",
+                        help="first time the engine of commit REV against this one, side by side in the same run "
+                             "(benchmarks/compare_engines.py on the first size), e.g. the commit before a speed-up")
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each engine with --baseline (default 3)")
     parser.add_argument("--one", type=parse_size, default=None, metavar="SIZE",
                         help="internal: measure one size and print it as JSON")
     args = parser.parse_args(argv)
@@ -238,6 +254,16 @@ def main(argv: list[str] | None = None) -> int:
     sizes = ["1000x1000"] if args.quick else [s.strip() for s in args.sizes.split(",") if s.strip()]
     for s in sizes:
         parse_size(s)
+    if args.baseline:
+        # Absolute seconds drift by up to 2x on a shared machine; the ratio
+        # of two engines timed alternately in one run does not.
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from compare_engines import main as compare
+
+        print(f"Engine of {args.baseline} (old) against this tree (new), {sizes[0]}, "
+              f"median of {args.repeats} alternating fresh processes")
+        compare(["--baseline", args.baseline, "--sizes", sizes[0], "--repeats", str(args.repeats)])
+        print()
     print(f"Synthesis of {SKETCH_PATH.name} (scaled) from {DEM_PATH.name}, default SynthesisParams; "
           "seconds unless stated, one fresh process per row")
     rows = []
