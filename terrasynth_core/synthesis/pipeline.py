@@ -30,7 +30,7 @@ from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, 
 from .feature_patches import feature_pools, place_feature, place_stamp, pool_for, prepare_feature
 from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
 from .finish import finish_heights
-from .landform import landform_from, preview_patch
+from .landform import landform_from, preview_patch, split_sigma
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
 
@@ -52,6 +52,9 @@ class RunState:
     warnings: list[str]
     records: list[PatchRecord] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+    #: Feature pools and fill searches made ahead (during the landform pass).
+    pools: dict | None = None
+    searches: list | None = None
 
     @classmethod
     def start(cls, session: Session) -> "RunState":
@@ -115,6 +118,11 @@ def landform_stage(state: RunState):
     if note:
         state.warnings.append(note)
     if coarse is not None:
+        # What the full-resolution pass needs and the coarse one does not
+        # change (the detail above the split, the feature pools, the fill
+        # searches over that detail) is made on a helper thread meanwhile.
+        ahead = ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-ahead")
+        made = ahead.submit(_made_ahead, state, split_sigma(state.params.patch_size))
         result = None
         events = coarse.iter_run()
         try:
@@ -124,13 +132,24 @@ def landform_stage(state: RunState):
                     yield LandformProgress(event.index + 1, event.total, bbox, heights)
                 elif isinstance(event, SynthesisFinished):
                     result = event.result
+            landform = landform_from(state.session, result, f)
+            layout, state.pools, state.searches = made.result()
         finally:
             events.close()
-        landform = landform_from(state.session, result, f)
-        detail, anchor = state.session.detail_above(landform.sigma)
-        state.layout = replace(state.layout, level=landform.level, detail=detail, anchor=anchor)
+            # A cancelled run does not wait for the helper thread.
+            ahead.shutdown(wait=False, cancel_futures=True)
+        state.layout = replace(layout, level=landform.level)
     state.timings["landform"] = time.perf_counter() - t
     yield StageFinished("landform", state.timings["landform"])
+
+
+def _made_ahead(state: RunState, sigma: float) -> tuple[StyleLayout, dict, list]:
+    """The layout with the examples' detail above the landform split, its
+    feature pools and fill searches (none of them reads the output)."""
+    detail, anchor = state.session.detail_above(sigma)
+    layout = replace(state.layout, detail=detail, anchor=anchor)
+    pools = feature_pools(layout, state.radius, mirror=state.params.mirror)
+    return layout, pools, fill_searches(layout, state.params)
 
 
 def analyse_stage(state: RunState):
@@ -140,7 +159,7 @@ def analyse_stage(state: RunState):
     graphs = (state.session.sketch_maps.ridges, state.session.sketch_maps.valleys)
     samples = feature_order(graphs, state.radius, spacing=state.radius, keep=lambda s: _sample_wanted(state, s),
                             raster=state.params.order == "raster")
-    pools = feature_pools(state.layout, state.radius, mirror=state.params.mirror)
+    pools = state.pools or feature_pools(state.layout, state.radius, mirror=state.params.mirror)
     state.timings["analyse"] = time.perf_counter() - t
     yield StageFinished("analyse", state.timings["analyse"])
     return samples, pools
@@ -218,7 +237,7 @@ def fill_stage(state: RunState):
     windows = fill_windows(canvas.filled, p.patch_size, overlap=p.overlap_cells)
     total = len(state.records) + len(windows)
     yield StageStarted("fill", len(windows))
-    searches = fill_searches(lay, p)
+    searches = state.searches or fill_searches(lay, p)
     state.timings["fill_setup"] = time.perf_counter() - t
     options = dict(patch_size=p.patch_size, k=p.k)
     # The search for the next window runs on the helper thread (FFTs free
