@@ -147,5 +147,28 @@ class Canvas:
         solved = remove_seam(heights, take_new, inner & filled, fixed=fixed, mode=self.blend_mode)
         self.heights[r0:r1, c0:c1] = solved[inner].reshape(r1 - r0, c1 - c0)
 
+    def crop(self, box) -> "Canvas":
+        """A canvas over ``box`` (r0, r1, c0, c1) of this one, its arrays
+        copied: a window can be merged on it elsewhere (another process)
+        and the outcome brought back with :meth:`merge`."""
+        r0, r1, c0, c1 = box
+        out = Canvas.__new__(Canvas)
+        out.shape = (r1 - r0, c1 - c0)
+        out.relief, out.patch_size = self.relief, self.patch_size
+        out.seam_mode, out.blend_mode = self.seam_mode, self.blend_mode
+        for name in ("heights", "locked", "filled", "protected", "patch_id", "seams"):
+            setattr(out, name, getattr(self, name)[r0:r1, c0:c1].copy())
+        out._pending = None
+        return out
+
+    def merge(self, crop: "Canvas", box, bbox) -> None:
+        """Bring back the patch placed (and blended) on ``crop`` (made by
+        :meth:`crop` over ``box``) in window ``bbox`` (this canvas's cells).
+        Placing and blending change only the window."""
+        r0, r1, c0, c1 = bbox
+        win = (slice(r0 - box[0], r1 - box[0]), slice(c0 - box[2], c1 - box[2]))
+        for name in ("heights", "filled", "protected", "patch_id", "seams"):
+            getattr(self, name)[r0:r1, c0:c1] = getattr(crop, name)[win]
+
     def finish(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return self.heights.copy(), self.patch_id.copy(), self.seams.copy()

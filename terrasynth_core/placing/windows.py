@@ -121,6 +121,7 @@ class WindowQueue:
         self.boxes = np.array(windows, dtype=np.int64).reshape(-1, 4)
         self.share = np.array([filled[r0:r1, c0:c1].mean() for r0, r1, c0, c1 in self.boxes])
         self.done = np.zeros(len(self.boxes), dtype=bool)
+        self._index = {tuple(int(v) for v in box): i for i, box in enumerate(self.boxes)}
 
     def update(self, bbox: Box) -> None:
         """Refresh the filled share of the windows ``bbox`` overlaps."""
@@ -130,6 +131,34 @@ class WindowQueue:
         for i in np.flatnonzero(touched):
             w0, w1, v0, v1 = b[i]
             self.share[i] = self.filled[w0:w1, v0:v1].mean()
+
+    def pop_wave(self, size: int, *, share: float = 0.5) -> list[Box]:
+        """Up to ``size`` windows that can be filled at the same time: the
+        next one (as :meth:`pop`), then the most constrained others whose
+        window plus a one-cell ring (what placing and blending a window
+        reads) does not touch a window already taken, and that are at least
+        ``share`` as filled as the first.  Empty when none is left.
+
+        The wave depends only on the filled mask, never on how many
+        processes work on it, so a run gives the same bytes with any number.
+        """
+        first = self.pop()
+        if first is None:
+            return []
+        wave = [first]
+        floor = share * self.share[self._index[first]]
+        b = self.boxes
+        for i in np.lexsort((np.arange(len(b)), -self.share)):
+            if len(wave) == size or self.share[i] <= max(floor, 0.0):
+                break
+            if self.done[i] or self.share[i] >= 1.0:
+                continue
+            w0, w1, v0, v1 = b[i]
+            if any(w0 - 1 < r1 and w1 + 1 > r0 and v0 - 1 < c1 and v1 + 1 > c0 for r0, r1, c0, c1 in wave):
+                continue
+            self.done[i] = True
+            wave.append(tuple(int(v) for v in b[i]))
+        return wave
 
     def pop(self) -> Box | None:
         """The next window not yet full, or None; windows filled in the

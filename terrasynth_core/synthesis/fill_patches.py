@@ -82,8 +82,8 @@ def search_fill(searches: list, detail: list[np.ndarray], anchor: np.ndarray, me
     return options[:k]
 
 
-def choose_fill(canvas: Canvas, bbox, options: list[tuple], layout: StyleLayout, *, index: int,
-                patch_size: int) -> PatchRecord:
+def choose_fill(canvas: Canvas, bbox, options: list[tuple], detail: list[np.ndarray], level: np.ndarray, *,
+                index: int, patch_size: int) -> PatchRecord:
     """Pick among searched candidates by match cost plus seam cost and merge
     the best into ``canvas`` (the caller blends it).
 
@@ -93,19 +93,21 @@ def choose_fill(canvas: Canvas, bbox, options: list[tuple], layout: StyleLayout,
     bbox : (r0, r1, c0, c1)
     options : list of tuple
         What :func:`search_fill` returned.
-    layout : StyleLayout
-        Example detail and the level field.
+    detail : list of ndarray of float32
+        Each example's detail heights, metres.
+    level : ndarray of float32, the canvas's shape
+        The level field, metres.
     index : int
         The patch's index in the run's records.
     patch_size : int
     """
     r0, r1, c0, c1 = bbox
-    level = layout.level[r0:r1, c0:c1]
+    level = level[r0:r1, c0:c1]
     best = None
     for score, ssd, offset, ei, (er, ec), relief in options:
         if best is not None and score >= best[0]:
             break  # options come cheapest first and a seam never costs less than 0
-        patch = layout.detail[ei][er:er + patch_size, ec:ec + patch_size] + np.float32(offset) + level
+        patch = detail[ei][er:er + patch_size, ec:ec + patch_size] + np.float32(offset) + level
         cut = canvas.cut(bbox, patch, relief=relief)
         total = score + cut.normalized_cost
         if best is None or total < best[0]:

@@ -172,7 +172,9 @@ def coarse_session(session: Session) -> tuple[Session | None, int, str | None]:
     styles = tuple(replace(s, example=fields[n_plain + i]) for i, s in enumerate(c.styles))
     style_map = None if c.style_map is None else c.style_map[::f, ::f]
     controls = Controls(styles=styles, style_map=style_map, height_range=c.height_range)
-    params = replace(p, patch_size=pc, overlap=None, cell_size=cell, drainage=False, landform=False)
+    # One process: the coarse fill is short, and the full pass's workers
+    # are still starting meanwhile (the result does not depend on it).
+    params = replace(p, patch_size=pc, overlap=None, cell_size=cell, drainage=False, landform=False, workers=1)
     sketch = None if session.sketch is None else session.sketch.resized(shape)
     from .session import Session  # the pass is a session of its own
     try:

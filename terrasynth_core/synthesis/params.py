@@ -46,7 +46,9 @@ class SynthesisParams:
         best positions are then refined at full resolution.  0 chooses it
         from the example's size (about 160,000 cells searched per example).
     workers : int, default 0
-        Threads for FFTs and candidate evaluation; 0 uses every core.
+        Processes that fill windows (this one and ``workers - 1`` worker
+        processes) and threads for FFTs; 0 uses every core.  The result does
+        not depend on it.
     feature_weight : float, default 1.0
         Weight of the deformation cost against the overlap SSD when picking
         among feature candidates.

@@ -29,6 +29,7 @@ from ..placing.windows import WindowQueue, estimate_fill_count, fill_windows, re
 from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 from .feature_patches import feature_pools, place_feature, place_stamp, pool_for, prepare_feature
 from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
+from .fill_workers import WAVE, FillKit, FillWorkers, warm_up, window_task
 from .finish import finish_heights
 from .landform import landform_from, preview_patch, split_sigma
 from .params import SynthesisParams
@@ -66,6 +67,11 @@ class RunState:
         return cls(session, p, c, session.layout, canvas, list(session.warnings))
 
     @property
+    def processes(self) -> int:
+        """Processes that fill windows (this one included)."""
+        return self.params.thread_count
+
+    @property
     def radius(self) -> float:
         return self.params.patch_size / 2
 
@@ -96,6 +102,9 @@ def run_pipeline(state: RunState) -> Iterator[object]:
     # The run's own threads keep both cores busy; BLAS threads on top of
     # them only contend (a 300x300 Cholesky of a seam solve took 60x longer
     # with OpenBLAS's threads fighting the search thread).
+    # The fill's worker processes start now, while the landform and
+    # feature stages run, so they are ready when the fill begins.
+    warm_up(state.processes)
     with _blas_threads().limit(limits=1, user_api="blas"):
         yield from landform_stage(state)
         samples, pools = yield from analyse_stage(state)
@@ -231,7 +240,8 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
 
 
 def fill_stage(state: RunState):
-    """Fill windows, most constrained first, until the output is full."""
+    """Fill windows, most constrained first, until the output is full: in
+    waves of independent windows, on every core (:mod:`.fill_workers`)."""
     t = time.perf_counter()
     p, lay, canvas = state.params, state.layout, state.canvas
     windows = fill_windows(canvas.filled, p.patch_size, overlap=p.overlap_cells)
@@ -240,49 +250,37 @@ def fill_stage(state: RunState):
     searches = state.searches or fill_searches(lay, p)
     state.timings["fill_setup"] = time.perf_counter() - t
     options = dict(patch_size=p.patch_size, k=p.k)
-    # The search for the next window runs on the helper thread (FFTs free
-    # the interpreter) while this thread blends the patch just placed.  It
-    # gets a copy of its window taken before that blend, so what it sees
-    # does not depend on timing: same seed, same bytes.  Heights are
-    # matched relative to the level field.
+    # Heights are matched relative to the level field.
     level = lay.level
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-search") as pre:
-        def search(bbox, n):
-            r0, r1, c0, c1 = bbox
-            target = canvas.heights[r0:r1, c0:c1] - level[r0:r1, c0:c1]
-            filled = canvas.filled[r0:r1, c0:c1].copy()
-            members, relief = window_examples(lay, bbox)
-            rng = np.random.default_rng([p.seed, 1, n])
-            return bbox, pre.submit(search_fill, searches, lay.detail, lay.anchor, members, relief, target, filled,
-                                    rng, **options)
-
-        # A style region no feature reached starts from a window of its
-        # own terrain: grown only from its neighbours, it would copy
-        # their smoothness (the SSD prefers the example's smoothest
-        # windows there) instead of its own style.
-        for g, bbox in region_seeds(lay.group_map, canvas.filled, windows):
-            r0, r1, c0, c1 = bbox
-            rng = np.random.default_rng([p.seed, 2, g])
-            members = lay.members[g]
-            found = search_fill(searches, lay.detail, lay.anchor, members, float(max(lay.relief[members])),
-                                canvas.heights[r0:r1, c0:c1] - level[r0:r1, c0:c1],
-                                canvas.filled[r0:r1, c0:c1].copy(), rng, **options)
-            rec = choose_fill(canvas, bbox, found, lay, index=len(state.records), patch_size=p.patch_size)
-            canvas.blend(rec.bbox)
-            yield state.placed(rec, total)
-        remaining = WindowQueue(windows, canvas.filled)
-        n_fill = 0
-        bbox = remaining.pop()
-        pending = search(bbox, n_fill) if bbox else None
-        while pending is not None:
-            bbox, future = pending
-            rec = choose_fill(canvas, bbox, future.result(), lay, index=len(state.records), patch_size=p.patch_size)
-            n_fill += 1
-            remaining.update(rec.bbox)
-            nxt = remaining.pop()
-            pending = search(nxt, n_fill) if nxt else None
-            canvas.blend(rec.bbox)
-            yield state.placed(rec, total)
+    # A style region no feature reached starts from a window of its
+    # own terrain: grown only from its neighbours, it would copy
+    # their smoothness (the SSD prefers the example's smoothest
+    # windows there) instead of its own style.
+    for g, bbox in region_seeds(lay.group_map, canvas.filled, windows):
+        r0, r1, c0, c1 = bbox
+        rng = np.random.default_rng([p.seed, 2, g])
+        members = lay.members[g]
+        found = search_fill(searches, lay.detail, lay.anchor, members, float(max(lay.relief[members])),
+                            canvas.heights[r0:r1, c0:c1] - level[r0:r1, c0:c1],
+                            canvas.filled[r0:r1, c0:c1].copy(), rng, **options)
+        rec = choose_fill(canvas, bbox, found, lay.detail, level, index=len(state.records), patch_size=p.patch_size)
+        canvas.blend(rec.bbox)
+        yield state.placed(rec, total)
+    remaining = WindowQueue(windows, canvas.filled)
+    kit = FillKit(searches, lay.detail, lay.anchor, p.seed, p.patch_size, p.k)
+    number = 0
+    with FillWorkers(kit, state.processes) as workers:
+        while wave := remaining.pop_wave(WAVE):
+            tasks = []
+            for j, bbox in enumerate(wave):
+                members, relief = window_examples(lay, bbox)
+                tasks.append(window_task(canvas, level, bbox, members, relief, number=number + j,
+                                         index=len(state.records) + j))
+            number += len(wave)
+            for task, (crop, rec) in zip(tasks, workers.run(tasks)):
+                canvas.merge(crop, task.box, task.bbox)
+                remaining.update(task.bbox)
+                yield state.placed(rec, total)
     state.timings["fill"] = time.perf_counter() - t
     yield StageFinished("fill", state.timings["fill"])
 

@@ -1,0 +1,201 @@
+"""Fill windows on both cores: independent windows merged in parallel
+processes, the same bytes whatever their number.
+
+A fill window reads only itself and the one-cell ring around it (search
+target, graph cut, seam solve) and writes only itself.  The fill takes its
+windows in *waves* (:meth:`~..placing.windows.WindowQueue.pop_wave`) of
+windows that do not read each other's cells; each window of a wave is
+searched, cut, placed and blended on a copy of its neighbourhood
+(:meth:`~..placing.canvas.Canvas.crop`), here or in a worker process, and
+merged back in wave order.  Which process did the work changes nothing.
+
+Most of that work holds the interpreter lock (graph cuts, small array
+operations), so threads would not run it in parallel; worker processes do.
+They come from loky's reusable executor: started once (fork and exec, safe
+beside Qt and BLAS threads; no ``if __name__ == "__main__"`` guard needed in
+a user's script) and reused by every later run.  What a run's windows need
+from the examples (their detail and fill searches) goes to the workers once,
+as a file they load on their first window of the run.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import tempfile
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..placing.canvas import Canvas
+from .fill_patches import choose_fill, search_fill
+from .result import PatchRecord
+
+#: Windows per wave; fixed (not the process count) so the result does not
+#: depend on how many processes fill them.
+WAVE = 4
+
+#: Seconds an idle worker process waits for more work before it exits.
+IDLE_SECONDS = 300
+
+
+@dataclass(frozen=True, eq=False)
+class FillKit:
+    """What every fill window of a run needs from the examples.
+
+    Parameters
+    ----------
+    searches : list of FillSearch or None
+        Per example.
+    detail : list of ndarray of float32
+        Each example's detail heights, metres.
+    anchor : ndarray of float, shape (n_examples,)
+        Each example's shift weight.
+    seed, patch_size, k : int
+        As in :class:`~.params.SynthesisParams`.
+    """
+
+    searches: list
+    detail: list
+    anchor: np.ndarray
+    seed: int
+    patch_size: int
+    k: int
+
+
+@dataclass(frozen=True, eq=False)
+class WindowTask:
+    """One fill window and the neighbourhood it reads.
+
+    Parameters
+    ----------
+    box : (r0, r1, c0, c1)
+        The neighbourhood (window plus a one-cell ring, clipped), output cells.
+    bbox : (r0, r1, c0, c1)
+        The window, output cells.
+    canvas : Canvas
+        The output over ``box`` (:meth:`Canvas.crop`).
+    level : ndarray of float32, shape of ``box``
+        The level field over ``box``, metres.
+    members : list of int
+        Examples of the styles in the window.
+    relief : float
+        Their largest relief, metres (cost unit).
+    number : int
+        The window's number in the fill (seeds its random choices).
+    index : int
+        The patch's index in the run's records.
+    """
+
+    box: tuple
+    bbox: tuple
+    canvas: Canvas
+    level: np.ndarray
+    members: list
+    relief: float
+    number: int
+    index: int
+
+
+def window_task(canvas: Canvas, level: np.ndarray, bbox, members: list[int], relief: float, *, number: int,
+                index: int) -> WindowTask:
+    """The task of filling window ``bbox`` of ``canvas``."""
+    rows, cols = canvas.shape
+    r0, r1, c0, c1 = bbox
+    box = (max(r0 - 1, 0), min(r1 + 1, rows), max(c0 - 1, 0), min(c1 + 1, cols))
+    return WindowTask(box, tuple(bbox), canvas.crop(box), level[box[0]:box[1], box[2]:box[3]].copy(),
+                      members, relief, number, index)
+
+
+def fill_window(kit: FillKit, task: WindowTask) -> tuple[Canvas, PatchRecord]:
+    """Search, cut, place and blend one window on its task's canvas.
+
+    Returns
+    -------
+    canvas : Canvas
+        The task's canvas with the patch merged.
+    record : PatchRecord
+        In output cells.
+    """
+    canvas = task.canvas
+    R0, C0 = task.box[0], task.box[2]
+    r0, r1, c0, c1 = task.bbox
+    local = (r0 - R0, r1 - R0, c0 - C0, c1 - C0)
+    win = (slice(local[0], local[1]), slice(local[2], local[3]))
+    rng = np.random.default_rng([kit.seed, 1, task.number])
+    options = search_fill(kit.searches, kit.detail, kit.anchor, task.members, task.relief,
+                          canvas.heights[win] - task.level[win], canvas.filled[win].copy(), rng,
+                          patch_size=kit.patch_size, k=kit.k)
+    rec = choose_fill(canvas, local, options, kit.detail, task.level, index=task.index, patch_size=kit.patch_size)
+    canvas.blend(local)
+    return canvas, replace(rec, bbox=task.bbox)
+
+
+# -- worker processes -------------------------------------------------------------
+
+#: In a worker: the kit of the run it works for, and where it came from.
+_KIT: tuple[str, FillKit] | None = None
+
+
+def _work(kit_path: str, task: WindowTask) -> tuple[Canvas, PatchRecord]:
+    global _KIT
+    if _KIT is None or _KIT[0] != kit_path:
+        _KIT = None  # the last run's kit goes before the next one loads
+        with open(kit_path, "rb") as f:
+            _KIT = (kit_path, pickle.load(f))
+    return fill_window(_KIT[1], task)
+
+
+def _executor(processes: int):
+    from loky import get_reusable_executor
+
+    return get_reusable_executor(max_workers=processes, timeout=IDLE_SECONDS)
+
+
+def warm_up(processes: int) -> None:
+    """Start the worker processes now (in the background), so they are
+    ready when the fill begins.  Nothing happens for 1 process."""
+    if processes > 1:
+        _executor(processes - 1).submit(os.getpid)
+
+
+class FillWorkers:
+    """Fills waves of windows with ``processes`` processes (this one
+    included); use as a context manager.
+
+    Parameters
+    ----------
+    kit : FillKit
+    processes : int
+        1 fills every window here.
+    """
+
+    def __init__(self, kit: FillKit, processes: int):
+        self.kit = kit
+        self.processes = max(1, int(processes))
+        self._path = None
+        self._pool = None
+
+    def __enter__(self) -> "FillWorkers":
+        if self.processes > 1:
+            fd, path = tempfile.mkstemp(prefix="terrasynth-fill-", suffix=".pkl")
+            with os.fdopen(fd, "wb") as f:
+                pickle.dump(self.kit, f, protocol=pickle.HIGHEST_PROTOCOL)
+            self._path = path
+            self._pool = _executor(self.processes - 1)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._path is not None:
+            Path(self._path).unlink(missing_ok=True)
+
+    def run(self, tasks: list[WindowTask]) -> list[tuple[Canvas, PatchRecord]]:
+        """Fill the windows of one wave; results in the tasks' order."""
+        if self._pool is None:
+            return [fill_window(self.kit, t) for t in tasks]
+        # Every ``processes``-th task here, the others to the workers.
+        futures = {i: self._pool.submit(_work, self._path, t)
+                   for i, t in enumerate(tasks) if i % self.processes}
+        here = {i: fill_window(self.kit, t) for i, t in enumerate(tasks) if i not in futures}
+        return [here[i] if i in here else futures[i].result() for i in range(len(tasks))]
