@@ -78,3 +78,26 @@ def test_an_empty_region_is_seeded_from_the_window_most_inside_it():
     r0, r1, c0, c1 = seeds[0][1]
     assert c0 >= 64 and r0 == 24  # all inside region 1, nearest its centre row
     assert region_seeds(np.zeros((96, 96), np.int16), np.zeros((96, 96), bool), windows) == []
+
+
+def test_a_wave_takes_windows_that_do_not_read_each_other():
+    filled = np.zeros((200, 200), bool)
+    filled[90:110, :] = True  # a filled band: many windows equally constrained
+    windows = fill_windows(filled, 32, overlap=8)
+    queue = WindowQueue(windows, filled)
+    wave = queue.pop_wave(4)
+    assert len(wave) == 4
+    # The first is what pop() would give; the others are as constrained.
+    assert wave[0] == WindowQueue(windows, filled).pop()
+    for i, (r0, r1, c0, c1) in enumerate(wave):
+        for s0, s1, d0, d1 in wave[i + 1:]:
+            # Window plus its one-cell ring never touches another window.
+            assert not (r0 - 1 < s1 and r1 + 1 > s0 and c0 - 1 < d1 and c1 + 1 > d0)
+        assert filled[r0:r1, c0:c1].mean() >= 0.5 * filled[slice(*wave[0][:2]), slice(*wave[0][2:])].mean()
+    # Nothing is handed out twice, and empty windows never join a wave.
+    seen = set(wave)
+    while rest := queue.pop_wave(4):
+        assert not seen & set(rest)
+        seen |= set(rest)
+        for r0, r1, c0, c1 in rest[1:]:
+            assert filled[r0:r1, c0:c1].any()
