@@ -73,11 +73,12 @@ CASES = {
 #: roughness prior, with drainage shaping (on by default), and with the
 #: landform pass, the level anchor scaled by the examples' spread of window
 #: levels and the prominence ranking of feature candidates, and with the
-#: water shaping lifting the inner half of a bank fully to the shore.
+#: water shaping lifting the inner half of a bank fully to the shore, and
+#: with the fill in waves of independent windows (issue 11, "Speed").
 GOLDEN = {
-    "y_junction": "607e6dd3d27d5ccdaa53ca750a3033cacb3f0305259c474b10c666c54ff9c6d4",
-    "ring_cross_raster": "7bde6ec00d976198370c6f6040c9192a21115b05efaabd85f384750938d2bcc4",
-    "styles_stamp_water_pin": "ddfeaf8309d4b3858d2330f6b6494723c37d48adf22d172f30e09d77f1a0541b",
+    "y_junction": "6e53de1afad21c65ced5cbf7e63c39b8e160ae7f7c8322024b49d4bcffb0145f",
+    "ring_cross_raster": "92a9c0b40bbe2ca0112bd1fb77425ec79da44b81e1ffa4a803e5cfd651e37de6",
+    "styles_stamp_water_pin": "f1dc2f3a72fe596ea90026b2980dbf82f116493740a8523f69c0ba6866a57821",
 }
 
 
