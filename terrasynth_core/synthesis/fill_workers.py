@@ -150,7 +150,14 @@ def _work(kit_path: str, task: WindowTask) -> tuple[Canvas, PatchRecord]:
 def _executor(processes: int):
     from loky import get_reusable_executor
 
-    return get_reusable_executor(max_workers=processes, timeout=IDLE_SECONDS)
+    # One BLAS thread per worker: the processes themselves use the cores
+    # (see pipeline.run_pipeline for what BLAS threads on top cost).
+    return get_reusable_executor(max_workers=processes, timeout=IDLE_SECONDS,
+                                 env={name: "1" for name in _THREAD_VARIABLES})
+
+
+#: Environment variables that hold native libraries to one thread.
+_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 
 def warm_up(processes: int) -> None:
@@ -179,6 +186,11 @@ class FillWorkers:
 
     def __enter__(self) -> "FillWorkers":
         if self.processes > 1:
+            # Each process runs its FFTs on one thread: the processes use
+            # the cores (the results do not depend on the thread count).
+            for search in self.kit.searches:
+                if search is not None and hasattr(search, "workers"):
+                    search.workers = 1
             fd, path = tempfile.mkstemp(prefix="terrasynth-fill-", suffix=".pkl")
             with os.fdopen(fd, "wb") as f:
                 pickle.dump(self.kit, f, protocol=pickle.HIGHEST_PROTOCOL)
