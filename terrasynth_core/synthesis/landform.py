@@ -400,12 +400,13 @@ def preview_patch(bbox: tuple[int, int, int, int], heights: np.ndarray, coarse_s
 def _upsampled(coarse: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Cubic interpolation of the coarse grid at the output's cell centres."""
     # The coarse grid spans the whole output (the sketch was scaled onto
-    # it), so a coarse cell covers rows / R output rows, not exactly f.
+    # it), so a coarse cell covers rows / R output rows, not exactly f:
+    # zoom's grid mode maps cell centres so.  (Separable, it needs no
+    # coordinate arrays: 130 MB at 4000 x 4000 where map_coordinates took
+    # 640 MB, for the same values.)
     rows, cols = shape
-    r = (np.arange(rows) + 0.5) * coarse.shape[0] / rows - 0.5
-    c = (np.arange(cols) + 0.5) * coarse.shape[1] / cols - 0.5
-    rr, cc = np.meshgrid(r, c, indexing="ij")
-    return ndimage.map_coordinates(coarse.astype(np.float64), [rr, cc], order=3, mode="nearest")
+    return ndimage.zoom(coarse.astype(np.float64), (rows / coarse.shape[0], cols / coarse.shape[1]), order=3,
+                        mode="nearest", grid_mode=True)
 
 
 def _cells(cell_size: float | None) -> str:
