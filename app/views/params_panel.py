@@ -37,7 +37,7 @@ _TIPS = {
                 "pass on a flat level per style, as in the paper.",
     "coarse_factor": "Down-sampling of the example for the fast search of fill patches; the best "
                      "positions are refined at full resolution. auto: from the example's size.",
-    "workers": "Threads for FFTs and candidate evaluation; 0 uses every core.",
+    "workers": "Processes that fill windows, and threads for FFTs; 0 uses every core (the terrain is the same).",
     "feature_weight": "Weight of the feature deformation cost against the overlap mismatch when "
                       "picking feature patches.",
     "cell_size": "Side of the output's square cells on the ground, in metres. Every example, style and "
@@ -104,7 +104,7 @@ class ParamsPanel(QWidget):
             ("Drainage", self.drainage, "drainage"),
             ("Landforms", self.landform, "landform"),
             ("Coarse factor", self.coarse_factor, "coarse_factor"),
-            ("Threads", self.workers, "workers"),
+            ("Workers", self.workers, "workers"),
             ("Feature weight", self.feature_weight, "feature_weight"),
             ("Cell size (m)", self.cell_size, "cell_size"),
         ):
