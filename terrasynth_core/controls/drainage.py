@@ -83,6 +83,8 @@ RIDGE_MAX_RAISE = 0.05
 STEP = 0.7
 #: Fit-and-correct passes.
 PASSES = 3
+#: The last pass's correction width, as a share of the valley half-width.
+FINAL_WIDTH = 1.0 / 3.0
 
 
 def apply_drainage(heights: np.ndarray, valleys: FeatureGraph | None, ridges: FeatureGraph | None, *,
@@ -127,7 +129,11 @@ def apply_drainage(heights: np.ndarray, valleys: FeatureGraph | None, ridges: Fe
             pins = _valley_pins(out, valleys, r_floor, eps, water)
             # The last pass on the full grid: the coarse solve leaves
             # centimetres, enough for a pit in a floor fitted nearly flat.
-            if not _correct(out, pins, width, locked, tol=1e-5 * span, coarse=n < PASSES - 1):
+            # Centimetres fade out over a third of the width unseen, and the
+            # full-grid solve gets a third of the unknowns (4x faster).
+            last = n == PASSES - 1
+            if not _correct(out, pins, max(3.0, width * FINAL_WIDTH) if last else width, locked,
+                            tol=1e-5 * span, coarse=not last):
                 break
     return out
 
