@@ -182,56 +182,78 @@ def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
     Returns
     -------
     Chains
+        Each chain runs from the end whose link comes first in ``edges`` (on
+        a one-link chain: ``edges[i, 0]``) to the other.  Chains with inner
+        pixels come first, ordered by their smallest inner pixel id, then
+        the one-link chains in the order of ``edges``.
 
     Notes
     -----
-    Near-linear, no per-pixel Python: every link end at a node pixel (degree
-    1 or >= 3) is replaced by a private copy of that pixel, which cuts the
-    forest into disjoint simple paths, one per chain, ending in two copies.
-    A virtual root is linked to one end copy of every path; one
-    breadth-first traversal from it ranks the pixels of each chain in order
-    along it, and a sort by (chain, rank) lists the chains one after another.
+    Linear, no per-pixel Python.  Each link has two *ends* (slot ``2 i + j``
+    is ``edges[i, j]``).  Walking a chain enters a link at one end, leaves it
+    at the other and, unless that pixel is a node (degree 1 or >= 3), enters
+    the next link at the pixel's other end.  Pointer jumping over these
+    successor pointers (Wyllie's list ranking, only over the ends still
+    walking) gives every end its distance to the end of its walk and the
+    end it stops at, which places every pixel of every chain directly.
     """
     n = len(coords)
-    if len(edges) == 0:
+    n_edges = len(edges)
+    if n_edges == 0:
         empty = np.empty(0, dtype=np.int64)
         return Chains(empty, np.zeros(1, dtype=np.int64), empty, empty, np.empty(0))
-    degree = np.bincount(edges.ravel(), minlength=n)
-    split = edges.copy()
-    at_node = degree[split] != 2
-    copy_of = split[at_node]
-    copies = n + np.arange(len(copy_of))
-    split[at_node] = copies
-    n_split = n + len(copies)
+    pixel = edges.ravel().astype(np.int64)  # pixel at each end (slot)
+    slot = np.arange(2 * n_edges, dtype=np.int64)
+    degree = np.bincount(pixel, minlength=n)
+    at_node = degree[pixel] != 2
+    # An inner pixel's two ends: each is the other's partner (their sum less itself).
+    inner = slot[~at_node]
+    pair_sum = np.bincount(pixel[inner], weights=inner, minlength=n).astype(np.int64)
+    partner = pair_sum[pixel] - slot
 
-    graph = sparse.csr_matrix(
-        (np.ones(len(split)), (split[:, 0], split[:, 1])), shape=(n_split, n_split)
-    )
-    _, label = connected_components(graph, directed=False)
-    first_copy = np.full(label.max() + 1, n_split, dtype=np.int64)
-    np.minimum.at(first_copy, label[copies], copies)
-    starts = first_copy[first_copy < n_split]
+    # Walk: enter at end s, leave at s ^ 1, go on at its partner unless it is a node.
+    leave = slot ^ 1
+    following = np.where(at_node[leave], -1, partner[leave])
+    links_to_stop = np.ones(2 * n_edges, dtype=np.int64)  # links from entering at s to the stop
+    stop = leave.copy()  # the node end a walk entered at s stops at
+    walking = np.flatnonzero(following >= 0)
+    while len(walking):
+        ahead = following[walking]
+        links_to_stop[walking] += links_to_stop[ahead]
+        stop[walking] = stop[ahead]
+        following[walking] = following[ahead]
+        walking = walking[following[walking] >= 0]
 
-    root = n_split
-    rows = np.concatenate([split[:, 0], np.full(len(starts), root)])
-    cols = np.concatenate([split[:, 1], starts])
-    rooted = sparse.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(root + 1, root + 1))
-    visited = breadth_first_order(rooted, root, directed=False, return_predecessors=False)[1:]
-    # Breadth-first rank grows along every chain, so sorting by (chain, rank)
-    # lists each chain contiguously from its first copy to its other end.
-    # (A depth-first order would need no sort, but scipy's is quadratic in
-    # the root's degree.)
-    order = visited[np.lexsort((np.arange(len(visited)), label[visited]))]
+    # A chain starts at the first of its two node ends (as the copies of
+    # node pixels were numbered before: in the order of ``edges``).
+    first = np.flatnonzero(at_node & (slot < stop))
+    n_links = links_to_stop[first]
+    size = n_links + 1
+    chain_offsets = np.concatenate([[0], np.cumsum(size)])
+    laid = np.empty(chain_offsets[-1], dtype=np.int64)
+    laid[chain_offsets[:-1]] = pixel[first]
+    chain_of_stop = np.empty(2 * n_edges, dtype=np.int64)
+    chain_of_stop[stop[first]] = np.arange(len(first))
+    forward = stop > stop[stop]  # walks towards the later node end
+    chain = chain_of_stop[stop[forward]]
+    laid[chain_offsets[chain] + n_links[chain] - links_to_stop[forward] + 1] = pixel[leave[forward]]
 
-    chain_label = label[order]
-    breaks = np.flatnonzero(chain_label[1:] != chain_label[:-1]) + 1
-    offsets = np.concatenate([[0], breaks, [len(order)]]).astype(np.int64)
-    pixels = order.astype(np.int64)
-    is_copy = pixels >= n
-    pixels[is_copy] = copy_of[pixels[is_copy] - n]
+    # Order: chains with inner pixels by their smallest one, then the
+    # one-link chains by their first end.
+    no_inner = np.iinfo(np.int64).max
+    masked = laid.copy()
+    masked[chain_offsets[:-1]] = no_inner
+    masked[chain_offsets[1:] - 1] = no_inner
+    key = np.minimum.reduceat(masked, chain_offsets[:-1])
+    key = np.where(n_links > 1, key, n + first)
+    order = np.argsort(key)
+    sizes = size[order]
+    offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+    take = np.arange(offsets[-1]) + np.repeat(chain_offsets[:-1][order] - offsets[:-1], sizes)
+    pixels = laid[take]
 
     step = np.hypot(*np.diff(coords[pixels], axis=0).T.astype(np.float64))
-    step[chain_label[1:] != chain_label[:-1]] = 0.0
+    step[offsets[1:-1] - 1] = 0.0
     cumulative = np.concatenate([[0.0], np.cumsum(step)])
     length = cumulative[offsets[1:] - 1] - cumulative[offsets[:-1]]
     return Chains(pixels, offsets, pixels[offsets[:-1]], pixels[offsets[1:] - 1], length)
