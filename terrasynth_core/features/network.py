@@ -129,44 +129,99 @@ def spanning_forest(mask: np.ndarray, strength: np.ndarray) -> PixelForest:
     """
     rows, cols = mask.shape
     coords = np.argwhere(mask)
+    n = len(coords)
     index = np.full(mask.shape, -1, dtype=np.int64)
-    index[mask] = np.arange(len(coords))
+    index[mask] = np.arange(n)
     s = np.where(mask, strength, 0).astype(np.float64)
 
-    # Both diagonals of a full 2x2 block: keep only the stronger one.
-    full = mask[:-1, :-1] & mask[:-1, 1:] & mask[1:, :-1] & mask[1:, 1:]
-    se = s[:-1, :-1] + s[1:, 1:]
-    sw = s[:-1, 1:] + s[1:, :-1]
-    keep_diag = {(1, 1): ~full | (se >= sw), (1, -1): ~full | (sw > se)}
-
-    a_parts, b_parts, diag_parts = [], [], []
+    # Links by direction (_FORWARD_OFFSETS), on the grid of their first pixel.
+    present, power = [], []
     for dr, dc in _FORWARD_OFFSETS:
-        c_src = slice(max(0, -dc), cols - max(0, dc))
-        c_dst = slice(max(0, dc), cols - max(0, -dc))
-        src = index[: rows - dr, c_src]
-        dst = index[dr:, c_dst]
-        linked = (src >= 0) & (dst >= 0)
-        if (dr, dc) in keep_diag:
-            linked &= keep_diag[(dr, dc)]
-        a_parts.append(src[linked])
-        b_parts.append(dst[linked])
-        diag_parts.append(np.full(int(linked.sum()), dr != 0 and dc != 0))
+        src = (slice(0, rows - dr), slice(max(0, -dc), cols - max(0, dc)))
+        dst = (slice(dr, rows), slice(max(0, dc), cols - max(0, -dc)))
+        linked = np.zeros(mask.shape, dtype=bool)
+        linked[src] = mask[src] & mask[dst]
+        link_strength = np.zeros(mask.shape)
+        link_strength[src] = s[src] + s[dst]
+        present.append(linked)
+        power.append(link_strength)
+    # Both diagonals of a full 2x2 block: keep only the stronger one.
+    full = present[0][:-1, :-1] & present[0][1:, :-1] & present[1][:-1, :-1] & present[1][:-1, 1:]
+    se, sw = power[2][:-1, :-1], power[3][:-1, 1:]
+    present[2][:-1, :-1] &= ~full | (se >= sw)
+    present[3][:-1, 1:] &= ~full | (sw > se)
+    if not any(p.any() for p in present):
+        return PixelForest(coords, np.empty((0, 2), dtype=np.int64))
+    _drop_weakest_in_triangles(present, power)
+
+    a_parts, b_parts, strength_parts = [], [], []
+    for (dr, dc), linked, link_strength in zip(_FORWARD_OFFSETS, present, power):
+        r, c = np.nonzero(linked)
+        a_parts.append(index[r, c])
+        b_parts.append(index[r + dr, c + dc])
+        strength_parts.append(link_strength[r, c])
     a = np.concatenate(a_parts)
     b = np.concatenate(b_parts)
-    if len(a) == 0:
-        return PixelForest(coords, np.empty((0, 2), dtype=np.int64))
-    pixel_strength = s[mask]
-    link_strength = pixel_strength[a] + pixel_strength[b]
     # Kruskal only needs the order of the links, so the cost is a rank:
-    # strongest first, orthogonal before diagonal on ties; ranks start at 1
-    # because csgraph treats a zero entry as "no link".
-    order = np.lexsort((np.concatenate(diag_parts), -link_strength))
+    # strongest first, then in the order listed (orthogonal before diagonal:
+    # _FORWARD_OFFSETS lists them first); ranks start at 1 because csgraph
+    # treats a zero entry as "no link".
+    order = np.argsort(-np.concatenate(strength_parts), kind="stable")
     cost = np.empty(len(a), dtype=np.float64)
     cost[order] = np.arange(1, len(a) + 1)
-    n = len(coords)
     tree = minimum_spanning_tree(sparse.csr_matrix((cost, (a, b)), shape=(n, n))).tocoo()
     edges = np.stack([tree.row, tree.col], axis=1).astype(np.int64)
     return PixelForest(coords, edges)
+
+
+def _drop_weakest_in_triangles(present: list[np.ndarray], power: list[np.ndarray]) -> None:
+    """Remove, in place, the weakest link of every triangle of links.
+
+    The weakest link of a cycle is in no maximum spanning forest (when all
+    links are ordered, as :func:`spanning_forest` orders them), so dropping
+    it changes nothing but halves the links Kruskal has to sort on dense
+    target areas (plateaus).
+
+    Parameters
+    ----------
+    present, power : lists of 4 ndarrays, shape (rows, cols)
+        Whether each link of :data:`_FORWARD_OFFSETS` leaves each pixel, and
+        its strength.  ``present`` is updated.
+
+    Notes
+    -----
+    Ties between equally strong links go as in :func:`spanning_forest`:
+    E-W links before N-S links before diagonals, and within a direction the
+    upper, then the left one first; so in a 2x2 block every comparison is a
+    fixed ``<`` or ``<=``.
+    """
+    rows, cols = present[0].shape
+    # The links of the 2x2 block whose top-left pixel is (r, c): (direction, rows, cols).
+    top = (0, slice(0, rows - 1), slice(0, cols - 1))
+    bottom = (0, slice(1, rows), slice(0, cols - 1))
+    left = (1, slice(0, rows - 1), slice(0, cols - 1))
+    right = (1, slice(0, rows - 1), slice(1, cols))
+    down_right = (2, slice(0, rows - 1), slice(0, cols - 1))
+    down_left = (3, slice(0, rows - 1), slice(1, cols))
+
+    def has(link):
+        return present[link[0]][link[1:]]
+
+    def strength(link):
+        return power[link[0]][link[1:]]
+
+    names = (top, bottom, left, right, down_right, down_left)
+    drop = [np.zeros((rows - 1, cols - 1), dtype=bool) for _ in names]
+    # Each triangle lists its links so that, on a tie, a later one is the weaker.
+    for x, y, z in ((top, right, down_right), (bottom, left, down_right),
+                    (top, left, down_left), (bottom, right, down_left)):
+        whole = has(x) & has(y) & has(z)
+        sx, sy, sz = strength(x), strength(y), strength(z)
+        drop[names.index(x)] |= whole & (sx < sy) & (sx < sz)
+        drop[names.index(y)] |= whole & (sy <= sx) & (sy < sz)
+        drop[names.index(z)] |= whole & (sz <= sx) & (sz <= sy)
+    for link, gone in zip(names, drop):
+        present[link[0]][link[1:]] &= ~gone
 
 
 def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
