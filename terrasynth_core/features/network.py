@@ -252,6 +252,13 @@ def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
     walking) gives every end its distance to the end of its walk and the
     end it stops at, which places every pixel of every chain directly.
     """
+    return _compress(edges, coords, np.bincount(edges.ravel(), minlength=len(coords)) != 2)
+
+
+def _compress(edges: np.ndarray, coords: np.ndarray, is_node: np.ndarray) -> Chains:
+    """:func:`compress_chains` of some links of a forest, split at the pixels
+    where ``is_node`` (shape (n_pixels,): degree 1 or >= 3 in the whole
+    forest)."""
     n = len(coords)
     n_edges = len(edges)
     if n_edges == 0:
@@ -259,8 +266,7 @@ def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
         return Chains(empty, np.zeros(1, dtype=np.int64), empty, empty, np.empty(0))
     pixel = edges.ravel().astype(np.int64)  # pixel at each end (slot)
     slot = np.arange(2 * n_edges, dtype=np.int64)
-    degree = np.bincount(pixel, minlength=n)
-    at_node = degree[pixel] != 2
+    at_node = is_node[pixel]
     # An inner pixel's two ends: each is the other's partner (their sum less itself).
     inner = slot[~at_node]
     pair_sum = np.bincount(pixel[inner], weights=inner, minlength=n).astype(np.int64)
@@ -295,18 +301,43 @@ def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
 
     # Order: chains with inner pixels by their smallest one, then the
     # one-link chains by their first end.
-    no_inner = np.iinfo(np.int64).max
-    masked = laid.copy()
-    masked[chain_offsets[:-1]] = no_inner
-    masked[chain_offsets[1:] - 1] = no_inner
-    key = np.minimum.reduceat(masked, chain_offsets[:-1])
+    key = _inner_min(laid, chain_offsets)
     key = np.where(n_links > 1, key, n + first)
-    order = np.argsort(key)
+    return _chains_in_order(laid, chain_offsets[:-1], size, key, coords)
+
+
+def _inner_min(pixels: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Smallest inner pixel id of each chain laid out as in :class:`Chains`
+    (the largest int64 for a chain without one), shape (n_chains,)."""
+    if len(offsets) < 2:
+        return np.empty(0, dtype=np.int64)
+    masked = pixels.copy()
+    masked[offsets[:-1]] = _NO_INNER
+    masked[offsets[1:] - 1] = _NO_INNER
+    return np.minimum.reduceat(masked, offsets[:-1])
+
+
+#: :func:`_inner_min` of a chain without inner pixels.
+_NO_INNER = np.iinfo(np.int64).max
+
+
+def _chains_in_order(
+    source: np.ndarray, first: np.ndarray, size: np.ndarray, key: np.ndarray, coords: np.ndarray
+) -> Chains:
+    """:class:`Chains` from pixel runs ``source[first[i]:first[i] + size[i]]``
+    in the order of their distinct integer ``key`` (all below
+    ``len(key) + len(coords) + len(source)``)."""
+    # The keys are distinct and small: a counting sort.
+    chain_at_key = np.full(int(key.max(initial=-1)) + 1, -1, dtype=np.int64)
+    chain_at_key[key] = np.arange(len(key))
+    order = chain_at_key[chain_at_key >= 0]
     sizes = size[order]
     offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
-    take = np.arange(offsets[-1]) + np.repeat(chain_offsets[:-1][order] - offsets[:-1], sizes)
-    pixels = laid[take]
-
+    take = np.arange(offsets[-1]) + np.repeat(first[order] - offsets[:-1], sizes)
+    pixels = source[take]
+    # The lengths are differences of one running sum over all chains, so
+    # equal chains can differ in the last bits; keeping this exact sum keeps
+    # every threshold and tie of the branch reduction as it was.
     step = np.hypot(*np.diff(coords[pixels], axis=0).T.astype(np.float64))
     step[offsets[1:-1] - 1] = 0.0
     cumulative = np.concatenate([[0.0], np.cumsum(step)])
@@ -391,10 +422,34 @@ def reduce_branches(
 
 
 def _drop(chains: Chains, remove: np.ndarray, coords: np.ndarray) -> Chains:
-    """Chains without those marked in ``remove``, recompressed."""
+    """Chains without those marked in ``remove``, recompressed: exactly
+    ``compress_chains(chains.edges(~remove), coords)``.
+
+    Only the kept chains meeting at a node left with two chains are joined
+    (walked again); the others keep their pixels, and all are laid out
+    again in :func:`compress_chains`' order.
+    """
     if not remove.any():
         return chains
-    return compress_chains(chains.edges(~remove), coords)
+    n = len(coords)
+    keep = ~remove
+    degree = np.bincount(np.concatenate([chains.start[keep], chains.end[keep]]), minlength=n)
+    joined = keep & ((degree[chains.start] == 2) | (degree[chains.end] == 2))
+    staying = np.flatnonzero(keep & ~joined)
+    sizes = np.diff(chains.offsets)
+    # A chain that stays keeps its direction, and its order key: its
+    # smallest inner pixel, or, without one, its place in the list.
+    key = _inner_min(chains.pixels, chains.offsets)[staying]
+    key = np.where(key == _NO_INNER, n + staying, key)
+    if not joined.any():
+        return _chains_in_order(chains.pixels, chains.offsets[staying], sizes[staying], key, coords)
+    # The joined chains: their links in list order, as compress_chains sees them.
+    merged = _compress(chains.edges(joined), coords, (degree != 2) & (degree > 0))
+    source = np.concatenate([chains.pixels, merged.pixels])
+    first = np.concatenate([chains.offsets[staying], len(chains.pixels) + merged.offsets[:-1]])
+    size = np.concatenate([sizes[staying], np.diff(merged.offsets)])
+    key = np.concatenate([key, _inner_min(merged.pixels, merged.offsets)])
+    return _chains_in_order(source, first, size, key, coords)
 
 
 def smooth_polylines(points: np.ndarray, offsets: np.ndarray, window: int) -> np.ndarray:
