@@ -252,24 +252,42 @@ def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
     walking) gives every end its distance to the end of its walk and the
     end it stops at, which places every pixel of every chain directly.
     """
-    return _compress(edges, coords, np.bincount(edges.ravel(), minlength=len(coords)) != 2)
-
-
-def _compress(edges: np.ndarray, coords: np.ndarray, is_node: np.ndarray) -> Chains:
-    """:func:`compress_chains` of some links of a forest, split at the pixels
-    where ``is_node`` (shape (n_pixels,): degree 1 or >= 3 in the whole
-    forest)."""
-    n = len(coords)
-    n_edges = len(edges)
-    if n_edges == 0:
+    if len(edges) == 0:
         empty = np.empty(0, dtype=np.int64)
         return Chains(empty, np.zeros(1, dtype=np.int64), empty, empty, np.empty(0))
+    is_node = np.bincount(edges.ravel(), minlength=len(coords)) != 2
+    laid, chain_offsets, n_links, first = _walk_chains(edges, is_node)
+    # Order: chains with inner pixels by their smallest one, then the
+    # one-link chains by their first end.
+    key = _inner_min(laid, chain_offsets)
+    key = np.where(n_links > 1, key, len(coords) + first)
+    return _chains_in_order(laid, chain_offsets[:-1], n_links + 1, key, coords)
+
+
+def _walk_chains(
+    edges: np.ndarray, is_node: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The chains of some links of a forest, split at the pixels where
+    ``is_node`` (shape (n_pixels,): degree 1 or >= 3 in the whole forest),
+    each laid out from its first end, in no particular order.
+
+    Returns
+    -------
+    laid : ndarray of int64, shape (n,)
+        Pixel ids of the chains, concatenated.
+    chain_offsets : ndarray of int64, shape (n_chains + 1,)
+        Chain ``i`` is ``laid[chain_offsets[i]:chain_offsets[i + 1]]``.
+    n_links : ndarray of int64, shape (n_chains,)
+    first : ndarray of int64, shape (n_chains,)
+        The end (``2 * link + side`` in ``edges``) each chain starts at.
+    """
+    n_edges = len(edges)
     pixel = edges.ravel().astype(np.int64)  # pixel at each end (slot)
     slot = np.arange(2 * n_edges, dtype=np.int64)
     at_node = is_node[pixel]
     # An inner pixel's two ends: each is the other's partner (their sum less itself).
     inner = slot[~at_node]
-    pair_sum = np.bincount(pixel[inner], weights=inner, minlength=n).astype(np.int64)
+    pair_sum = np.bincount(pixel[inner], weights=inner, minlength=len(is_node)).astype(np.int64)
     partner = pair_sum[pixel] - slot
 
     # Walk: enter at end s, leave at s ^ 1, go on at its partner unless it is a node.
@@ -298,12 +316,7 @@ def _compress(edges: np.ndarray, coords: np.ndarray, is_node: np.ndarray) -> Cha
     forward = stop > stop[stop]  # walks towards the later node end
     chain = chain_of_stop[stop[forward]]
     laid[chain_offsets[chain] + n_links[chain] - links_to_stop[forward] + 1] = pixel[leave[forward]]
-
-    # Order: chains with inner pixels by their smallest one, then the
-    # one-link chains by their first end.
-    key = _inner_min(laid, chain_offsets)
-    key = np.where(n_links > 1, key, n + first)
-    return _chains_in_order(laid, chain_offsets[:-1], size, key, coords)
+    return laid, chain_offsets, n_links, first
 
 
 def _inner_min(pixels: np.ndarray, offsets: np.ndarray) -> np.ndarray:
@@ -444,11 +457,12 @@ def _drop(chains: Chains, remove: np.ndarray, coords: np.ndarray) -> Chains:
     if not joined.any():
         return _chains_in_order(chains.pixels, chains.offsets[staying], sizes[staying], key, coords)
     # The joined chains: their links in list order, as compress_chains sees them.
-    merged = _compress(chains.edges(joined), coords, (degree != 2) & (degree > 0))
-    source = np.concatenate([chains.pixels, merged.pixels])
-    first = np.concatenate([chains.offsets[staying], len(chains.pixels) + merged.offsets[:-1]])
-    size = np.concatenate([sizes[staying], np.diff(merged.offsets)])
-    key = np.concatenate([key, _inner_min(merged.pixels, merged.offsets)])
+    # (Each has an inner pixel: the node it was joined at.)
+    laid, chain_offsets, _, _ = _walk_chains(chains.edges(joined), (degree != 2) & (degree > 0))
+    source = np.concatenate([chains.pixels, laid])
+    first = np.concatenate([chains.offsets[staying], len(chains.pixels) + chain_offsets[:-1]])
+    size = np.concatenate([sizes[staying], np.diff(chain_offsets)])
+    key = np.concatenate([key, _inner_min(laid, chain_offsets)])
     return _chains_in_order(source, first, size, key, coords)
 
 
