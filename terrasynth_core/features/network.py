@@ -166,12 +166,25 @@ def spanning_forest(mask: np.ndarray, strength: np.ndarray) -> PixelForest:
     # strongest first, then in the order listed (orthogonal before diagonal:
     # _FORWARD_OFFSETS lists them first); ranks start at 1 because csgraph
     # treats a zero entry as "no link".
-    order = np.argsort(-np.concatenate(strength_parts), kind="stable")
     cost = np.empty(len(a), dtype=np.float64)
-    cost[order] = np.arange(1, len(a) + 1)
+    cost[_strongest_first(np.concatenate(strength_parts))] = np.arange(1, len(a) + 1)
     tree = minimum_spanning_tree(sparse.csr_matrix((cost, (a, b)), shape=(n, n))).tocoo()
     edges = np.stack([tree.row, tree.col], axis=1).astype(np.int64)
     return PixelForest(coords, edges)
+
+
+def _strongest_first(strength: np.ndarray) -> np.ndarray:
+    """Indices that sort ``strength`` (shape (n,), float64) from the largest
+    down, equal values in their order; ``np.argsort(-strength, kind="stable")``.
+
+    Whole-number strengths (integer DEMs such as SRTM tiles) take a quicker
+    path: the value and the index packed into one distinct int64 key, which
+    the default (unstable) sort orders the same way in half the time.
+    """
+    n = len(strength)
+    if n and np.abs(strength).max() * n < 2.0**52 and np.array_equal(strength, np.floor(strength)):
+        return np.argsort((-strength).astype(np.int64) * n + np.arange(n))
+    return np.argsort(-strength, kind="stable")
 
 
 def _drop_weakest_in_triangles(present: list[np.ndarray], power: list[np.ndarray]) -> None:
@@ -282,7 +295,7 @@ def _walk_chains(
         The end (``2 * link + side`` in ``edges``) each chain starts at.
     """
     n_edges = len(edges)
-    pixel = edges.ravel().astype(np.int64)  # pixel at each end (slot)
+    pixel = np.asarray(edges, dtype=np.int64).ravel()  # pixel at each end (slot)
     slot = np.arange(2 * n_edges, dtype=np.int64)
     at_node = is_node[pixel]
     # An inner pixel's two ends: each is the other's partner (their sum less itself).
@@ -566,14 +579,18 @@ def chains_to_graph(
     points[offsets[1:] - 1] = position[end_group]
     points = smooth_polylines(points, offsets, smoothing)
 
+    # Python numbers (tolist) before the loops: iterating numpy arrays makes
+    # a numpy scalar per item, the slower part of building thousands of nodes.
     node_position = position[used]
     nodes = tuple(
-        FeatureNode(i, float(r), float(c), "branch" if d >= 3 else "end", int(d))
-        for i, ((r, c), d) in enumerate(zip(node_position, node_degree))
+        FeatureNode(i, r, c, "branch" if d >= 3 else "end", d)
+        for i, (r, c, d) in enumerate(zip(node_position[:, 0].tolist(), node_position[:, 1].tolist(),
+                                          node_degree.tolist()))
     )
+    bounds = offsets.tolist()
     paths = tuple(
-        FeaturePath(int(s), int(e), points[offsets[i] : offsets[i + 1]])
-        for i, (s, e) in enumerate(zip(start_id, end_id))
+        FeaturePath(s, e, points[bounds[i] : bounds[i + 1]])
+        for i, (s, e) in enumerate(zip(start_id.tolist(), end_id.tolist()))
     )
     return FeatureGraph(kind, tuple(int(v) for v in shape), nodes, paths)
 
