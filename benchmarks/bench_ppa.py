@@ -71,16 +71,22 @@ for graph in (maps.ridges, maps.valleys):
                         [(p.start, p.end) for p in graph.paths])).encode())
     for path in graph.paths:
         digest.update(path.points.tobytes())
-print(json.dumps({"wall": wall, "cpu": cpu, "digest": digest.hexdigest()}))
+import terrasynth_core
+print(json.dumps({"wall": wall, "cpu": cpu, "digest": digest.hexdigest(), "module": terrasynth_core.__file__}))
 """
 
 
 def _one_run(tree: Path, dem: Path) -> dict:
     """Time one PPA of ``dem`` with the project in ``tree``, in a fresh process."""
+    # -P: "python -c" would otherwise put the current directory (perhaps
+    # this tree) ahead of PYTHONPATH.
     env = dict(os.environ, PYTHONPATH=str(tree))
-    done = subprocess.run([sys.executable, "-c", _ONE_RUN, str(dem)], env=env, capture_output=True, text=True,
-                          check=True)
-    return json.loads(done.stdout)
+    done = subprocess.run([sys.executable, "-P", "-c", _ONE_RUN, str(dem)], env=env, capture_output=True,
+                          text=True, check=True)
+    run = json.loads(done.stdout)
+    if not Path(run["module"]).resolve().is_relative_to(tree.resolve()):
+        raise SystemExit(f"bench_ppa: {tree} did not provide terrasynth_core ({run['module']} did)")
+    return run
 
 
 def compare(baseline: Path, repeat: int) -> int:

@@ -135,33 +135,31 @@ def spanning_forest(mask: np.ndarray, strength: np.ndarray) -> PixelForest:
     s = np.where(mask, strength, 0).astype(np.float64)
 
     # Links by direction (_FORWARD_OFFSETS), on the grid of their first pixel.
-    present, power = [], []
+    present = []
     for dr, dc in _FORWARD_OFFSETS:
         src = (slice(0, rows - dr), slice(max(0, -dc), cols - max(0, dc)))
         dst = (slice(dr, rows), slice(max(0, dc), cols - max(0, -dc)))
         linked = np.zeros(mask.shape, dtype=bool)
         linked[src] = mask[src] & mask[dst]
-        link_strength = np.zeros(mask.shape)
-        link_strength[src] = s[src] + s[dst]
         present.append(linked)
-        power.append(link_strength)
     # Both diagonals of a full 2x2 block: keep only the stronger one.
-    full = present[0][:-1, :-1] & present[0][1:, :-1] & present[1][:-1, :-1] & present[1][:-1, 1:]
-    se, sw = power[2][:-1, :-1], power[3][:-1, 1:]
-    present[2][:-1, :-1] &= ~full | (se >= sw)
-    present[3][:-1, 1:] &= ~full | (sw > se)
-    if not any(p.any() for p in present):
-        return PixelForest(coords, np.empty((0, 2), dtype=np.int64))
-    _drop_weakest_in_triangles(present, power)
+    r, c = np.nonzero(present[2][:-1, :-1] & present[3][:-1, 1:])
+    se = s[r, c] + s[r + 1, c + 1]
+    sw = s[r, c + 1] + s[r + 1, c]
+    present[2][r[se < sw], c[se < sw]] = False
+    present[3][r[sw <= se], c[sw <= se] + 1] = False
+    _drop_weakest_in_triangles(present, s)
 
     a_parts, b_parts, strength_parts = [], [], []
-    for (dr, dc), linked, link_strength in zip(_FORWARD_OFFSETS, present, power):
+    for (dr, dc), linked in zip(_FORWARD_OFFSETS, present):
         r, c = np.nonzero(linked)
         a_parts.append(index[r, c])
         b_parts.append(index[r + dr, c + dc])
-        strength_parts.append(link_strength[r, c])
+        strength_parts.append(s[r, c] + s[r + dr, c + dc])
     a = np.concatenate(a_parts)
     b = np.concatenate(b_parts)
+    if len(a) == 0:
+        return PixelForest(coords, np.empty((0, 2), dtype=np.int64))
     # Kruskal only needs the order of the links, so the cost is a rank:
     # strongest first, then in the order listed (orthogonal before diagonal:
     # _FORWARD_OFFSETS lists them first); ranks start at 1 because csgraph
@@ -187,7 +185,7 @@ def _strongest_first(strength: np.ndarray) -> np.ndarray:
     return np.argsort(-strength, kind="stable")
 
 
-def _drop_weakest_in_triangles(present: list[np.ndarray], power: list[np.ndarray]) -> None:
+def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray) -> None:
     """Remove, in place, the weakest link of every triangle of links.
 
     The weakest link of a cycle is in no maximum spanning forest (when all
@@ -197,44 +195,44 @@ def _drop_weakest_in_triangles(present: list[np.ndarray], power: list[np.ndarray
 
     Parameters
     ----------
-    present, power : lists of 4 ndarrays, shape (rows, cols)
-        Whether each link of :data:`_FORWARD_OFFSETS` leaves each pixel, and
-        its strength.  ``present`` is updated.
+    present : list of 4 ndarrays of bool, shape (rows, cols)
+        Whether each link of :data:`_FORWARD_OFFSETS` leaves each pixel;
+        updated.
+    s : ndarray of float64, shape (rows, cols)
+        Pixel strengths; a link's is the sum of its pixels'.
 
     Notes
     -----
     Ties between equally strong links go as in :func:`spanning_forest`:
     E-W links before N-S links before diagonals, and within a direction the
     upper, then the left one first; so in a 2x2 block every comparison is a
-    fixed ``<`` or ``<=``.
+    fixed ``<`` or ``<=``.  Only the blocks holding a whole triangle are
+    compared.
     """
     rows, cols = present[0].shape
-    # The links of the 2x2 block whose top-left pixel is (r, c): (direction, rows, cols).
-    top = (0, slice(0, rows - 1), slice(0, cols - 1))
-    bottom = (0, slice(1, rows), slice(0, cols - 1))
-    left = (1, slice(0, rows - 1), slice(0, cols - 1))
-    right = (1, slice(0, rows - 1), slice(1, cols))
-    down_right = (2, slice(0, rows - 1), slice(0, cols - 1))
-    down_left = (3, slice(0, rows - 1), slice(1, cols))
-
-    def has(link):
-        return present[link[0]][link[1:]]
-
-    def strength(link):
-        return power[link[0]][link[1:]]
-
-    names = (top, bottom, left, right, down_right, down_left)
-    drop = [np.zeros((rows - 1, cols - 1), dtype=bool) for _ in names]
-    # Each triangle lists its links so that, on a tie, a later one is the weaker.
-    for x, y, z in ((top, right, down_right), (bottom, left, down_right),
-                    (top, left, down_left), (bottom, right, down_left)):
-        whole = has(x) & has(y) & has(z)
-        sx, sy, sz = strength(x), strength(y), strength(z)
-        drop[names.index(x)] |= whole & (sx < sy) & (sx < sz)
-        drop[names.index(y)] |= whole & (sy <= sx) & (sy < sz)
-        drop[names.index(z)] |= whole & (sz <= sx) & (sz <= sy)
-    for link, gone in zip(names, drop):
-        present[link[0]][link[1:]] &= ~gone
+    east, south, down_right, down_left = present
+    # The 2x2 block with top-left pixel (r, c): its links, where present.
+    top, bottom = east[:-1, :-1], east[1:, :-1]
+    left, right = south[:-1, :-1], south[:-1, 1:]
+    diagonal_se, diagonal_sw = down_right[:-1, :-1], down_left[:-1, 1:]
+    drops = []
+    # Each triangle: its links as (direction, row offset, col offset) of their
+    # first pixel in the block, listed so that on a tie a later one is weaker.
+    for whole, links in (
+        (top & right & diagonal_se, ((0, 0, 0), (1, 0, 1), (2, 0, 0))),
+        (bottom & left & diagonal_se, ((0, 1, 0), (1, 0, 0), (2, 0, 0))),
+        (top & left & diagonal_sw, ((0, 0, 0), (1, 0, 0), (3, 0, 1))),
+        (bottom & right & diagonal_sw, ((0, 1, 0), (1, 0, 1), (3, 0, 1))),
+    ):
+        r, c = np.nonzero(whole)
+        power = [s[r + i, c + j] + s[r + i + _FORWARD_OFFSETS[k][0], c + j + _FORWARD_OFFSETS[k][1]]
+                 for k, i, j in links]
+        x, y, z = power
+        weakest = ((x < y) & (x < z), (y <= x) & (y < z), (z <= x) & (z <= y))
+        for (k, i, j), gone in zip(links, weakest):
+            drops.append((k, r[gone] + i, c[gone] + j))
+    for k, r, c in drops:
+        present[k][r, c] = False
 
 
 def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
