@@ -209,7 +209,6 @@ def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray) -> None
     fixed ``<`` or ``<=``.  Only the blocks holding a whole triangle are
     compared.
     """
-    rows, cols = present[0].shape
     east, south, down_right, down_left = present
     # The 2x2 block with top-left pixel (r, c): its links, where present.
     top, bottom = east[:-1, :-1], east[1:, :-1]
