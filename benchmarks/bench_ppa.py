@@ -20,11 +20,22 @@ count as lower, and the TPI ignores them.
 ``--overlays DIR`` also writes ``features_<name>.png`` (hillshade, ridges
 red, valleys blue, branch points yellow, endpoints white; at most 800 px
 wide) for N44W072, bigtujunga and SainteHelens.
+
+``--baseline DIR`` compares with another checkout of the project (e.g.
+``git worktree add /tmp/base <commit>``) instead: for every DEM it times
+one ``extract_features`` call in fresh processes, the baseline's and this
+tree's in turn, ``--repeat`` times each, and prints the medians of wall and
+CPU time (CPU time is steadier on a shared machine), their ratios, and
+whether both gave the same graphs (a digest of every node and path point).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import statistics
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -44,11 +55,73 @@ def _pair(ridge, valley) -> str:
     return f"{ridge}/{valley}"
 
 
+#: Run in a fresh process by ``--baseline``: one timed PPA of a DEM, as JSON.
+_ONE_RUN = """
+import hashlib, json, sys, time
+from terrasynth_core.features import extract_features
+from terrasynth_core.io import load_dem
+field = load_dem(sys.argv[1])
+extract_features(field.heights[:64, :64])  # warm-up (imports, caches)
+wall, cpu = time.perf_counter(), time.process_time()
+maps = extract_features(field)
+wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+digest = hashlib.sha1()
+for graph in (maps.ridges, maps.valleys):
+    digest.update(repr((graph.kind, graph.shape, [(n.id, n.row, n.col, n.type, n.degree) for n in graph.nodes],
+                        [(p.start, p.end) for p in graph.paths])).encode())
+    for path in graph.paths:
+        digest.update(path.points.tobytes())
+import terrasynth_core
+print(json.dumps({"wall": wall, "cpu": cpu, "digest": digest.hexdigest(), "module": terrasynth_core.__file__}))
+"""
+
+
+def _one_run(tree: Path, dem: Path) -> dict:
+    """Time one PPA of ``dem`` with the project in ``tree``, in a fresh process."""
+    # -P: "python -c" would otherwise put the current directory (perhaps
+    # this tree) ahead of PYTHONPATH.
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    done = subprocess.run([sys.executable, "-P", "-c", _ONE_RUN, str(dem)], env=env, capture_output=True,
+                          text=True, check=True)
+    run = json.loads(done.stdout)
+    if not Path(run["module"]).resolve().is_relative_to(tree.resolve()):
+        raise SystemExit(f"bench_ppa: {tree} did not provide terrasynth_core ({run['module']} did)")
+    return run
+
+
+def compare(baseline: Path, repeat: int) -> int:
+    """Print the baseline's and this tree's PPA times side by side; 1 if any graph differs."""
+    here = Path(__file__).resolve().parents[1]
+    header = (f"{'DEM':<14} {'base wall':>9} {'new wall':>9} {'ratio':>6} {'base CPU':>9} {'new CPU':>8} "
+              f"{'ratio':>6}  same graphs")
+    print(f"PPA (extract_features, kind='both'), medians of {repeat} fresh processes each, alternating; seconds")
+    print(header)
+    print("-" * len(header))
+    differ = False
+    for file in DEM_FILES:
+        runs = {"base": [], "new": []}
+        for _ in range(max(1, repeat)):
+            runs["base"].append(_one_run(baseline, DEMS_DIR / file))
+            runs["new"].append(_one_run(here, DEMS_DIR / file))
+        med = {(k, m): statistics.median(r[m] for r in runs[k]) for k in runs for m in ("wall", "cpu")}
+        same = {r["digest"] for r in runs["base"] + runs["new"]}
+        differ |= len(same) != 1
+        print(f"{Path(file).stem:<14} {med['base', 'wall']:>9.2f} {med['new', 'wall']:>9.2f} "
+              f"{med['new', 'wall'] / med['base', 'wall']:>6.2f} {med['base', 'cpu']:>9.2f} "
+              f"{med['new', 'cpu']:>8.2f} {med['new', 'cpu'] / med['base', 'cpu']:>6.2f}  "
+              f"{'yes' if len(same) == 1 else 'NO'}", flush=True)
+    return 1 if differ else 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3, help="timed runs per DEM (best is shown)")
     parser.add_argument("--overlays", type=Path, default=None, help="directory for overlay PNGs")
+    parser.add_argument("--baseline", type=Path, default=None, metavar="DIR",
+                        help="compare with the project checked out in DIR (fresh processes, medians)")
     args = parser.parse_args(argv)
+    if args.baseline is not None:
+        return compare(args.baseline, args.repeat)
 
     header = (
         f"{'DEM':<14} {'shape':>10} {'seconds':>8} {'#branch':>10} {'#end':>11} {'#paths':>11} "

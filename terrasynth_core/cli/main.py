@@ -22,6 +22,14 @@ EXIT_OK = 0
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
+#: ``export --preset`` and ``masks --preset`` values: the names of
+#: :data:`terrasynth_core.export.PRESETS`, and ``masks --format`` values:
+#: :data:`terrasynth_core.export.MASK_FORMATS`.  Written out here because the
+#: export package needs numpy, scipy and rasterio, which ``--help`` must not
+#: load; tests/core/test_cli_fast_start.py checks that both lists agree.
+PRESET_NAMES = ("unreal", "unity", "godot", "blender", "houdini")
+MASK_FORMATS = ("png8", "png16", "exr")
+
 
 def parse_size(text: str) -> tuple[int, int]:
     """``ROWSxCOLS`` (or a single ``N`` for a square) -> (rows, cols)."""
@@ -524,12 +532,10 @@ def build_parser() -> argparse.ArgumentParser:
     _add_cog(p)
     p.set_defaults(func=cmd_convert)
 
-    from ..export import MASK_FORMATS, preset_names
-
     p = sub.add_parser("export", help="heightmaps for a game engine or DCC tool (unreal, unity, godot, "
                                       "blender, houdini), with their import settings")
     p.add_argument("input", help="a DEM (any readable format, a synth output, or builtin:KEY)")
-    p.add_argument("--preset", required=True, choices=preset_names())
+    p.add_argument("--preset", required=True, choices=PRESET_NAMES)
     p.add_argument("--out", required=True, metavar="DIR", help="output folder; existing files are never replaced")
     p.add_argument("--size", type=positive_count, metavar="N",
                    help="samples a side per tile (unreal: 127..8129, unity: 33..4097 = 2^n+1), or on the longer "
@@ -548,7 +554,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--format", choices=MASK_FORMATS, default="png8")
     p.add_argument("--size", type=positive_count, metavar="N",
                    help="samples on the longer side (default: the DEM's own grid); with --preset, its size")
-    p.add_argument("--preset", choices=preset_names(),
+    p.add_argument("--preset", choices=PRESET_NAMES,
                    help="make the masks on the grid 'export --preset' writes (same --size), cell for cell")
     p.add_argument("--sea-level", type=float, default=0.0, metavar="M",
                    help="water mask: cells at or below this height (default 0 m)")

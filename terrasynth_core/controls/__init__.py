@@ -1,8 +1,18 @@
 """Artist controls beyond the sketch: style regions and their level field,
 stamps, elevation pins, water and the height range."""
 
-from .options import Controls, Stamp, Style
-from .pins import Pin, PinError
-from .water import Water
+from typing import TYPE_CHECKING
 
-__all__ = ["Controls", "Pin", "PinError", "Stamp", "Style", "Water"]
+from .._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from .options import Controls, Stamp, Style
+    from .pins import Pin, PinError
+    from .water import Water
+
+# Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    ".options": ("Controls", "Stamp", "Style"),
+    ".pins": ("Pin", "PinError"),
+    ".water": ("Water",),
+})

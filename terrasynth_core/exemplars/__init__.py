@@ -1,6 +1,14 @@
 """Example analysis: nodata handling, PPA features, feature samples and the
 mask of strong features, memoised in memory and cached on disk."""
 
-from .prepare import ExampleAnalysis, prepare_example
+from typing import TYPE_CHECKING
 
-__all__ = ["ExampleAnalysis", "prepare_example"]
+from .._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from .prepare import ExampleAnalysis, prepare_example
+
+# Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    ".prepare": ("ExampleAnalysis", "prepare_example"),
+})

@@ -11,9 +11,18 @@ Imports the file formats (:mod:`terrasynth_core.io`) and the measures, never
 the synthesis stages; the CLI and the app call it.
 """
 
-from .engines import PRESETS, EngineExport, EnginePreset, export_for_engine, preset_names
-from .mask_files import MASK_FORMATS, write_masks
-from .masks import MASK_NAMES, TerrainMasks, terrain_masks
+from typing import TYPE_CHECKING
 
-__all__ = ["MASK_FORMATS", "MASK_NAMES", "PRESETS", "EngineExport", "EnginePreset", "TerrainMasks",
-           "export_for_engine", "preset_names", "terrain_masks", "write_masks"]
+from .._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from .engines import PRESETS, EngineExport, EnginePreset, export_for_engine, preset_names
+    from .mask_files import MASK_FORMATS, write_masks
+    from .masks import MASK_NAMES, TerrainMasks, terrain_masks
+
+# Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    ".engines": ("PRESETS", "EngineExport", "EnginePreset", "export_for_engine", "preset_names"),
+    ".mask_files": ("MASK_FORMATS", "write_masks"),
+    ".masks": ("MASK_NAMES", "TerrainMasks", "terrain_masks"),
+})

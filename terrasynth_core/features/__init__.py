@@ -9,23 +9,20 @@
 hillshade.
 """
 
-from .graph import FeatureGraph, FeatureMaps, FeatureNode, FeaturePath
-from .ppa import PPAParams, extract_features, extract_ridges, extract_valleys
-from .sketch import SketchMap, SketchParams, read_sketch, resize_nearest, save_sketch, sketch_features
+from typing import TYPE_CHECKING
 
-__all__ = [
-    "FeatureGraph",
-    "FeatureMaps",
-    "FeatureNode",
-    "FeaturePath",
-    "PPAParams",
-    "SketchMap",
-    "SketchParams",
-    "extract_features",
-    "extract_ridges",
-    "extract_valleys",
-    "read_sketch",
-    "resize_nearest",
-    "save_sketch",
-    "sketch_features",
-]
+from .._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from .graph import FeatureGraph, FeatureMaps, FeatureNode, FeaturePath
+    from .ppa import PPAParams, extract_features, extract_ridges, extract_valleys
+    from .sketch import SketchMap, SketchParams, read_sketch, resize_nearest, save_sketch, sketch_features
+
+# Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    ".graph": ("FeatureGraph", "FeatureMaps", "FeatureNode", "FeaturePath"),
+    ".ppa": ("PPAParams", "extract_features", "extract_ridges", "extract_valleys"),
+    ".sketch": (
+        "SketchMap", "SketchParams", "read_sketch", "resize_nearest", "save_sketch", "sketch_features"
+    ),
+})

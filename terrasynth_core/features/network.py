@@ -129,44 +129,109 @@ def spanning_forest(mask: np.ndarray, strength: np.ndarray) -> PixelForest:
     """
     rows, cols = mask.shape
     coords = np.argwhere(mask)
+    n = len(coords)
     index = np.full(mask.shape, -1, dtype=np.int64)
-    index[mask] = np.arange(len(coords))
+    index[mask] = np.arange(n)
     s = np.where(mask, strength, 0).astype(np.float64)
 
-    # Both diagonals of a full 2x2 block: keep only the stronger one.
-    full = mask[:-1, :-1] & mask[:-1, 1:] & mask[1:, :-1] & mask[1:, 1:]
-    se = s[:-1, :-1] + s[1:, 1:]
-    sw = s[:-1, 1:] + s[1:, :-1]
-    keep_diag = {(1, 1): ~full | (se >= sw), (1, -1): ~full | (sw > se)}
-
-    a_parts, b_parts, diag_parts = [], [], []
+    # Links by direction (_FORWARD_OFFSETS), on the grid of their first pixel.
+    present = []
     for dr, dc in _FORWARD_OFFSETS:
-        c_src = slice(max(0, -dc), cols - max(0, dc))
-        c_dst = slice(max(0, dc), cols - max(0, -dc))
-        src = index[: rows - dr, c_src]
-        dst = index[dr:, c_dst]
-        linked = (src >= 0) & (dst >= 0)
-        if (dr, dc) in keep_diag:
-            linked &= keep_diag[(dr, dc)]
-        a_parts.append(src[linked])
-        b_parts.append(dst[linked])
-        diag_parts.append(np.full(int(linked.sum()), dr != 0 and dc != 0))
+        src = (slice(0, rows - dr), slice(max(0, -dc), cols - max(0, dc)))
+        dst = (slice(dr, rows), slice(max(0, dc), cols - max(0, -dc)))
+        linked = np.zeros(mask.shape, dtype=bool)
+        linked[src] = mask[src] & mask[dst]
+        present.append(linked)
+    # Both diagonals of a full 2x2 block: keep only the stronger one.
+    r, c = np.nonzero(present[2][:-1, :-1] & present[3][:-1, 1:])
+    se = s[r, c] + s[r + 1, c + 1]
+    sw = s[r, c + 1] + s[r + 1, c]
+    present[2][r[se < sw], c[se < sw]] = False
+    present[3][r[sw <= se], c[sw <= se] + 1] = False
+    _drop_weakest_in_triangles(present, s)
+
+    a_parts, b_parts, strength_parts = [], [], []
+    for (dr, dc), linked in zip(_FORWARD_OFFSETS, present):
+        r, c = np.nonzero(linked)
+        a_parts.append(index[r, c])
+        b_parts.append(index[r + dr, c + dc])
+        strength_parts.append(s[r, c] + s[r + dr, c + dc])
     a = np.concatenate(a_parts)
     b = np.concatenate(b_parts)
     if len(a) == 0:
         return PixelForest(coords, np.empty((0, 2), dtype=np.int64))
-    pixel_strength = s[mask]
-    link_strength = pixel_strength[a] + pixel_strength[b]
     # Kruskal only needs the order of the links, so the cost is a rank:
-    # strongest first, orthogonal before diagonal on ties; ranks start at 1
-    # because csgraph treats a zero entry as "no link".
-    order = np.lexsort((np.concatenate(diag_parts), -link_strength))
+    # strongest first, then in the order listed (orthogonal before diagonal:
+    # _FORWARD_OFFSETS lists them first); ranks start at 1 because csgraph
+    # treats a zero entry as "no link".
     cost = np.empty(len(a), dtype=np.float64)
-    cost[order] = np.arange(1, len(a) + 1)
-    n = len(coords)
+    cost[_strongest_first(np.concatenate(strength_parts))] = np.arange(1, len(a) + 1)
     tree = minimum_spanning_tree(sparse.csr_matrix((cost, (a, b)), shape=(n, n))).tocoo()
     edges = np.stack([tree.row, tree.col], axis=1).astype(np.int64)
     return PixelForest(coords, edges)
+
+
+def _strongest_first(strength: np.ndarray) -> np.ndarray:
+    """Indices that sort ``strength`` (shape (n,), float64) from the largest
+    down, equal values in their order; ``np.argsort(-strength, kind="stable")``.
+
+    Whole-number strengths (integer DEMs such as SRTM tiles) take a quicker
+    path: the value and the index packed into one distinct int64 key, which
+    the default (unstable) sort orders the same way in half the time.
+    """
+    n = len(strength)
+    if n and np.abs(strength).max() * n < 2.0**52 and np.array_equal(strength, np.floor(strength)):
+        return np.argsort((-strength).astype(np.int64) * n + np.arange(n))
+    return np.argsort(-strength, kind="stable")
+
+
+def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray) -> None:
+    """Remove, in place, the weakest link of every triangle of links.
+
+    The weakest link of a cycle is in no maximum spanning forest (when all
+    links are ordered, as :func:`spanning_forest` orders them), so dropping
+    it changes nothing but halves the links Kruskal has to sort on dense
+    target areas (plateaus).
+
+    Parameters
+    ----------
+    present : list of 4 ndarrays of bool, shape (rows, cols)
+        Whether each link of :data:`_FORWARD_OFFSETS` leaves each pixel;
+        updated.
+    s : ndarray of float64, shape (rows, cols)
+        Pixel strengths; a link's is the sum of its pixels'.
+
+    Notes
+    -----
+    Ties between equally strong links go as in :func:`spanning_forest`:
+    E-W links before N-S links before diagonals, and within a direction the
+    upper, then the left one first; so in a 2x2 block every comparison is a
+    fixed ``<`` or ``<=``.  Only the blocks holding a whole triangle are
+    compared.
+    """
+    east, south, down_right, down_left = present
+    # The 2x2 block with top-left pixel (r, c): its links, where present.
+    top, bottom = east[:-1, :-1], east[1:, :-1]
+    left, right = south[:-1, :-1], south[:-1, 1:]
+    diagonal_se, diagonal_sw = down_right[:-1, :-1], down_left[:-1, 1:]
+    drops = []
+    # Each triangle: its links as (direction, row offset, col offset) of their
+    # first pixel in the block, listed so that on a tie a later one is weaker.
+    for whole, links in (
+        (top & right & diagonal_se, ((0, 0, 0), (1, 0, 1), (2, 0, 0))),
+        (bottom & left & diagonal_se, ((0, 1, 0), (1, 0, 0), (2, 0, 0))),
+        (top & left & diagonal_sw, ((0, 0, 0), (1, 0, 0), (3, 0, 1))),
+        (bottom & right & diagonal_sw, ((0, 1, 0), (1, 0, 1), (3, 0, 1))),
+    ):
+        r, c = np.nonzero(whole)
+        power = [s[r + i, c + j] + s[r + i + _FORWARD_OFFSETS[k][0], c + j + _FORWARD_OFFSETS[k][1]]
+                 for k, i, j in links]
+        x, y, z = power
+        weakest = ((x < y) & (x < z), (y <= x) & (y < z), (z <= x) & (z <= y))
+        for (k, i, j), gone in zip(links, weakest):
+            drops.append((k, r[gone] + i, c[gone] + j))
+    for k, r, c in drops:
+        present[k][r, c] = False
 
 
 def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
@@ -182,56 +247,122 @@ def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
     Returns
     -------
     Chains
+        Each chain runs from the end whose link comes first in ``edges`` (on
+        a one-link chain: ``edges[i, 0]``) to the other.  Chains with inner
+        pixels come first, ordered by their smallest inner pixel id, then
+        the one-link chains in the order of ``edges``.
 
     Notes
     -----
-    Near-linear, no per-pixel Python: every link end at a node pixel (degree
-    1 or >= 3) is replaced by a private copy of that pixel, which cuts the
-    forest into disjoint simple paths, one per chain, ending in two copies.
-    A virtual root is linked to one end copy of every path; one
-    breadth-first traversal from it ranks the pixels of each chain in order
-    along it, and a sort by (chain, rank) lists the chains one after another.
+    Linear, no per-pixel Python.  Each link has two *ends* (slot ``2 i + j``
+    is ``edges[i, j]``).  Walking a chain enters a link at one end, leaves it
+    at the other and, unless that pixel is a node (degree 1 or >= 3), enters
+    the next link at the pixel's other end.  Pointer jumping over these
+    successor pointers (Wyllie's list ranking, only over the ends still
+    walking) gives every end its distance to the end of its walk and the
+    end it stops at, which places every pixel of every chain directly.
     """
-    n = len(coords)
     if len(edges) == 0:
         empty = np.empty(0, dtype=np.int64)
         return Chains(empty, np.zeros(1, dtype=np.int64), empty, empty, np.empty(0))
-    degree = np.bincount(edges.ravel(), minlength=n)
-    split = edges.copy()
-    at_node = degree[split] != 2
-    copy_of = split[at_node]
-    copies = n + np.arange(len(copy_of))
-    split[at_node] = copies
-    n_split = n + len(copies)
+    is_node = np.bincount(edges.ravel(), minlength=len(coords)) != 2
+    laid, chain_offsets, n_links, first = _walk_chains(edges, is_node)
+    # Order: chains with inner pixels by their smallest one, then the
+    # one-link chains by their first end.
+    key = _inner_min(laid, chain_offsets)
+    key = np.where(n_links > 1, key, len(coords) + first)
+    return _chains_in_order(laid, chain_offsets[:-1], n_links + 1, key, coords)
 
-    graph = sparse.csr_matrix(
-        (np.ones(len(split)), (split[:, 0], split[:, 1])), shape=(n_split, n_split)
-    )
-    _, label = connected_components(graph, directed=False)
-    first_copy = np.full(label.max() + 1, n_split, dtype=np.int64)
-    np.minimum.at(first_copy, label[copies], copies)
-    starts = first_copy[first_copy < n_split]
 
-    root = n_split
-    rows = np.concatenate([split[:, 0], np.full(len(starts), root)])
-    cols = np.concatenate([split[:, 1], starts])
-    rooted = sparse.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(root + 1, root + 1))
-    visited = breadth_first_order(rooted, root, directed=False, return_predecessors=False)[1:]
-    # Breadth-first rank grows along every chain, so sorting by (chain, rank)
-    # lists each chain contiguously from its first copy to its other end.
-    # (A depth-first order would need no sort, but scipy's is quadratic in
-    # the root's degree.)
-    order = visited[np.lexsort((np.arange(len(visited)), label[visited]))]
+def _walk_chains(
+    edges: np.ndarray, is_node: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The chains of some links of a forest, split at the pixels where
+    ``is_node`` (shape (n_pixels,): degree 1 or >= 3 in the whole forest),
+    each laid out from its first end, in no particular order.
 
-    chain_label = label[order]
-    breaks = np.flatnonzero(chain_label[1:] != chain_label[:-1]) + 1
-    offsets = np.concatenate([[0], breaks, [len(order)]]).astype(np.int64)
-    pixels = order.astype(np.int64)
-    is_copy = pixels >= n
-    pixels[is_copy] = copy_of[pixels[is_copy] - n]
+    Returns
+    -------
+    laid : ndarray of int64, shape (n,)
+        Pixel ids of the chains, concatenated.
+    chain_offsets : ndarray of int64, shape (n_chains + 1,)
+        Chain ``i`` is ``laid[chain_offsets[i]:chain_offsets[i + 1]]``.
+    n_links : ndarray of int64, shape (n_chains,)
+    first : ndarray of int64, shape (n_chains,)
+        The end (``2 * link + side`` in ``edges``) each chain starts at.
+    """
+    n_edges = len(edges)
+    pixel = np.asarray(edges, dtype=np.int64).ravel()  # pixel at each end (slot)
+    slot = np.arange(2 * n_edges, dtype=np.int64)
+    at_node = is_node[pixel]
+    # An inner pixel's two ends: each is the other's partner (their sum less itself).
+    inner = slot[~at_node]
+    pair_sum = np.bincount(pixel[inner], weights=inner, minlength=len(is_node)).astype(np.int64)
+    partner = pair_sum[pixel] - slot
 
+    # Walk: enter at end s, leave at s ^ 1, go on at its partner unless it is a node.
+    leave = slot ^ 1
+    following = np.where(at_node[leave], -1, partner[leave])
+    links_to_stop = np.ones(2 * n_edges, dtype=np.int64)  # links from entering at s to the stop
+    stop = leave.copy()  # the node end a walk entered at s stops at
+    walking = np.flatnonzero(following >= 0)
+    while len(walking):
+        ahead = following[walking]
+        links_to_stop[walking] += links_to_stop[ahead]
+        stop[walking] = stop[ahead]
+        following[walking] = following[ahead]
+        walking = walking[following[walking] >= 0]
+
+    # A chain starts at the first of its two node ends (as the copies of
+    # node pixels were numbered before: in the order of ``edges``).
+    first = np.flatnonzero(at_node & (slot < stop))
+    n_links = links_to_stop[first]
+    size = n_links + 1
+    chain_offsets = np.concatenate([[0], np.cumsum(size)])
+    laid = np.empty(chain_offsets[-1], dtype=np.int64)
+    laid[chain_offsets[:-1]] = pixel[first]
+    chain_of_stop = np.empty(2 * n_edges, dtype=np.int64)
+    chain_of_stop[stop[first]] = np.arange(len(first))
+    forward = stop > stop[stop]  # walks towards the later node end
+    chain = chain_of_stop[stop[forward]]
+    laid[chain_offsets[chain] + n_links[chain] - links_to_stop[forward] + 1] = pixel[leave[forward]]
+    return laid, chain_offsets, n_links, first
+
+
+def _inner_min(pixels: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Smallest inner pixel id of each chain laid out as in :class:`Chains`
+    (the largest int64 for a chain without one), shape (n_chains,)."""
+    if len(offsets) < 2:
+        return np.empty(0, dtype=np.int64)
+    masked = pixels.copy()
+    masked[offsets[:-1]] = _NO_INNER
+    masked[offsets[1:] - 1] = _NO_INNER
+    return np.minimum.reduceat(masked, offsets[:-1])
+
+
+#: :func:`_inner_min` of a chain without inner pixels.
+_NO_INNER = np.iinfo(np.int64).max
+
+
+def _chains_in_order(
+    source: np.ndarray, first: np.ndarray, size: np.ndarray, key: np.ndarray, coords: np.ndarray
+) -> Chains:
+    """:class:`Chains` from pixel runs ``source[first[i]:first[i] + size[i]]``
+    in the order of their distinct integer ``key`` (all below
+    ``len(key) + len(coords) + len(source)``)."""
+    # The keys are distinct and small: a counting sort.
+    chain_at_key = np.full(int(key.max(initial=-1)) + 1, -1, dtype=np.int64)
+    chain_at_key[key] = np.arange(len(key))
+    order = chain_at_key[chain_at_key >= 0]
+    sizes = size[order]
+    offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+    take = np.arange(offsets[-1]) + np.repeat(first[order] - offsets[:-1], sizes)
+    pixels = source[take]
+    # The lengths are differences of one running sum over all chains, so
+    # equal chains can differ in the last bits; keeping this exact sum keeps
+    # every threshold and tie of the branch reduction as it was.
     step = np.hypot(*np.diff(coords[pixels], axis=0).T.astype(np.float64))
-    step[chain_label[1:] != chain_label[:-1]] = 0.0
+    step[offsets[1:-1] - 1] = 0.0
     cumulative = np.concatenate([[0.0], np.cumsum(step)])
     length = cumulative[offsets[1:] - 1] - cumulative[offsets[:-1]]
     return Chains(pixels, offsets, pixels[offsets[:-1]], pixels[offsets[1:] - 1], length)
@@ -314,10 +445,35 @@ def reduce_branches(
 
 
 def _drop(chains: Chains, remove: np.ndarray, coords: np.ndarray) -> Chains:
-    """Chains without those marked in ``remove``, recompressed."""
+    """Chains without those marked in ``remove``, recompressed: exactly
+    ``compress_chains(chains.edges(~remove), coords)``.
+
+    Only the kept chains meeting at a node left with two chains are joined
+    (walked again); the others keep their pixels, and all are laid out
+    again in :func:`compress_chains`' order.
+    """
     if not remove.any():
         return chains
-    return compress_chains(chains.edges(~remove), coords)
+    n = len(coords)
+    keep = ~remove
+    degree = np.bincount(np.concatenate([chains.start[keep], chains.end[keep]]), minlength=n)
+    joined = keep & ((degree[chains.start] == 2) | (degree[chains.end] == 2))
+    staying = np.flatnonzero(keep & ~joined)
+    sizes = np.diff(chains.offsets)
+    # A chain that stays keeps its direction, and its order key: its
+    # smallest inner pixel, or, without one, its place in the list.
+    key = _inner_min(chains.pixels, chains.offsets)[staying]
+    key = np.where(key == _NO_INNER, n + staying, key)
+    if not joined.any():
+        return _chains_in_order(chains.pixels, chains.offsets[staying], sizes[staying], key, coords)
+    # The joined chains: their links in list order, as compress_chains sees them.
+    # (Each has an inner pixel: the node it was joined at.)
+    laid, chain_offsets, _, _ = _walk_chains(chains.edges(joined), (degree != 2) & (degree > 0))
+    source = np.concatenate([chains.pixels, laid])
+    first = np.concatenate([chains.offsets[staying], len(chains.pixels) + chain_offsets[:-1]])
+    size = np.concatenate([sizes[staying], np.diff(chain_offsets)])
+    key = np.concatenate([key, _inner_min(laid, chain_offsets)])
+    return _chains_in_order(source, first, size, key, coords)
 
 
 def smooth_polylines(points: np.ndarray, offsets: np.ndarray, window: int) -> np.ndarray:
@@ -420,14 +576,18 @@ def chains_to_graph(
     points[offsets[1:] - 1] = position[end_group]
     points = smooth_polylines(points, offsets, smoothing)
 
+    # Python numbers (tolist) before the loops: iterating numpy arrays makes
+    # a numpy scalar per item, the slower part of building thousands of nodes.
     node_position = position[used]
     nodes = tuple(
-        FeatureNode(i, float(r), float(c), "branch" if d >= 3 else "end", int(d))
-        for i, ((r, c), d) in enumerate(zip(node_position, node_degree))
+        FeatureNode(i, r, c, "branch" if d >= 3 else "end", d)
+        for i, (r, c, d) in enumerate(zip(node_position[:, 0].tolist(), node_position[:, 1].tolist(),
+                                          node_degree.tolist()))
     )
+    bounds = offsets.tolist()
     paths = tuple(
-        FeaturePath(int(s), int(e), points[offsets[i] : offsets[i + 1]])
-        for i, (s, e) in enumerate(zip(start_id, end_id))
+        FeaturePath(s, e, points[bounds[i] : bounds[i + 1]])
+        for i, (s, e) in enumerate(zip(start_id.tolist(), end_id.tolist()))
     )
     return FeatureGraph(kind, tuple(int(v) for v in shape), nodes, paths)
 

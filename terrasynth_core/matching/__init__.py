@@ -2,8 +2,18 @@
 sketch sample, the FFT search for non-feature fill windows, and the match
 cost both are chosen by."""
 
-from .candidates import Candidate, FeaturePool
-from .costs import OFFSET_WEIGHT, match_cost, overlap_ssd, settle
-from .fill_search import FillSearch
+from typing import TYPE_CHECKING
 
-__all__ = ["OFFSET_WEIGHT", "Candidate", "FeaturePool", "FillSearch", "match_cost", "overlap_ssd", "settle"]
+from .._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from .candidates import Candidate, FeaturePool
+    from .costs import OFFSET_WEIGHT, match_cost, overlap_ssd, settle
+    from .fill_search import FillSearch
+
+# Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    ".candidates": ("Candidate", "FeaturePool"),
+    ".costs": ("OFFSET_WEIGHT", "match_cost", "overlap_ssd", "settle"),
+    ".fill_search": ("FillSearch",),
+})

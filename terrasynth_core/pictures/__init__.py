@@ -15,53 +15,32 @@
 The pictures only read the engine's results; no synthesis stage imports them.
 """
 
-from .colours import (
-    TERRAIN_LUT,
-    height_range,
-    height_ticks,
-    patch_colours,
-    ramp_strip,
-    shaded_relief,
-    shaded_window,
-    terrain_colours,
-    thumbnail,
-)
-from .files import save_png
-from .masks import BAND_COLOURS, mask_picture
-from .overlay import RIDGE_COLOUR, VALLEY_COLOUR, render_overlay
-from .shading import grey_hillshade, hillshade, lit
-from .sheet import compose, fit_panel
-from .terrain_3d import camera_direction, surface_grid, trim_background
-from .water import DEEP_RGB, SHALLOW_RGB, SHORE_RGB, depth_colours, water_cells, water_rgba
+from typing import TYPE_CHECKING
 
-__all__ = [
-    "BAND_COLOURS",
-    "DEEP_RGB",
-    "mask_picture",
-    "RIDGE_COLOUR",
-    "SHALLOW_RGB",
-    "SHORE_RGB",
-    "TERRAIN_LUT",
-    "VALLEY_COLOUR",
-    "camera_direction",
-    "compose",
-    "depth_colours",
-    "fit_panel",
-    "grey_hillshade",
-    "height_range",
-    "height_ticks",
-    "hillshade",
-    "lit",
-    "patch_colours",
-    "ramp_strip",
-    "render_overlay",
-    "save_png",
-    "shaded_relief",
-    "shaded_window",
-    "surface_grid",
-    "terrain_colours",
-    "thumbnail",
-    "trim_background",
-    "water_cells",
-    "water_rgba",
-]
+from .._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from .colours import (TERRAIN_LUT, height_range, height_ticks, patch_colours, ramp_strip, shaded_relief,
+        shaded_window, terrain_colours, thumbnail)
+    from .files import save_png
+    from .masks import BAND_COLOURS, mask_picture
+    from .overlay import RIDGE_COLOUR, VALLEY_COLOUR, render_overlay
+    from .shading import grey_hillshade, hillshade, lit
+    from .sheet import compose, fit_panel
+    from .terrain_3d import camera_direction, surface_grid, trim_background
+    from .water import DEEP_RGB, SHALLOW_RGB, SHORE_RGB, depth_colours, water_cells, water_rgba
+
+# Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    ".colours": (
+        "TERRAIN_LUT", "height_range", "height_ticks", "patch_colours", "ramp_strip", "shaded_relief",
+        "shaded_window", "terrain_colours", "thumbnail"
+    ),
+    ".files": ("save_png",),
+    ".masks": ("BAND_COLOURS", "mask_picture"),
+    ".overlay": ("RIDGE_COLOUR", "VALLEY_COLOUR", "render_overlay"),
+    ".shading": ("grey_hillshade", "hillshade", "lit"),
+    ".sheet": ("compose", "fit_panel"),
+    ".terrain_3d": ("camera_direction", "surface_grid", "trim_background"),
+    ".water": ("DEEP_RGB", "SHALLOW_RGB", "SHORE_RGB", "depth_colours", "water_cells", "water_rgba"),
+})

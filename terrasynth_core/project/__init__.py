@@ -15,36 +15,30 @@ same :class:`RunSpec` the app's *Synthesize* builds.
 - :mod:`.footprints`: stamps too thin to place, refused with the scale that would do
 """
 
-from ..errors import ProjectError
-from .file import (FORMAT_VERSION, MAX_LAYER_CELLS, MAX_SIDE, PROJECT_EXTENSION, ProjectData, ProjectResult, read_project,
-                   write_project)
-from .footprints import MIN_STAMP_CELLS, check_stamp_footprints
-from .refs import ExampleRef
-from .resize import resize_pins, resize_stamps
-from .run import STROKE_THRESHOLD, RunSpec, painted_styles, run_spec, stroke_map
-from .specs import RELIEF_SCALE_RANGE, StampSpec, StyleSpec
+from typing import TYPE_CHECKING
 
-__all__ = [
-    "FORMAT_VERSION",
-    "MAX_LAYER_CELLS",
-    "MAX_SIDE",
-    "MIN_STAMP_CELLS",
-    "PROJECT_EXTENSION",
-    "RELIEF_SCALE_RANGE",
-    "STROKE_THRESHOLD",
-    "ExampleRef",
-    "ProjectData",
-    "ProjectError",
-    "ProjectResult",
-    "RunSpec",
-    "StampSpec",
-    "StyleSpec",
-    "check_stamp_footprints",
-    "painted_styles",
-    "read_project",
-    "resize_pins",
-    "resize_stamps",
-    "run_spec",
-    "stroke_map",
-    "write_project",
-]
+from .._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from ..errors import ProjectError
+    from .file import (FORMAT_VERSION, MAX_LAYER_CELLS, MAX_SIDE, PROJECT_EXTENSION, ProjectData,
+        ProjectResult, read_project, write_project)
+    from .footprints import MIN_STAMP_CELLS, check_stamp_footprints
+    from .refs import ExampleRef
+    from .resize import resize_pins, resize_stamps
+    from .run import STROKE_THRESHOLD, RunSpec, painted_styles, run_spec, stroke_map
+    from .specs import RELIEF_SCALE_RANGE, StampSpec, StyleSpec
+
+# Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    "..errors": ("ProjectError",),
+    ".file": (
+        "FORMAT_VERSION", "MAX_LAYER_CELLS", "MAX_SIDE", "PROJECT_EXTENSION", "ProjectData",
+        "ProjectResult", "read_project", "write_project"
+    ),
+    ".footprints": ("MIN_STAMP_CELLS", "check_stamp_footprints"),
+    ".refs": ("ExampleRef",),
+    ".resize": ("resize_pins", "resize_stamps"),
+    ".run": ("STROKE_THRESHOLD", "RunSpec", "painted_styles", "run_spec", "stroke_map"),
+    ".specs": ("RELIEF_SCALE_RANGE", "StampSpec", "StyleSpec"),
+})

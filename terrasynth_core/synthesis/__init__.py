@@ -1,30 +1,28 @@
 """Feature-guided patch synthesis (Zhou et al. 2007): the session, its
 parameters, artist controls, events and result."""
 
-from ..controls.pins import Pin, PinError
-from ..controls.water import Water
-from ..controls.options import Controls, Stamp, Style
-from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, SynthesisFinished
-from .params import SynthesisParams
-from .result import PatchRecord, SynthesisResult
-from .session import Session
-from .variations import run_variations
+from typing import TYPE_CHECKING
 
-__all__ = [
-    "Controls",
-    "Pin",
-    "PinError",
-    "Stamp",
-    "Style",
-    "Water",
-    "LandformProgress",
-    "PatchPlaced",
-    "PatchRecord",
-    "Session",
-    "StageFinished",
-    "StageStarted",
-    "SynthesisFinished",
-    "SynthesisParams",
-    "SynthesisResult",
-    "run_variations",
-]
+from .._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from ..controls.pins import Pin, PinError
+    from ..controls.water import Water
+    from ..controls.options import Controls, Stamp, Style
+    from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, SynthesisFinished
+    from .params import SynthesisParams
+    from .result import PatchRecord, SynthesisResult
+    from .session import Session
+    from .variations import run_variations
+
+# Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    "..controls.pins": ("Pin", "PinError"),
+    "..controls.water": ("Water",),
+    "..controls.options": ("Controls", "Stamp", "Style"),
+    ".events": ("LandformProgress", "PatchPlaced", "StageFinished", "StageStarted", "SynthesisFinished"),
+    ".params": ("SynthesisParams",),
+    ".result": ("PatchRecord", "SynthesisResult"),
+    ".session": ("Session",),
+    ".variations": ("run_variations",),
+})

@@ -2,6 +2,14 @@
 example feature patch's control points onto the sketch's, and their bending
 energy, which ranks the candidates."""
 
-from .thin_plate import ThinPlateSpline, bending_energies, warp_patch
+from typing import TYPE_CHECKING
 
-__all__ = ["ThinPlateSpline", "bending_energies", "warp_patch"]
+from .._lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from .thin_plate import ThinPlateSpline, bending_energies, warp_patch
+
+# Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    ".thin_plate": ("ThinPlateSpline", "bending_energies", "warp_patch"),
+})
