@@ -22,6 +22,7 @@ import secrets
 import shutil
 import struct
 import threading
+import tokenize
 import zlib
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -55,6 +56,7 @@ LIBRARY_ERRORS = (
     MemoryError,
     struct.error,
     zlib.error,
+    tokenize.TokenError,  # numpy parses a damaged .npy header with tokenize
     Image.DecompressionBombError,
     RasterioError,  # GDAL's errors come as RasterioIOError (an OSError) or these
 )
