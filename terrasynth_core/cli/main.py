@@ -289,7 +289,7 @@ def _synth_project(args: argparse.Namespace) -> int:
         option = "--" + given[0].replace("_", "-")
         raise TerraSynthError(f"{option} cannot be combined with --project {args.project}: the project holds the "
                               "examples, sketch, controls and parameters (with it give only --out, --size, --seed, "
-                              "--variations, --cog, --report, --debug-dir)")
+                              "--variations, --workers, --cog, --report, --debug-dir)")
     from ..synthesis.variations import MAX_VARIATIONS
 
     if not 1 <= args.variations <= MAX_VARIATIONS:
@@ -324,6 +324,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
+    import dataclasses
+
     from tqdm import tqdm
 
     from ..synthesis import LandformProgress, PatchPlaced, Session, StageStarted, SynthesisFinished
@@ -331,6 +333,10 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     from ..project import check_stamp_footprints
 
     out = _check_output(args)
+    if getattr(args, "workers", None) is not None:
+        if args.workers < 1:
+            raise TerraSynthError(f"--workers must be at least 1, got {args.workers}")
+        params = dataclasses.replace(params, workers=args.workers)
     check_stamp_footprints(controls, examples, params.cell_size)
     session = Session(examples, sketch, shape=size, params=params, controls=controls)
     for w in session.warnings:
@@ -601,6 +607,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--report", metavar="REPORT.json",
                    help="parameters, patch counts, timings, the source reuse and every patch as JSON")
     p.add_argument("--debug-dir", metavar="DIR", help="write patch ids, seams and features there")
+    p.add_argument("--workers", type=int, metavar="N",
+                   help="processes that fill windows (default: one per core; the terrain is the same)")
     add_control_arguments(p)
     p.set_defaults(func=cmd_synth)
 

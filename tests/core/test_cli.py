@@ -369,6 +369,18 @@ def test_synth_no_drainage_and_no_landform_reach_the_params(capsys, example_200,
     assert params["drainage"] is False and params["landform"] is False
 
 
+def test_synth_workers_reach_the_params_and_zero_is_refused(capsys, example_200, sketch_dir, tmp_path):
+    import json
+
+    report = tmp_path / "r.json"
+    code, _, err = run(capsys, *synth_args(example_200, sketch_dir / Y_JUNCTION, tmp_path / "t.npy", "--workers", "1",
+                                           "--report", str(report)))
+    assert code == EXIT_OK, err
+    assert json.loads(report.read_text())["params"]["workers"] == 1
+    code, _, err = run(capsys, *synth_args(example_200, sketch_dir / Y_JUNCTION, tmp_path / "u.npy", "--workers", "0"))
+    assert code != EXIT_OK and "--workers must be at least 1, got 0" in err
+
+
 # -- bad input ------------------------------------------------------------------
 def _coloured_png_as_dem(tmp, sketches, example):
     return ("info", sketches / Y_JUNCTION), [Y_JUNCTION, "colour"]
