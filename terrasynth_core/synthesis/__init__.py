@@ -8,6 +8,7 @@ from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, 
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
 from .session import Session
+from .local import changed_cells, iter_resynthesize_region, resynthesize_region, stroke_selection
 from .variations import run_variations
 
 __all__ = [
@@ -26,5 +27,9 @@ __all__ = [
     "SynthesisFinished",
     "SynthesisParams",
     "SynthesisResult",
+    "changed_cells",
+    "iter_resynthesize_region",
+    "resynthesize_region",
     "run_variations",
+    "stroke_selection",
 ]
