@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Iterator, Sequence
 
 import numpy as np
@@ -190,8 +191,8 @@ def resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketch: Sk
         (default: no patch, no seam there).
     features : FeatureMaps, optional
         The whole sketch's feature networks for the result, when the caller
-        has them (default: computed from ``sketch``, about 0.1-0.3 s at
-        1000x1000).
+        has them (default: computed from ``sketch`` on a helper thread
+        while the crop runs; about 0.1-0.3 s at 1000x1000).
     progress, cancel : callable, optional
         As for :meth:`.session.Session.run`.
 
@@ -270,6 +271,11 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
     local = Session(examples, None if sketch is None else _cropped_sketch(sketch, crop),
                     shape=(r1 - r0, c1 - c0), params=params, controls=_cropped_controls(whole, crop))
     t_crop = time.perf_counter() - t_start
+    # The whole sketch's networks (for the result's overlays) are made on a
+    # helper thread while the crop runs: the crop run leaves a core free
+    # much of the time, and they are as slow as a small crop's stage.
+    helper = ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-local")
+    whole_features = helper.submit(_features_of, sketch, shape) if features is None else None
     finished = None
     events = local.iter_run()
     try:
@@ -282,6 +288,7 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
                 yield event
     finally:
         events.close()
+        helper.shutdown(wait=False, cancel_futures=True)
     if finished is None:
         return
 
@@ -313,7 +320,7 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
         patch_id=patch_id,
         seam_mask=seam_mask,
         patches=records,
-        sketch_features=features if features is not None else _features_of(sketch, shape),
+        sketch_features=features if features is not None else whole_features.result(),
         timings=timings,
         total_seconds=time.perf_counter() - t_start,
         warnings=finished.warnings,
