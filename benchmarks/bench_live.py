@@ -16,7 +16,10 @@ same run):
   controls=Controls(previous=, selection=))``, a session built for the
   whole map each time;
 * ``crop``: :func:`~terrasynth_core.synthesis.resynthesize_region`, the
-  same selection on a crop of two patches' context.
+  same selection on a crop of two patches' context (no landform pass).
+
+``--picture PATH`` also writes the terrain around one stroke before it,
+after the whole-map re-synthesis and after the crop's.
 
 Both start from the same terrain and the same selection (the cells within
 one patch of the stroke's changed pixels, :func:`stroke_selection`); the
@@ -163,10 +166,12 @@ def app_rows(sketch, strokes):
     return rows
 
 
-def _core_table(sketch, strokes, repeats) -> list:
+def _core_table(sketch, strokes, repeats, picture=None) -> list:
     example = builtin_example("white-mountains").load()
     t = time.perf_counter()
     previous = Session([example], sketch, params=PARAMS).run().heights
+    if picture:
+        _picture(picture, example, sketch, previous)
     print(f"whole 1000x1000 run first: {time.perf_counter() - t:.1f} s (analysis cached or not)\n")
     print(f"stroke-to-result, median of {repeats}, seconds (old: whole-map re-synthesis, crop: this)")
     print(f"  {'stroke':<34} {'cells':>7} {'old':>7} {'crop':>7} {'ratio':>6}")
@@ -180,19 +185,42 @@ def _core_table(sketch, strokes, repeats) -> list:
     return core
 
 
+def _picture(path, example, sketch, previous) -> None:
+    """The terrain around the third stroke: before it (the stroke in red),
+    after the whole-map re-synthesis, after the crop's."""
+    from terrasynth_core.pictures import save_png, shaded_relief
+
+    kind, points = STROKES[2]
+    after = _stroked(sketch, kind, points)
+    selection = stroke_selection(changed_cells(sketch, after), patch_size=PARAMS.patch_size)
+    old = Session([example], after, params=PARAMS, controls=Controls(previous=previous, selection=selection)).run()
+    new = resynthesize_region([example], after, previous=previous, selection=selection, params=PARAMS)
+    (r0, c0), (r1, c1) = points[0], points[-1]
+    rows, cols = previous.shape
+    cr, cc = (r0 + r1) // 2, (c0 + c1) // 2
+    window = (slice(max(cr - 190, 0), min(cr + 190, rows)), slice(max(cc - 190, 0), min(cc + 190, cols)))
+    vrange = (float(previous.min()), float(previous.max()))
+    tiles = [shaded_relief(h, vrange=vrange)[window][..., :3].copy() for h in (previous, old.heights, new.heights)]
+    tiles[0][(after.ridge_mask & ~sketch.ridge_mask)[window]] = (220, 30, 30)
+    gap = np.full((tiles[0].shape[0], 8, 3), 255, np.uint8)
+    save_png(np.concatenate([tiles[0], gap, tiles[1], gap, tiles[2]], axis=1), path)
+    print(f"picture: {path} (before with the stroke, whole-map re-synthesis, crop re-synthesis)\n")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="two strokes, one repeat (default: six, three repeats)")
     parser.add_argument("--no-app", action="store_true", help="skip the app's latency and stalls")
     parser.add_argument("--app-only", action="store_true", help="only the app's latency and stalls")
     parser.add_argument("--json", help="also write the figures here")
+    parser.add_argument("--picture", help="also write a PNG comparing both paths on one stroke")
     args = parser.parse_args()
     strokes = STROKES[:2] if args.quick else STROKES
     repeats = 1 if args.quick else 3
     sketch = read_sketch(resource_path("sketches", "s_valley_1000.png"))
     out = {}
     if not args.app_only:
-        out["core"] = _core_table(sketch, strokes, repeats)
+        out["core"] = _core_table(sketch, strokes, repeats, args.picture)
     if not args.no_app:
         print("\nin the app (offscreen, Live on, 2D view): stroke end to the new terrain shown, largest GUI gap")
         print(f"  {'stroke':<34} {'shown':>7} {'landed':>7} {'engine':>7} {'gap (ms)':>9}")

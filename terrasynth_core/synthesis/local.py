@@ -13,10 +13,13 @@ match it and merge at the selection's edge as in a whole-map
 re-synthesis; then the selected cells are pasted back into the previous
 terrain, and every other cell keeps its previous height bit for bit.
 
-What the crop cannot see is farther than the context: landforms and style
-levels are smooth over about two patch sizes (:mod:`.landform`,
-:func:`~terrasynth_core.controls.layout.level_field`), so two patches of
+What the crop cannot see is farther than the context: style levels are
+smooth over about two patch sizes
+(:func:`~terrasynth_core.controls.layout.level_field`), so two patches of
 context give the same level inside the selection up to the blur's tail.
+The landform pass is left out by default (see ``landform`` in
+:func:`resynthesize_region`): the kept terrain around the selection
+carries the landforms, and the new patches are matched to it.
 
 :func:`stroke_selection` gives the selection for a sketch edit: the cells
 within about a patch of the pixels that changed (old and new strokes
@@ -168,7 +171,8 @@ def resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketch: Sk
                         previous: np.ndarray, selection: np.ndarray, params: SynthesisParams = SynthesisParams(),
                         controls: Controls | None = None, context: float = CONTEXT_PATCHES,
                         previous_patch_id: np.ndarray | None = None, previous_seam_mask: np.ndarray | None = None,
-                        features: FeatureMaps | None = None, progress: Callable[[object], None] | None = None,
+                        features: FeatureMaps | None = None, landform: bool = False,
+                        progress: Callable[[object], None] | None = None,
                         cancel: Callable[[], bool] | None = None) -> SynthesisResult:
     """Synthesize ``selection`` again on a crop and paste it into ``previous``.
 
@@ -193,6 +197,15 @@ def resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketch: Sk
         The whole sketch's feature networks for the result, when the caller
         has them (default: computed from ``sketch`` on a helper thread
         while the crop runs; about 0.1-0.3 s at 1000x1000).
+    landform : bool, default False
+        Run the landform pass on the crop (``params.landform`` is ignored).
+        Off by default: the coarse pass builds new landforms over the whole
+        crop, and a re-synthesis eases the level from the kept terrain's to
+        them within a quarter patch of the selection's edge, which prints
+        the selection's outline into the terrain as a rim or a trough
+        (a whole-map re-synthesis shows it too).  Without it the patches
+        carry the examples' full detail and are matched to the kept
+        terrain around them, which hides the edge, and the run is faster.
     progress, cancel : callable, optional
         As for :meth:`.session.Session.run`.
 
@@ -217,7 +230,8 @@ def resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketch: Sk
     result = None
     for event in iter_resynthesize_region(examples, sketch, previous=previous, selection=selection, params=params,
                                           controls=controls, context=context, previous_patch_id=previous_patch_id,
-                                          previous_seam_mask=previous_seam_mask, features=features):
+                                          previous_seam_mask=previous_seam_mask, features=features,
+                                          landform=landform):
         if progress is not None:
             progress(event)
         if cancel is not None and cancel():
@@ -232,7 +246,7 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
                              params: SynthesisParams = SynthesisParams(), controls: Controls | None = None,
                              context: float = CONTEXT_PATCHES, previous_patch_id: np.ndarray | None = None,
                              previous_seam_mask: np.ndarray | None = None,
-                             features: FeatureMaps | None = None) -> Iterator[object]:
+                             features: FeatureMaps | None = None, landform: bool = False) -> Iterator[object]:
     """:func:`resynthesize_region` step by step: the crop run's events, with
     ``PatchPlaced`` boxes in map cells, and last a ``SynthesisFinished``
     carrying the whole map's result.  Closing the generator stops the run
@@ -268,8 +282,9 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
         box = (0, shape[0], 0, shape[1])
     r0, r1, c0, c1 = box
     crop = (slice(r0, r1), slice(c0, c1))
-    local = Session(examples, None if sketch is None else _cropped_sketch(sketch, crop),
-                    shape=(r1 - r0, c1 - c0), params=params, controls=_cropped_controls(whole, crop))
+    local = Session(examples, None if sketch is None else _cropped_sketch(sketch, crop), shape=(r1 - r0, c1 - c0),
+                    params=dataclasses.replace(params, landform=bool(landform)),
+                    controls=_cropped_controls(whole, crop))
     t_crop = time.perf_counter() - t_start
     # The whole sketch's networks (for the result's overlays) are made on a
     # helper thread while the crop runs: the crop run leaves a core free
@@ -324,7 +339,7 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
         timings=timings,
         total_seconds=time.perf_counter() - t_start,
         warnings=finished.warnings,
-        params=params,
+        params=finished.params,
         style_map=None if whole.style_map is None else whole.style_map.copy(),
         pin_errors=tuple(PinError(p.row, p.col, p.height, float(heights[p.row, p.col]),
                                   float(heights[p.row, p.col]) - p.height) for p in whole.pins),
