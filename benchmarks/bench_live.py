@@ -18,8 +18,8 @@ same run):
 * ``crop``: :func:`~terrasynth_core.synthesis.resynthesize_region`, the
   same selection on a crop of two patches' context (no landform pass).
 
-``--picture PATH`` also writes the terrain around one stroke before it,
-after the whole-map re-synthesis and after the crop's.
+``--picture PATH`` also writes the terrain around two of the strokes
+before them, after the whole-map re-synthesis and after the crop's.
 
 Both start from the same terrain and the same selection (the cells within
 one patch of the stroke's changed pixels, :func:`stroke_selection`); the
@@ -185,25 +185,33 @@ def _core_table(sketch, strokes, repeats, picture=None) -> list:
     return core
 
 
-def _picture(path, example, sketch, previous) -> None:
-    """The terrain around the third stroke: before it (the stroke in red),
-    after the whole-map re-synthesis, after the crop's."""
+def _picture(path, example, sketch, previous, picked=(0, 2)) -> None:
+    """The terrain around two strokes, one row each: before the stroke (in
+    red), after the whole-map re-synthesis, after the crop's."""
     from terrasynth_core.pictures import save_png, shaded_relief
 
-    kind, points = STROKES[2]
-    after = _stroked(sketch, kind, points)
-    selection = stroke_selection(changed_cells(sketch, after), patch_size=PARAMS.patch_size)
-    old = Session([example], after, params=PARAMS, controls=Controls(previous=previous, selection=selection)).run()
-    new = resynthesize_region([example], after, previous=previous, selection=selection, params=PARAMS)
-    (r0, c0), (r1, c1) = points[0], points[-1]
-    rows, cols = previous.shape
-    cr, cc = (r0 + r1) // 2, (c0 + c1) // 2
-    window = (slice(max(cr - 190, 0), min(cr + 190, rows)), slice(max(cc - 190, 0), min(cc + 190, cols)))
-    vrange = (float(previous.min()), float(previous.max()))
-    tiles = [shaded_relief(h, vrange=vrange)[window][..., :3].copy() for h in (previous, old.heights, new.heights)]
-    tiles[0][(after.ridge_mask & ~sketch.ridge_mask)[window]] = (220, 30, 30)
-    gap = np.full((tiles[0].shape[0], 8, 3), 255, np.uint8)
-    save_png(np.concatenate([tiles[0], gap, tiles[1], gap, tiles[2]], axis=1), path)
+    rows_out = []
+    for index in picked:
+        kind, points = STROKES[index]
+        after = _stroked(sketch, kind, points)
+        selection = stroke_selection(changed_cells(sketch, after), patch_size=PARAMS.patch_size)
+        old = Session([example], after, params=PARAMS,
+                      controls=Controls(previous=previous, selection=selection)).run()
+        new = resynthesize_region([example], after, previous=previous, selection=selection, params=PARAMS)
+        (r0, c0), (r1, c1) = points[0], points[-1]
+        rows, cols = previous.shape
+        cr = min(max((r0 + r1) // 2, 190), rows - 190)
+        cc = min(max((c0 + c1) // 2, 190), cols - 190)
+        window = (slice(cr - 190, cr + 190), slice(cc - 190, cc + 190))
+        vrange = (float(previous.min()), float(previous.max()))
+        cell = None if old.cell_size is None else (old.cell_size, old.cell_size)
+        tiles = [shaded_relief(h, cell_size=cell, vrange=vrange)[window][..., :3].copy()
+                 for h in (previous, old.heights, new.heights)]
+        tiles[0][(after.ridge_mask & ~sketch.ridge_mask)[window]] = (220, 30, 30)
+        gap = np.full((tiles[0].shape[0], 8, 3), 255, np.uint8)
+        rows_out.append(np.concatenate([tiles[0], gap, tiles[1], gap, tiles[2]], axis=1))
+        rows_out.append(np.full((8, rows_out[-1].shape[1], 3), 255, np.uint8))
+    save_png(np.concatenate(rows_out[:-1], axis=0), path)
     print(f"picture: {path} (before with the stroke, whole-map re-synthesis, crop re-synthesis)\n")
 
 
