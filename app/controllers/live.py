@@ -80,7 +80,7 @@ class LiveController(QObject):
         self.document = document
         self.synthesis = synthesis
         self._enabled = False
-        self._strokes = None  # of the update running
+        self._request = None  # of the update running
         self.runner = LatestRunner(self, wait_ms=10_000)
         self.runner.yielded.connect(self._event)
         self.runner.errored.connect(self._failed)
@@ -167,6 +167,7 @@ class LiveController(QObject):
             return
         if request is None:
             return
+        self._request = request
         self.runner.start(live_events(request))
         self.started.emit()
         self.status.emit("Live: updating the terrain near the stroke…", 0)
@@ -174,6 +175,11 @@ class LiveController(QObject):
     def _event(self, event) -> None:
         if not isinstance(event, LiveUpdated):
             return
+        if self._request is None or self.document.result is not self._request.terrain:
+            # The terrain changed while the update ran (a full run, a
+            # variation taken, a project opened): the update is of the old one.
+            return
+        self._request = None
         result = event.result
         self.document.set_result(event.terrain, strokes=event.strokes)
         self.updated.emit(result)

@@ -127,3 +127,15 @@ def test_the_event_loop_never_stalls_during_a_live_update(qtbot, live_window, re
     max_gap_ms = float(np.diff(ticks).max() * 1000)
     record_property("max_event_loop_gap_ms_live", round(max_gap_ms, 1))
     assert max_gap_ms < 100
+
+
+def test_an_update_of_a_terrain_replaced_meanwhile_is_dropped(qtbot, live_window):
+    window, live = live_window, live_window.live
+    with qtbot.waitSignal(live.started, timeout=10_000):
+        window.document.sketch.draw_polyline([(40, 120), (60, 140)], "ridge", radius=2)
+    other = window.document.result
+    replaced = type(other)(other.heights + 1.0, other.patch_id, other.seam_mask)
+    window.document.set_result(replaced)  # as a variation taken meanwhile would
+    with qtbot.waitSignal(live.runner.running_changed, timeout=RUN_TIMEOUT_MS):
+        pass  # the update ends (it may be cancelled or finish)
+    assert window.document.result is replaced
