@@ -40,7 +40,7 @@ from .result import SynthesisResult
 __all__ = ["Session"]
 
 #: Detail bands kept between sessions (:func:`_memo_detail_above`).
-_DETAIL_MEMO_SIZE = 8
+_DETAIL_MEMO_SIZE = 4
 _detail_memo: OrderedDict = OrderedDict()
 _detail_lock = threading.Lock()
 
@@ -190,9 +190,10 @@ class Session:
 def _memo_detail_above(detail: np.ndarray, sigma: float) -> np.ndarray:
     """:func:`.landform.detail_above`, kept for the last few examples.
 
-    A live update makes a new (small) session per stroke, and the examples'
-    detail band is a Gaussian filter over each whole example (about 0.3 s
-    for a 1201x1201 DEM) that no stroke changes.  Keyed by the detail's
+    A session is made again after every edit (the app's runs; a crop
+    re-synthesis per stroke with its landform pass, :mod:`.local`), and the
+    examples' detail band is a Gaussian filter over each whole example
+    (about 0.3 s for a 1201x1201 DEM) that no edit of the sketch changes.  Keyed by the detail's
     bytes (a hash costs milliseconds), so an edited example is never served
     a stale band.
     """
