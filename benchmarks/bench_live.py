@@ -24,7 +24,9 @@ before them, after the whole-map re-synthesis and after the crop's.
 Both start from the same terrain and the same selection (the cells within
 one patch of the stroke's changed pixels, :func:`stroke_selection`); the
 latency counts from the stroke's end (finding the changed pixels and the
-selection included) to the whole map's result.  Then ``--no-app`` aside,
+selection included) to the whole map's result.  ``follow`` says how well
+the new stroke is followed (:func:`follow_score`: about 0 before it, the
+larger the clearer its ridge or valley).  Then ``--no-app`` aside,
 the same strokes are drawn in the app (offscreen Qt, the main window, Live
 on): latency from the stroke's end to the 2D view showing the new terrain
 (``shown``, the debounce included), to the update reaching the GUI thread
@@ -46,6 +48,7 @@ import numpy as np
 
 from terrasynth_core.examples import builtin_example, resource_path
 from terrasynth_core.features import read_sketch
+from terrasynth_core.measures import topographic_position_index
 from terrasynth_core.synthesis import (Controls, Session, SynthesisParams, changed_cells, resynthesize_region,
                                        stroke_selection)
 
@@ -71,11 +74,23 @@ def _stroked(base_sketch, kind, points):
     return sketch.to_sketch_map()
 
 
+def follow_score(heights, stroke, kind) -> float:
+    """How well a stroke is followed: the mean topographic position index
+    (radius 40 cells) over its pixels in units of the map's TPI spread,
+    positive when a ridge stands above / a valley lies below its surroundings."""
+    tpi = topographic_position_index(heights, radius=40)
+    score = float(np.nanmean(tpi[stroke]) / np.nanstd(tpi))
+    return score if kind == "ridge" else -score
+
+
 def core_rows(example, sketch, previous, strokes, repeats):
     rows = []
     for kind, points in strokes:
         after = _stroked(sketch, kind, points)
+        new_pixels = (after.ridge_mask & ~sketch.ridge_mask) if kind == "ridge" else \
+            (after.valley_mask & ~sketch.valley_mask)
         times = {"old": [], "crop": []}
+        results = {}
         cells = 0
         for _ in range(repeats):
             for path in ("old", "crop"):  # alternate: same load for both
@@ -90,11 +105,16 @@ def core_rows(example, sketch, previous, strokes, repeats):
                 times[path].append(time.perf_counter() - t)
                 assert np.array_equal(result.heights[~selection], previous[~selection])
                 cells = int(selection.sum())
-        rows.append({"stroke": f"{kind} {points[0]}->{points[-1]}", "cells": cells,
-                     "old": statistics.median(times["old"]), "crop": statistics.median(times["crop"]),
-                     "crop_timings": {k: round(v, 3) for k, v in result.timings.items()}})
-        print(f"  {rows[-1]['stroke']:<34} {cells:>7} {rows[-1]['old']:7.2f} {rows[-1]['crop']:7.2f} "
-              f"{rows[-1]['old'] / rows[-1]['crop']:6.1f}x", flush=True)
+                results[path] = result
+        row = {"stroke": f"{kind} {points[0]}->{points[-1]}", "cells": cells,
+               "old": statistics.median(times["old"]), "crop": statistics.median(times["crop"]),
+               "follow_before": follow_score(previous, new_pixels, kind),
+               "follow_old": follow_score(results["old"].heights, new_pixels, kind),
+               "follow_crop": follow_score(results["crop"].heights, new_pixels, kind),
+               "crop_timings": {k: round(v, 3) for k, v in results["crop"].timings.items()}}
+        rows.append(row)
+        print(f"  {row['stroke']:<34} {cells:>7} {row['old']:7.2f} {row['crop']:7.2f} {row['old'] / row['crop']:6.1f}x"
+              f" {row['follow_before']:14.2f} {row['follow_old']:6.2f} {row['follow_crop']:6.2f}", flush=True)
     return rows
 
 
@@ -174,12 +194,14 @@ def _core_table(sketch, strokes, repeats, picture=None) -> list:
         _picture(picture, example, sketch, previous)
     print(f"whole 1000x1000 run first: {time.perf_counter() - t:.1f} s (analysis cached or not)\n")
     print(f"stroke-to-result, median of {repeats}, seconds (old: whole-map re-synthesis, crop: this)")
-    print(f"  {'stroke':<34} {'cells':>7} {'old':>7} {'crop':>7} {'ratio':>6}")
+    print(f"  {'stroke':<34} {'cells':>7} {'old':>7} {'crop':>7} {'ratio':>6} {'follow: before':>14} "
+          f"{'old':>6} {'crop':>6}")
     core = core_rows(example, sketch, previous, strokes, repeats)
     olds, crops = [r["old"] for r in core], [r["crop"] for r in core]
     ratios = [r["old"] / r["crop"] for r in core]
+    follows = [statistics.median(r[k] for r in core) for k in ("follow_before", "follow_old", "follow_crop")]
     print(f"  {'median':<34} {'':>7} {statistics.median(olds):7.2f} {statistics.median(crops):7.2f} "
-          f"{statistics.median(ratios):6.1f}x")
+          f"{statistics.median(ratios):6.1f}x {follows[0]:14.2f} {follows[1]:6.2f} {follows[2]:6.2f}")
     print(f"  {'max':<34} {'':>7} {max(olds):7.2f} {max(crops):7.2f}")
     print("  crop path, last stroke's stages:", core[-1]["crop_timings"])
     return core
