@@ -4,13 +4,15 @@
 model's event generators on a latest-request-wins worker;
 :class:`FilesController` reads and writes projects, sketches, imports and
 exports; :class:`AutosaveController` autosaves and recovers;
-:class:`FeatureGraphController` keeps a derived feature graph up to date.
+:class:`FeatureGraphController` keeps a derived feature graph up to date;
+:class:`LiveController` re-makes the terrain near each finished stroke.
 Views import only the names listed here.
 """
 
 from .autosave import AUTOSAVE_MS, AutosaveController
 from .feature_graphs import FeatureGraphController
 from .files import FilesController
+from .live import LIVE_DELAY_MS, LiveController
 from .synthesis import SynthesisController, VariationsController, new_seeds
 
 __all__ = [
@@ -18,6 +20,8 @@ __all__ = [
     "AutosaveController",
     "FeatureGraphController",
     "FilesController",
+    "LIVE_DELAY_MS",
+    "LiveController",
     "SynthesisController",
     "VariationsController",
     "new_seeds",

@@ -130,6 +130,7 @@ class SynthesisController(_RunController):
     def __init__(self, document: Document, parent: QObject | None = None, *, progress_ms: int = PROGRESS_MS) -> None:
         super().__init__(document, parent, wait_ms=10_000)
         self._started_at = 0.0
+        self._strokes = None
         self._progress: tuple[int, int] | None = None  # (done, total) not sent yet
         self._progress_timer = QTimer(self, singleShot=True, interval=progress_ms)
         self._progress_timer.timeout.connect(self._send_progress)
@@ -162,6 +163,10 @@ class SynthesisController(_RunController):
 
     def _start(self, request) -> None:
         self._stop_progress()
+        # The strokes the new terrain will follow (live sketching compares
+        # the sketch with them); a re-synthesis leaves the rest following
+        # the strokes it followed.
+        self._strokes = request.sketch_map if request.previous is None else self.document.result_strokes
         self.stage_changed.emit("Reading examples…")
         self.progress_changed.emit(0, 0, "")
         self.runner.start(synthesis_events(request))
@@ -198,7 +203,7 @@ class SynthesisController(_RunController):
         self._stop_progress()
         result = event.result
         terrain = TerrainResult.from_synthesis(result)
-        self.document.set_result(terrain)
+        self.document.set_result(terrain, strokes=self._strokes)
         self.stage_changed.emit("Done")
         self.finished.emit(result)
         warnings = "; ".join(result.warnings)

@@ -11,7 +11,8 @@ and water-mask PNGs into its layers.
 
 A run is a :class:`SynthesisRequest` (a snapshot of the document) and the
 generators :func:`synthesis_events` / :func:`variation_events` that a worker
-drains.  Derived data: :class:`SketchGraph` and :class:`TerrainGraph`, the
+drains; :func:`live_request` / :func:`live_events` do the same for a live
+update after a stroke.  Derived data: :class:`SketchGraph` and :class:`TerrainGraph`, the
 feature graphs of the sketch and of the terrain.
 """
 
@@ -24,6 +25,7 @@ from .example_maps import EXAMPLE_MAPS, example_map_document
 from .export import export_for_engine_preset, export_masks, export_terrain, mask_preview
 from .feature_graphs import DerivedGraph, SketchGraph, TerrainGraph
 from .history import SketchEdit, SketchHistory
+from .live import LiveRequest, LiveUpdated, live_events, live_request, same_strokes
 from .observable import Observable
 from .project import PROJECT_EXTENSION, ProjectError, load_project, save_project
 from .recovery import RecoveryStore
@@ -41,6 +43,8 @@ __all__ = [
     "STROKE_TOOLS",
     "TOOLS",
     "DerivedGraph",
+    "LiveRequest",
+    "LiveUpdated",
     "Document",
     "ExampleRef",
     "Observable",
@@ -65,12 +69,15 @@ __all__ = [
     "example_map_document",
     "export_terrain",
     "fitting_scale",
+    "live_events",
+    "live_request",
     "load_project",
     "resize_nearest",
     "export_for_engine_preset",
     "export_masks",
     "mask_preview",
     "run_info",
+    "same_strokes",
     "save_project",
     "style_layer_from_png",
     "synthesis_events",

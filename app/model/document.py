@@ -18,8 +18,8 @@ import numpy as np
 from terrasynth_core.controls.options import check_height_range
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.examples import DEFAULT_EXAMPLE, DEFAULT_SKETCH, resource_path
-from terrasynth_core.features import read_sketch
-from terrasynth_core.project import resize_pins, resize_stamps, run_spec
+from terrasynth_core.features import SketchMap, read_sketch
+from terrasynth_core.project import resize_pins, resize_stamps, run_spec, stroke_map
 from terrasynth_core.synthesis import Pin, SynthesisParams
 
 from .control_specs import STYLE_PALETTE, StampSpec, StyleSpec
@@ -96,6 +96,7 @@ class Document:
         self._stamps = list(stamps)
         self._next_style_id = int(next_style_id)
         self._selection: np.ndarray | None = None
+        self._result_strokes = self._strokes_now() if result is not None else None
         # The grid pins and stamps are placed on: they follow the sketch when it changes size.
         self._shape = sketch.shape
         self.changed = Observable()
@@ -214,9 +215,29 @@ class Document:
         self._params = params
         self._touch("params")
 
-    def set_result(self, result: TerrainResult | None) -> None:
+    @property
+    def result_strokes(self) -> SketchMap | None:
+        """The ridge and valley strokes the result was made from (None: no
+        strokes, or no result); live sketching re-makes what differs."""
+        return self._result_strokes
+
+    def set_result(self, result: TerrainResult | None, *, strokes: SketchMap | None | object = _KEEP) -> None:
+        """Make ``result`` the terrain.
+
+        Parameters
+        ----------
+        result : TerrainResult or None
+        strokes : SketchMap or None, optional
+            The strokes it was made from (a run's request knows them);
+            default the sketch's strokes now (a variation, a project).
+        """
         self._result = result
+        self._result_strokes = self._strokes_now() if strokes is _KEEP else strokes
         self._touch("result")
+
+    def _strokes_now(self) -> SketchMap | None:
+        sketch_map = stroke_map(self.sketch.ridge, self.sketch.valley)
+        return sketch_map if sketch_map.has_strokes else None
 
     # -- styles ---------------------------------------------------------------------------
     def style(self, style_id: int) -> StyleSpec:
@@ -410,6 +431,7 @@ class Document:
         self._examples = other.examples
         self._params = other.params
         self._result = other.result
+        self._result_strokes = other.result_strokes
         self._path = other.path
         self._styles = other.styles
         self._water_level = other.water_level

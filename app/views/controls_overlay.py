@@ -41,10 +41,12 @@ class ControlsOverlay:
             view_box.addItem(item)
         self._rgba: np.ndarray | None = None
         self._colors: dict[int, tuple[int, int, int]] = {}
-        self._refresh_timer = QTimer(singleShot=True, interval=REFRESH_MS)
+        # Owned by the view box, so a redraw still pending when the window
+        # closes dies with the images it would draw into.
+        self._refresh_timer = QTimer(view_box, singleShot=True, interval=REFRESH_MS)
         self._refresh_timer.timeout.connect(self._refresh_regions)
         # A selection brush changes the selection on every mouse move.
-        self._selection_timer = QTimer(singleShot=True, interval=REFRESH_MS)
+        self._selection_timer = QTimer(view_box, singleShot=True, interval=REFRESH_MS)
         self._selection_timer.timeout.connect(self._draw_selection)
         self.redraw()
         document.changed.connect(self._document_changed)

@@ -20,7 +20,8 @@ class MainActions:
 
     Attributes
     ----------
-    synthesize, cancel, randomize, resynthesize, variations, export, save : QAction
+    synthesize, live, cancel, randomize, resynthesize, variations, export, save : QAction
+        ``live`` is checkable: live sketching on or off.
     example_maps : dict of str -> QAction
         One per built-in example map.
     export_for : dict of str -> QAction
@@ -32,6 +33,13 @@ class MainActions:
         files, synthesis = window.files, window.synthesis
         self.synthesize = self._action("Synthesize", synthesis.synthesize, shortcut=QKeySequence("Ctrl+R"),
                                        tip="Synthesize a terrain from the sketch and examples (Ctrl+R)")
+        self.live = self._action(
+            "Live", window.live.set_enabled, shortcut=QKeySequence("Ctrl+L"),
+            tip="Live sketching (Ctrl+L): after a run, each finished stroke, erase or undo re-synthesizes the "
+                "terrain near it; Synthesize still makes the whole terrain again")
+        self.live.setCheckable(True)
+        self.live.setChecked(window.live.enabled)
+        window.live.enabled_changed.connect(self.live.setChecked)
         self.cancel = self._action("Cancel", window.cancel_synthesis, tip="Stop the running synthesis")
         self.cancel.setEnabled(False)
         self.randomize = self._action("Randomize seed", window.params.randomize_seed, tip="Pick a new random seed")
@@ -87,13 +95,13 @@ class MainActions:
         canvas = window.canvas
         window.menuBar().addMenu("&Edit").addActions([canvas.undo_action, canvas.redo_action, canvas.clear_action])
         synth_menu = window.menuBar().addMenu("&Synthesis")
-        synth_menu.addActions([self.synthesize, self.cancel, self.randomize])
+        synth_menu.addActions([self.synthesize, self.live, self.cancel, self.randomize])
         synth_menu.addSeparator()
         synth_menu.addActions([self.resynthesize, self.variations])
 
         toolbar = window.addToolBar("Main")
         toolbar.setObjectName("main_toolbar")
-        toolbar.addActions([self.synthesize, self.cancel, self.randomize, self.resynthesize, self.variations,
+        toolbar.addActions([self.synthesize, self.live, self.cancel, self.randomize, self.resynthesize, self.variations,
                             self.export])
 
     def _action(self, text: str, slot, *, shortcut=None, tip: str = "") -> QAction:

@@ -21,7 +21,7 @@ from PySide6.QtWidgets import (QDockWidget, QFileDialog, QFrame, QInputDialog, Q
                                QSplitter, QTabWidget)
 
 from ..controllers import (AUTOSAVE_MS, AutosaveController, FeatureGraphController, FilesController,
-                           SynthesisController, VariationsController)
+                           LiveController, SynthesisController, VariationsController)
 from ..model import Document, RecoveryStore, SketchGraph, TerrainGraph
 from ..model.readout import cell_readout
 from ..model.water_check import document_drowning
@@ -63,7 +63,7 @@ class MainWindow(QMainWindow):
 
     Attributes
     ----------
-    synthesis, variations, file_controller, autosave
+    synthesis, variations, live, file_controller, autosave
         The controllers.
     files : FileActions
         The File menu's actions, dialogs included.
@@ -82,6 +82,7 @@ class MainWindow(QMainWindow):
         doc = self.document
         self.synthesis = SynthesisController(doc, self)
         self.variations = VariationsController(doc, self)
+        self.live = LiveController(doc, self.synthesis, self)
         self.file_controller = FilesController(doc, settings if settings is not None else QSettings(APP_NAME, APP_NAME),
                                                self.synthesis, recovery, self)
         self.autosave = AutosaveController(doc, recovery, interval_ms=autosave_ms, parent=self)
@@ -146,7 +147,7 @@ class MainWindow(QMainWindow):
         return docks
 
     def _connect(self) -> None:
-        for source in (self.synthesis, self.variations, self.file_controller, self.autosave,
+        for source in (self.synthesis, self.variations, self.live, self.file_controller, self.autosave,
                        self.pin_stamp_requests):
             source.status.connect(self.show_status)
             source.error.connect(self.report_error)
@@ -301,6 +302,7 @@ class MainWindow(QMainWindow):
             return
         self.autosave.stop()
         self.synthesis.wait()
+        self.live.wait()
         self.variations.wait()
         self.autosave.discard()
         if self.view3d.plotter is not None:

@@ -13,6 +13,7 @@ if TYPE_CHECKING:
     from .params import SynthesisParams
     from .result import PatchRecord, SynthesisResult
     from .session import Session
+    from .local import changed_cells, iter_resynthesize_region, resynthesize_region, stroke_selection
     from .variations import run_variations
 
 # Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
@@ -24,5 +25,6 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     ".params": ("SynthesisParams",),
     ".result": ("PatchRecord", "SynthesisResult"),
     ".session": ("Session",),
+    ".local": ("changed_cells", "iter_resynthesize_region", "resynthesize_region", "stroke_selection"),
     ".variations": ("run_variations",),
 })

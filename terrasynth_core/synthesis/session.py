@@ -17,6 +17,9 @@ Bookstein, "Principal Warps", IEEE PAMI 11(6), 1989.
 
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from typing import Callable, Iterator, Sequence
 
 import numpy as np
@@ -35,6 +38,11 @@ from .pipeline import RunState, run_pipeline
 from .result import SynthesisResult
 
 __all__ = ["Session"]
+
+#: Detail bands kept between sessions (:func:`_memo_detail_above`).
+_DETAIL_MEMO_SIZE = 4
+_detail_memo: OrderedDict = OrderedDict()
+_detail_lock = threading.Lock()
 
 
 class Session:
@@ -151,7 +159,7 @@ class Session:
         """Each example's detail above its low-pass and its shift weight
         (memoised: a session may run again), see :func:`.landform.detail_above`."""
         if sigma not in self._detail_above:
-            detail = [detail_above(d, sigma) for d in self.layout.detail]
+            detail = [_memo_detail_above(d, sigma) for d in self.layout.detail]
             self._detail_above[sigma] = detail, anchors(detail, self.layout.relief, self.params.patch_size)
         return self._detail_above[sigma]
 
@@ -185,3 +193,28 @@ class Session:
         run cleanly at the next patch boundary.
         """
         return run_pipeline(RunState.start(self))
+
+
+def _memo_detail_above(detail: np.ndarray, sigma: float) -> np.ndarray:
+    """:func:`.landform.detail_above`, kept for the last few examples.
+
+    A session is made again after every edit (the app's runs; a crop
+    re-synthesis per stroke with its landform pass, :mod:`.local`), and the
+    examples' detail band is a Gaussian filter over each whole example
+    (about 0.3 s for a 1201x1201 DEM) that no edit of the sketch changes.  Keyed by the detail's
+    bytes (a hash costs milliseconds), so an edited example is never served
+    a stale band.
+    """
+    key = (hashlib.blake2b(np.ascontiguousarray(detail).data, digest_size=16).digest(), detail.shape,
+           detail.dtype.str, float(sigma))
+    with _detail_lock:
+        if key in _detail_memo:
+            _detail_memo.move_to_end(key)
+            return _detail_memo[key]
+    band = detail_above(detail, sigma)
+    band.flags.writeable = False  # shared by every session that asks
+    with _detail_lock:
+        _detail_memo[key] = band
+        while len(_detail_memo) > _DETAIL_MEMO_SIZE:
+            _detail_memo.popitem(last=False)
+    return band

@@ -62,6 +62,12 @@ def small_document():
                     params=SynthesisParams(patch_size=32, k=3, seed=3))
 
 
+@pytest.fixture(scope="session")
+def new_small_document():
+    """:func:`small_document`, for test modules (which cannot import a conftest)."""
+    return small_document
+
+
 @pytest.fixture
 def window(qtbot, tmp_path, dialogs):
     from PySide6.QtCore import QSettings
