@@ -140,13 +140,17 @@ class _WindowSearch:
                     break
         return picks
 
+    def _refine_radius(self) -> int:
+        """How far from a grid pick :meth:`_refine` looks, cells."""
+        return self.f - 1
+
     def _refine(self, target, filled, coarse_rc):
-        """The best window within ``f - 1`` cells of a grid pick, by the
-        exact score: ((row, col), ssd, offset, prior)."""
+        """The best window within :meth:`_refine_radius` cells of a grid
+        pick, by the exact score: ((row, col), ssd, offset, prior)."""
         f = self.f
         h, w = self.window
         H, W = self.example.shape
-        d = np.arange(-f + 1, f)
+        d = np.arange(-self._refine_radius(), self._refine_radius() + 1)
         rr, cc = np.meshgrid(coarse_rc[0] * f + d, coarse_rc[1] * f + d, indexing="ij")
         fits = (rr >= 0) & (cc >= 0) & (rr + h <= H) & (cc + w <= W)
         positions = np.stack([rr[fits], cc[fits]], axis=1)
@@ -308,7 +312,7 @@ class FillSearch(_WindowSearch):
     EXHAUSTIVE_BELOW = 4096
 
     def __init__(self, example: np.ndarray, window: tuple[int, int], *, feature_mask=None,
-                 coarse_factor: int = 2, overlap: int | None = None, shortlist: int = 64,
+                 coarse_factor: int = 2, overlap: int | None = None, shortlist: int = 96,
                  use_cache: bool = True):
         super().__init__(example, window, feature_mask=feature_mask, coarse_factor=coarse_factor)
         self.overlap = int(overlap) if overlap else max(2, min(window) // 3)
@@ -333,6 +337,12 @@ class FillSearch(_WindowSearch):
         if self.indexes is None:
             return self.positions
         return self.indexes.get(zone_of(filled, self.overlap)).query(target, filled, self.shortlist)
+
+    def _refine_radius(self) -> int:
+        # The grid windows are scored exactly at full resolution, so a pick
+        # is refined over the cells nearer to it than to any other grid
+        # window; the FFT search scores block means and looks further.
+        return self.f // 2
 
     def _coarse_best(self, target, filled, count):
         positions = self.candidates(target, filled)
