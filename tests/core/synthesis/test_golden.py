@@ -73,11 +73,13 @@ CASES = {
 #: roughness prior, with drainage shaping (on by default), and with the
 #: landform pass, the level anchor scaled by the examples' spread of window
 #: levels and the prominence ranking of feature candidates, and with the
-#: water shaping lifting the inner half of a bank fully to the shore.
+#: water shaping lifting the inner half of a bank fully to the shore, and
+#: with the indexed fill search (issue 11: a shortlist from zone indexes,
+#: re-ranked exactly, where the FFT search scored every window).
 GOLDEN = {
-    "y_junction": "607e6dd3d27d5ccdaa53ca750a3033cacb3f0305259c474b10c666c54ff9c6d4",
-    "ring_cross_raster": "7bde6ec00d976198370c6f6040c9192a21115b05efaabd85f384750938d2bcc4",
-    "styles_stamp_water_pin": "ddfeaf8309d4b3858d2330f6b6494723c37d48adf22d172f30e09d77f1a0541b",
+    "y_junction": "559991614ce25b50521376a70cd7d8b1e2ff922734627cd375c896720452fe38",
+    "ring_cross_raster": "222babad3ed903a6448ecb4538f7ef0c8930202213ca355a2f6f81924986881e",
+    "styles_stamp_water_pin": "cad4a5440a81fbd57f8508eb2cd36ec467d4d62d017bb1dc65f60f9b83c7f20c",
 }
 
 
