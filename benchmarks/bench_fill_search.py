@@ -22,6 +22,11 @@ mirrored copies, same window spacing), the table gives:
   search's best score over the FFT search's best score (median, p90; below
   1 when the index search finds a better window).
 
+With ``--ann``, the nearest-neighbour libraries the index could use are
+compared on the same vectors (the most used zone's, both libraries): build
+seconds, milliseconds per query of the shortlist, and the share of the
+exact 96 nearest that each returns.
+
 Then (unless ``--no-runs``) the whole synthesis is run ``--runs`` times with
 each search, alternating, with the index cache warm, and the fill stage's
 seconds (and the landform stage's, which fills its coarse terrain the same
@@ -141,6 +146,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=3, help="timing rounds per search (default 3)")
     ap.add_argument("--runs", type=int, default=3, help="whole runs per search (default 3)")
     ap.add_argument("--no-runs", action="store_true", help="skip the whole-run comparison")
+    ap.add_argument("--ann", action="store_true", help="also compare nearest-neighbour libraries")
     args = ap.parse_args(argv)
 
     from terrasynth_core.matching.fill_search import FftFillSearch, FillSearch
@@ -177,6 +183,16 @@ def main(argv: list[str] | None = None) -> int:
         print("score = index search's best / FFT search's best, by the exact score (<= 1: as good or better); "
               "better = share of windows where the index found a strictly better window")
 
+        if args.ann:
+            zone = _most_used_zone(queries, overlap)
+            print(f"\nnearest-neighbour libraries on zone {zone}'s vectors, shortlist 96 "
+                  "(recall = share of the exact 96 nearest returned)")
+            print(f"{'library':8}{'method':34}{'build s':>9}{'query ms':>10}{'recall':>8}")
+            for name, ex, mk in (("1x", example, mask), ("4x", _mirror_tiled(example),
+                                                          None if mask is None else _mirror_tiled(mask))):
+                for method, build_s, query_ms, recall in _compare_ann(ex, mk, window, f, overlap, zone, queries):
+                    print(f"{name:8}{method:34}{build_s:>9.2f}{query_ms:>10.3f}{recall:>8.3f}", flush=True)
+
         if not args.no_runs:
             os.environ["TERRASYNTH_CACHE_DIR"] = str(cache_root / "runs")  # warm: indexes from the first run
             print(f"\nwhole runs at 1000x1000, alternating, {args.runs} each (index cache warm) ...", flush=True)
@@ -192,6 +208,70 @@ def main(argv: list[str] | None = None) -> int:
                     n = statistics.median(t[stage] for t in times["index"])
                     print(f"{stage:12}{o:>8.2f}{n:>9.2f}{n / o:>8.2f}")
     return 0
+
+
+def _most_used_zone(queries, overlap) -> int:
+    from terrasynth_core.matching.window_index import zone_of
+
+    zones = [zone_of(filled, overlap) for _, filled, _ in queries]
+    return max(set(zones), key=zones.count)
+
+
+def _compare_ann(example, mask, window, f, overlap, zone, queries, k=96):
+    """(method, build seconds, query ms, recall@k) for each library."""
+    import faiss
+    from scipy.spatial import cKDTree
+
+    from terrasynth_core.matching.fill_search import FillSearch
+    from terrasynth_core.matching.window_index import ZoneIndex, ivf_index, zone_of, zone_vectors
+
+    search = FillSearch(example, window, feature_mask=mask, coarse_factor=f, overlap=overlap, use_cache=False)
+    prior = search.prior[search.positions[:, 0], search.positions[:, 1]]
+    parts, vectors = zone_vectors(example, window, overlap, zone, search.positions, prior)
+    describe = ZoneIndex(**parts, positions=search.positions, index=None)
+    q = np.concatenate([describe.query_vector(t, m) for t, m, _ in queries if zone_of(m, overlap) == zone])
+    faiss.omp_set_num_threads(1)
+    exact = faiss.IndexFlatL2(vectors.shape[1])
+    exact.add(vectors)
+    _, truth = exact.search(q, k)
+
+    def hnsw():
+        index = faiss.IndexHNSWFlat(vectors.shape[1], 16)
+        index.hnsw.efConstruction = 40
+        index.add(vectors)
+        index.hnsw.efSearch = 128
+        return index
+
+    def nndescent():
+        import pynndescent
+
+        index = pynndescent.NNDescent(vectors, n_neighbors=15, random_state=0, n_jobs=1)
+        index.prepare()
+        return index
+
+    methods = [
+        ("faiss IVFFlat (chosen)", lambda: ivf_index(vectors), lambda ix: ix.search(q, k)[1]),
+        ("faiss HNSWFlat M16 ef128", hnsw, lambda ix: ix.search(q, k)[1]),
+        ("scipy cKDTree (exact)", lambda: cKDTree(vectors), lambda ix: ix.query(q, k)[1]),
+        ("scipy cKDTree eps=1", lambda: cKDTree(vectors), lambda ix: ix.query(q, k, eps=1.0)[1]),
+        ("brute force (faiss IndexFlatL2)", lambda: exact, lambda ix: ix.search(q, k)[1]),
+        ("pynndescent", nndescent, lambda ix: ix.query(q, k)[0]),
+    ]
+    rows = []
+    for method, build, query in methods:
+        try:
+            t = time.perf_counter()
+            index = build()
+            built = time.perf_counter() - t
+            query(index)  # warm (pynndescent compiles on first use)
+            t = time.perf_counter()
+            got = query(index)
+            per_query = 1e3 * (time.perf_counter() - t) / len(q)
+        except ImportError:
+            continue
+        recall = np.mean([len(set(a) & set(b)) / k for a, b in zip(got, truth)])
+        rows.append((method, built, per_query, float(recall)))
+    return rows
 
 
 def _FftWithOverlap(base):

@@ -187,6 +187,16 @@ class ZoneIndex:
         ndarray of int32, shape (m, 2), m <= count
             Top-left corners of the shortlisted windows, nearest first.
         """
+        _single_thread()
+        k = min(count, self.positions.shape[0])
+        _, ids = self._index.search(self.query_vector(target, filled), k)
+        ids = ids[0][ids[0] >= 0]
+        return self.positions[ids]
+
+    def query_vector(self, target: np.ndarray, filled: np.ndarray) -> np.ndarray:
+        """The index vector of an output window, shape (1, PCA_DIMS + 2),
+        float32 (its roughness coordinate 0: the prior is the example
+        window's alone)."""
         s = self.step
         h, w = filled.shape
         gh, gw = h // s, w // s
@@ -206,11 +216,7 @@ class ZoneIndex:
         vec[0, :-2] = (unit - self.pca_mean) @ self.pca_axes
         vec[0, -2] = np.log(rms + self.floor)
         vec[0, -1] = 0.0
-        _single_thread()
-        k = min(count, self.positions.shape[0])
-        _, ids = self._index.search(vec, k)
-        ids = ids[0][ids[0] >= 0]
-        return self.positions[ids]
+        return vec
 
     def to_arrays(self) -> dict:
         """Everything needed to restore the index, as plain arrays."""
@@ -259,8 +265,25 @@ def build_zone_index(example: np.ndarray, window: tuple[int, int], overlap: int,
     -------
     ZoneIndex
     """
-    import faiss
+    parts, vectors = zone_vectors(example, window, overlap, zone, positions, prior)
+    return ZoneIndex(**parts, positions=positions.astype(np.int32), index=ivf_index(vectors))
 
+
+def zone_vectors(example: np.ndarray, window: tuple[int, int], overlap: int, zone: int,
+                 positions: np.ndarray, prior: np.ndarray) -> tuple[dict, np.ndarray]:
+    """The index vectors of an example's windows for one zone.
+
+    Parameters are those of :func:`build_zone_index`.
+
+    Returns
+    -------
+    parts : dict
+        ``cells``, ``step``, ``floor``, ``pca_mean`` and ``pca_axes`` of
+        the :class:`ZoneIndex` (what a query needs to describe a window).
+    vectors : ndarray of float32, shape (n, PCA_DIMS + 2)
+        Per window: the PCA projection of its zone's direction, its log
+        rms, and ``sqrt(2 * ROUGHNESS_WEIGHT * prior)``.
+    """
     step = descriptor_step(window)
     cells = zone_cells(window, overlap, zone, step)
     blocks = block_means(example, step)
@@ -273,18 +296,19 @@ def build_zone_index(example: np.ndarray, window: tuple[int, int], overlap: int,
     flat_offsets = (cells[:, 0] * step) * width + cells[:, 1] * step
     n = positions.shape[0]
 
-    def describe(rows: slice) -> tuple[np.ndarray, np.ndarray]:
+    def describe(rows) -> tuple[np.ndarray, np.ndarray]:
         p = positions[rows]
         d = flat[(p[:, :1] * width + p[:, 1:]) + flat_offsets[None, :]]
         d -= d.mean(axis=1, keepdims=True)
         return _direction_and_size(d, floor)
 
+    # PCA of the directions, fitted on windows spread evenly over the example.
     sample = np.linspace(0, n - 1, min(n, PCA_SAMPLE)).astype(np.int64)
     unit, _ = describe(sample)
     pca_mean = unit.mean(axis=0, dtype=np.float64)
     centred = (unit - pca_mean).astype(np.float32)
     cov = (centred.T @ centred).astype(np.float64) / max(1, unit.shape[0] - 1)
-    vals, vecs = np.linalg.eigh(np.atleast_2d(cov))
+    _, vecs = np.linalg.eigh(np.atleast_2d(cov))
     dims = min(PCA_DIMS, cells.shape[0])
     # eigh sorts ascending; a fixed sign per axis keeps stored indexes stable.
     axes = vecs[:, ::-1][:, :dims]
@@ -298,18 +322,25 @@ def build_zone_index(example: np.ndarray, window: tuple[int, int], overlap: int,
         vectors[a:a + chunk, :dims] = (unit - pca_mean) @ axes
         vectors[a:a + chunk, dims] = size
     vectors[:, dims + 1] = np.sqrt(2.0 * ROUGHNESS_WEIGHT * np.asarray(prior, dtype=np.float64))
+    return {"cells": cells, "step": step, "floor": floor, "pca_mean": pca_mean, "pca_axes": axes}, vectors
+
+
+def ivf_index(vectors: np.ndarray):
+    """A faiss inverted-file index of ``vectors`` (n, d) float32: about
+    sqrt(n) k-means cells (fixed seed, one thread), :data:`NPROBE` visited
+    per query."""
+    import faiss
+
     _single_thread()
+    n, d = vectors.shape
     nlist = int(np.clip(np.sqrt(n), 1, max(1, n // 39)))
-    quantizer = faiss.IndexFlatL2(dims + 2)
-    index = faiss.IndexIVFFlat(quantizer, dims + 2, nlist)
+    index = faiss.IndexIVFFlat(faiss.IndexFlatL2(d), d, nlist)
     index.cp.seed = 1234
     index.cp.niter = 10
-    train = vectors[np.linspace(0, n - 1, min(n, 40 * nlist)).astype(np.int64)]
-    index.train(train)
+    index.train(vectors[np.linspace(0, n - 1, min(n, 40 * nlist)).astype(np.int64)])
     index.add(vectors)
     index.nprobe = min(NPROBE, nlist)
-    return ZoneIndex(cells=cells, step=step, floor=floor, pca_mean=pca_mean, pca_axes=axes,
-                     positions=positions.astype(np.int32), index=index)
+    return index
 
 
 def index_key(example: np.ndarray, window: tuple[int, int], overlap: int, positions: np.ndarray) -> str:
