@@ -12,9 +12,10 @@ kept.  On those same windows, for the example as the run prepared it (``1x``)
 and for a library four times larger (``4x``: the example tiled 2x2 with
 mirrored copies, same window spacing), the table gives:
 
-* per-query time of the FFT search (:class:`FftFillSearch`) and of the
-  indexed one (:class:`FillSearch`, zone indexes built beforehand), median
-  of ``--repeats`` rounds that alternate the two, and their ratio;
+* per-query time of the FFT search (:class:`FftFillSearch`, one thread)
+  and of the indexed one (:class:`FillSearch`, zone indexes built
+  beforehand), median of ``--repeats`` rounds, each timing all four
+  (search x library) in turn, and their ratio;
 * the indexes' build time (cold: every zone the windows use, built and
   stored in an empty cache) and load time (warm: the same zones read back);
 * recall: how often the FFT search's best window (by the exact score) is
@@ -97,7 +98,21 @@ def _per_query(search, queries) -> float:
     return (time.perf_counter() - t) / len(queries)
 
 
-def _library(name, example, mask, window, f, overlap, queries, repeats, cache_root):
+def _time_queries(rows, queries, repeats) -> None:
+    """Per-query milliseconds of both searches on every library, median of
+    ``repeats`` rounds; each round times them all in turn, so a change in
+    the machine's load hits every figure alike."""
+    times = {(i, kind): [] for i in range(len(rows)) for kind in ("old", "new")}
+    for _ in range(repeats):
+        for i, row in enumerate(rows):
+            for kind in ("old", "new"):
+                times[i, kind].append(_per_query(row[kind], queries))
+    for i, row in enumerate(rows):
+        for kind in ("old", "new"):
+            row[f"{kind}_ms"] = 1e3 * statistics.median(times[i, kind])
+
+
+def _library(name, example, mask, window, f, overlap, queries, cache_root):
     from terrasynth_core.matching.fill_search import FftFillSearch, FillSearch
     from terrasynth_core.matching.window_index import zone_of
 
@@ -118,10 +133,6 @@ def _library(name, example, mask, window, f, overlap, queries, repeats, cache_ro
     for z in zones:
         warm_search.indexes.get(z)
     warm = time.perf_counter() - t
-    t_old, t_new = [], []
-    for _ in range(repeats):
-        t_old.append(_per_query(old, queries))
-        t_new.append(_per_query(new, queries))
     hits, ratios = [], []
     for target, filled, count in queries:
         old_pos = np.array([p for p, *_ in old.best(target, filled, count, None)])
@@ -133,8 +144,7 @@ def _library(name, example, mask, window, f, overlap, queries, repeats, cache_ro
         ratios.append(float(new.scores(target, filled, new_pos).min() / max(old_scores.min(), 1e-12)))
     return {
         "name": name, "shape": example.shape, "windows": int(new.positions.shape[0]), "zones": len(zones),
-        "old_ms": 1e3 * statistics.median(t_old), "new_ms": 1e3 * statistics.median(t_new),
-        "old_setup": old_setup, "new_setup": new_setup, "cold": cold, "warm": warm,
+        "old": old, "new": new, "old_setup": old_setup, "new_setup": new_setup, "cold": cold, "warm": warm,
         "recall": float(np.mean(hits)), "ratio_med": float(np.median(ratios)),
         "ratio_p90": float(np.percentile(ratios, 90)), "better": float(np.mean(np.array(ratios) < 1 - 1e-9)),
     }
@@ -163,10 +173,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{len(mine)} fill queries on the {example.shape[0]}x{example.shape[1]} example "
               f"(window {window[0]}, spacing {f}, overlap {overlap}); replaying {len(queries)}\n", flush=True)
         rows = [
-            _library("1x", example, mask, window, f, overlap, queries, args.repeats, cache_root),
+            _library("1x", example, mask, window, f, overlap, queries, cache_root),
             _library("4x", _mirror_tiled(example), None if mask is None else _mirror_tiled(mask), window, f,
-                     overlap, queries, args.repeats, cache_root),
+                     overlap, queries, cache_root),
         ]
+        _time_queries(rows, queries, args.repeats)
         head = (f"{'library':8}{'example':>12}{'windows':>9}{'zones':>6}{'FFT ms':>9}{'index ms':>9}{'new/old':>8}"
                 f"{'FFT setup s':>12}{'idx setup s':>12}{'build s':>9}{'load s':>8}{'recall':>8}"
                 f"{'score med':>10}{'p90':>7}{'better':>7}")

@@ -34,7 +34,6 @@ the sketch did not ask for.
 from __future__ import annotations
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 from scipy import fft, ndimage
 from skimage.transform import downscale_local_mean
 

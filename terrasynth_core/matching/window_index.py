@@ -22,11 +22,17 @@ windows the exact score ranks first, up to the PCA truncation and the coarse
 grid, and a generous shortlist re-ranked exactly (:class:`FillSearch`) finds
 the exact best in nearly every case.
 
-The index is faiss's inverted file (``IndexIVFFlat``): ``nlist`` about four
-times the square root of the windows, ``nprobe`` fixed, so a query visits a
-near-constant number of windows as the example grows.  faiss runs on one
-thread here with a fixed k-means seed, so a build is deterministic and a
-run's output does not depend on timing or the machine's cores.
+A query describes the output window the same way; a coarse cell of its zone
+with no terrain yet counts as the zone's mean.
+
+The index is faiss's inverted file (``IndexIVFFlat``, chosen by measurement
+over HNSW, scipy's cKDTree and pynndescent: see README, "Dependencies, and
+why"): about ``sqrt(n)`` k-means cells, :data:`NPROBE` of them visited per
+query, so a query scans ``NPROBE * sqrt(n)`` short vectors, well under a
+millisecond even for a library four times the White Mountains; the exact
+re-ranking of the fixed-size shortlist is most of a query's cost.  faiss
+runs on one thread with a fixed k-means seed, so a build is deterministic
+and a run's output does not depend on timing or the machine's cores.
 
 References
 ----------
@@ -40,7 +46,6 @@ import hashlib
 import threading
 
 import numpy as np
-from scipy import ndimage
 
 from .costs import ROUGHNESS_WEIGHT
 
@@ -231,9 +236,13 @@ class ZoneIndex:
         """The inverse of :meth:`to_arrays` (``z`` maps names to arrays)."""
         import faiss
 
+        index = faiss.deserialize_index(np.asarray(z["index"]))
+        # Set again, whatever the serialisation keeps: a loaded index must
+        # answer as the one just built.
+        index.nprobe = min(NPROBE, index.nlist)
         return cls(cells=np.asarray(z["cells"]), step=int(z["step"]), floor=float(z["floor"]),
                    pca_mean=np.asarray(z["pca_mean"]), pca_axes=np.asarray(z["pca_axes"]),
-                   positions=np.asarray(z["positions"]), index=faiss.deserialize_index(np.asarray(z["index"])))
+                   positions=np.asarray(z["positions"]), index=index)
 
 
 def _single_thread() -> None:
