@@ -307,9 +307,17 @@ def zone_vectors(example: np.ndarray, window: tuple[int, int], overlap: int, zon
 
     def describe(rows) -> tuple[np.ndarray, np.ndarray]:
         p = positions[rows]
-        d = flat[(p[:, :1] * width + p[:, 1:]) + flat_offsets[None, :]]
-        d -= d.mean(axis=1, keepdims=True)
-        return _direction_and_size(d, floor)
+        unit = np.empty((p.shape[0], flat_offsets.size), np.float32)
+        size = np.empty(p.shape[0], np.float32)
+        # Row by row arithmetic, in slices of 2048 windows: each numpy call
+        # holds the interpreter lock a few milliseconds at most, so the
+        # app's event loop keeps turning while an index is built.
+        for a in range(0, p.shape[0], 2048):
+            q = p[a:a + 2048]
+            d = flat[(q[:, :1] * width + q[:, 1:]) + flat_offsets[None, :]]
+            d -= d.mean(axis=1, keepdims=True)
+            unit[a:a + 2048], size[a:a + 2048] = _direction_and_size(d, floor)
+        return unit, size
 
     # PCA of the directions, fitted on windows spread evenly over the example.
     sample = np.linspace(0, n - 1, min(n, PCA_SAMPLE)).astype(np.int64)
