@@ -1,8 +1,10 @@
 """An on-disk cache of example analyses, so that a second run on the same
 example (the CLI, a restarted app) starts placing patches at once.
 
-One ``.npz`` file per (heights, patch size, version), and one per example
-resampled to a run's cell size (:mod:`.ground`), in
+One ``.npz`` file per (heights, patch size, version), one per example
+resampled to a run's cell size (:mod:`.ground`), and one per fill-search
+zone index (:mod:`terrasynth_core.matching.window_index`: example, window,
+zone, version), in
 ``$TERRASYNTH_CACHE_DIR`` or ``$XDG_CACHE_HOME/terrasynth`` (default
 ``~/.cache/terrasynth``).  Files are written atomically and read with
 ``allow_pickle=False``; each holds its key (the heights' digest, shape and
@@ -145,6 +147,20 @@ def save_array(key: str, heights: np.ndarray) -> None:
     path = _path(key)
     if path is not None:
         _write(path, {"key": np.array(key), "heights": np.ascontiguousarray(heights, dtype=np.float32)})
+
+
+def load_arrays(key: str) -> dict | None:
+    """Every array of the file saved under ``key`` (by :func:`save_arrays`),
+    or None."""
+    return _read(key, lambda z: {name: z[name] for name in z.files if name != "key"})
+
+
+def save_arrays(key: str, arrays: dict) -> None:
+    """Store named arrays (a fill-search index); failures are ignored, as
+    for analyses."""
+    path = _path(key)
+    if path is not None:
+        _write(path, {**arrays, "key": np.array(key)})
 
 
 def _graph_arrays(graph: FeatureGraph) -> dict:

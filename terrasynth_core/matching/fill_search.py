@@ -1,5 +1,12 @@
 """Non-feature fill: the best example windows for a partly filled output
-window, for every example position at once by FFT (paper §4.2).
+window (paper §4.2).
+
+:class:`FillSearch` (the engine's) finds them through an index of the
+example's windows by boundary zone (:mod:`.window_index`): a shortlist of
+near neighbours, re-ranked by the exact score below.  Its cost per window
+hardly grows with the example's area.  :class:`FftFillSearch` scores every
+example position at once by FFT; it is the exhaustive reference the index
+is measured against (``benchmarks/bench_fill_search.py``).
 
 The cost of placing example window ``E_p`` (top-left ``p``) over output window
 ``O`` with filled mask ``m`` is the SSD over the overlap after the best
@@ -30,11 +37,15 @@ import numpy as np
 from scipy import fft, ndimage
 from skimage.transform import downscale_local_mean
 
+from ..exemplars import cache
 from .costs import ROUGHNESS_WEIGHT
+from .window_index import LazyIndexes, ZoneIndex, zone_of
 
 
-class FillSearch:
-    """FFT search over one example for one window size.
+class _WindowSearch:
+    """What both searches share: the windows on offer (on a grid every
+    ``coarse_factor`` cells, feature centres excluded), their roughness
+    prior, the random first pick and the full-resolution refinement.
 
     Parameters
     ----------
@@ -47,27 +58,19 @@ class FillSearch:
         Strong features of the example; windows whose central half touches
         one are not offered.
     coarse_factor : int
-    workers : int
-        Threads for the FFTs.
+        Spacing of the windows on offer, cells.
     """
 
     def __init__(self, example: np.ndarray, window: tuple[int, int], *, feature_mask=None,
-                 coarse_factor: int = 2, workers: int = 1):
+                 coarse_factor: int = 2):
         self.example = example
         self.window = window
+        self._flat = None
         self.f = f = int(coarse_factor)
-        self.workers = workers
         h, w = window
         H, W = example.shape
-        # The offset-free SSD ignores a constant added to the example, so
-        # centring it keeps float32 FFTs accurate (and twice as fast as float64).
-        centred = (example - np.float32(example.mean())).astype(np.float32)
-        self.coarse = downscale_local_mean(centred, (f, f)).astype(np.float32) if f > 1 else centred
         ch, cw = -(-h // f), -(-w // f)
         self.cwin = (ch, cw)
-        self.fshape = tuple(fft.next_fast_len(int(s), real=True) for s in self.coarse.shape)
-        self.F_e = fft.rfft2(self.coarse, self.fshape, workers=workers)
-        self.F_e2 = fft.rfft2(self.coarse**2, self.fshape, workers=workers)
         # Valid coarse top-left positions: the full-resolution window must fit.
         max_r = (H - h) // f
         max_c = (W - w) // f
@@ -118,6 +121,116 @@ class FillSearch:
         out.sort(key=lambda t: t[1])
         return out
 
+    def _coarse_best(self, target, filled, count) -> list[tuple[int, int]]:
+        """Up to ``count`` well-separated grid positions (in grid units), best first."""
+        raise NotImplementedError
+
+    def _separated(self, order, count: int) -> list[tuple[int, int]]:
+        """The first ``count`` grid positions of ``order`` (an iterable of
+        (row, col), best first) at least a quarter window apart, so the
+        candidates differ."""
+        ch, cw = self.cwin
+        sep = max(1, min(ch, cw) // 4)
+        picks = []
+        for r, c in order:
+            if all(abs(r - pr) > sep or abs(c - pc) > sep for pr, pc in picks):
+                picks.append((r, c))
+                if len(picks) == count:
+                    break
+        return picks
+
+    def _refine_radius(self) -> int:
+        """How far from a grid pick :meth:`_refine` looks, cells."""
+        return self.f - 1
+
+    def _refine(self, target, filled, coarse_rc):
+        """The best window within :meth:`_refine_radius` cells of a grid
+        pick, by the exact score: ((row, col), ssd, offset, prior)."""
+        f = self.f
+        h, w = self.window
+        H, W = self.example.shape
+        d = np.arange(-self._refine_radius(), self._refine_radius() + 1)
+        rr, cc = np.meshgrid(coarse_rc[0] * f + d, coarse_rc[1] * f + d, indexing="ij")
+        fits = (rr >= 0) & (cc >= 0) & (rr + h <= H) & (cc + w <= W)
+        positions = np.stack([rr[fits], cc[fits]], axis=1)
+        r, c = (int(v) for v in positions[int(np.argmin(self.scores(target, filled, positions)))])
+        diff = target[filled].astype(np.float64) - self.example[r:r + h, c:c + w][filled]
+        off = diff.mean()
+        return (r, c), float(((diff - off) ** 2).mean()), float(off), float(self.prior[r, c])
+
+    def _centred(self) -> np.ndarray:
+        """The example minus its mean, float64, flat (made once: moments of
+        high terrain lose digits in float32)."""
+        if self._flat is None:
+            self._flat = (self.example.astype(np.float64) - float(self.example.mean())).ravel()
+        return self._flat
+
+    def scores(self, target: np.ndarray, filled: np.ndarray, positions: np.ndarray) -> np.ndarray:
+        """The exact score of windows, by which the searches rank them.
+
+        Parameters
+        ----------
+        target : ndarray of float, shape ``window``
+        filled : ndarray of bool, shape ``window``, not all False
+        positions : ndarray of int, shape (m, 2)
+            Top-left corners, cells.
+
+        Returns
+        -------
+        ndarray of float64, shape (m,)
+            Offset-free SSD over the sum of the two windows' variances
+            (both over the filled cells) plus ``ROUGHNESS_WEIGHT`` times the
+            roughness prior.
+        """
+        W = self.example.shape[1]
+        rows, cols = np.nonzero(filled)
+        cells = rows * W + cols
+        n = cells.size
+        o = target[filled].astype(np.float64)
+        o -= o.mean()
+        var_o = float(o @ o) / n
+        flat = self._centred()
+        out = np.empty(positions.shape[0])
+        # The offset-free SSD from moments, var(o - e) = var(o) + var(e) -
+        # 2 cov(o, e): three passes over the windows' filled cells, all by
+        # einsum (BLAS's threads, measured, slowed it 3x on the two cores
+        # the synthesis already keeps busy).  In chunks of a few MB.
+        chunk = max(1, 500_000 // n)
+        for a in range(0, positions.shape[0], chunk):
+            p = positions[a:a + chunk]
+            e = flat[(p[:, 0] * W + p[:, 1])[:, None] + cells[None, :]]
+            mean_e = e.sum(axis=1) / n
+            var_e = np.maximum(np.einsum("ij,ij->i", e, e) / n - mean_e**2, 0.0)
+            ssd = np.maximum(var_o + var_e - 2.0 * np.einsum("ij,j->i", e, o) / n, 0.0)
+            out[a:a + chunk] = ssd / (var_e + var_o + 1e-6) + ROUGHNESS_WEIGHT * self.prior[p[:, 0], p[:, 1]]
+        return out
+
+
+class FftFillSearch(_WindowSearch):
+    """FFT search over one example for one window size: every window on
+    offer scored at once (three correlations), O(example area) per query.
+
+    Parameters
+    ----------
+    example, window, feature_mask, coarse_factor
+        As for :class:`FillSearch`.
+    workers : int
+        Threads for the FFTs.
+    """
+
+    def __init__(self, example: np.ndarray, window: tuple[int, int], *, feature_mask=None,
+                 coarse_factor: int = 2, workers: int = 1):
+        super().__init__(example, window, feature_mask=feature_mask, coarse_factor=coarse_factor)
+        f = self.f
+        self.workers = workers
+        # The offset-free SSD ignores a constant added to the example, so
+        # centring it keeps float32 FFTs accurate (and twice as fast as float64).
+        centred = (example - np.float32(example.mean())).astype(np.float32)
+        self.coarse = downscale_local_mean(centred, (f, f)).astype(np.float32) if f > 1 else centred
+        self.fshape = tuple(fft.next_fast_len(int(s), real=True) for s in self.coarse.shape)
+        self.F_e = fft.rfft2(self.coarse, self.fshape, workers=workers)
+        self.F_e2 = fft.rfft2(self.coarse**2, self.fshape, workers=workers)
+
     def _coarse_best(self, target, filled, count):
         f = self.f
         ch, cw = self.cwin
@@ -154,46 +267,102 @@ class FillSearch:
         ssd = ssd + ROUGHNESS_WEIGHT * self.prior[::f, ::f][:ar, :ac]
         ssd[~self.allowed] = np.inf
         # k best, at least a quarter window apart so they differ.
-        picks = []
         flat = ssd.ravel()
         n_look = min(max(count * 50, 200), flat.size)
         head = np.argpartition(flat, n_look - 1)[:n_look]
         order = head[np.argsort(flat[head], kind="stable")]
-        sep = max(1, min(ch, cw) // 4)
-        for idx in order:
-            if not np.isfinite(ssd.flat[idx]):
-                break
-            r, c = divmod(int(idx), ac)
-            if all(abs(r - pr) > sep or abs(c - pc) > sep for pr, pc in picks):
-                picks.append((r, c))
-                if len(picks) == count:
-                    break
-        return picks
+        order = order[np.isfinite(flat[order])]
+        return self._separated((divmod(int(i), ac) for i in order), count)
 
-    def _refine(self, target, filled, coarse_rc):
-        """Exact SSD at full resolution within +-f cells of a coarse pick."""
-        f = self.f
-        h, w = self.window
-        H, W = self.example.shape
-        r0 = coarse_rc[0] * f
-        c0 = coarse_rc[1] * f
-        best = None
-        m = filled
-        n = m.sum()
-        o = target[m].astype(np.float64)
-        for dr in range(-f + 1, f) if f > 1 else (0,):
-            for dc in range(-f + 1, f) if f > 1 else (0,):
-                r, c = r0 + dr, c0 + dc
-                if r < 0 or c < 0 or r + h > H or c + w > W:
-                    continue
-                e = self.example[r:r + h, c:c + w][m].astype(np.float64)
-                diff = o - e
-                off = diff.mean()
-                ssd = float(((diff - off) ** 2).sum() / n)
-                score = ssd / (e.var() + o.var() + 1e-6) + ROUGHNESS_WEIGHT * self.prior[r, c]
-                if best is None or score < best[0]:
-                    best = (score, (r, c), ssd, float(off), float(self.prior[r, c]))
-        return best[1:]
+
+
+class FillSearch(_WindowSearch):
+    """Indexed search over one example for one window size (Liang et al.
+    2001): a shortlist from the zone index of the window's filled strips,
+    re-ranked by the exact score on the true filled mask.
+
+    Parameters
+    ----------
+    example : ndarray of float32, shape (H, W)
+        Example heights, no NaN.
+    window : (h, w)
+        Output window shape to search for.
+    feature_mask : ndarray of bool, shape (H, W), optional
+        Strong features of the example; windows whose central half touches
+        one are not offered.
+    coarse_factor : int
+        Spacing of the indexed windows, cells; the best are refined to the
+        cell around them.
+    overlap : int, optional
+        Width of the boundary strips, cells; default a third of the window.
+    shortlist : int
+        Windows fetched from the index and scored exactly.
+    use_cache : bool
+        Load zone indexes from (and save them to) the example-analysis
+        disk cache.
+
+    References
+    ----------
+    Liang, L., Liu, C., Xu, Y.-Q., Guo, B., Shum, H.-Y. (2001). Real-time
+    texture synthesis by patch-based sampling. ACM TOG 20(3).
+    """
+
+    #: Below this many windows on offer, all are scored exactly (an index
+    #: would cost more than it saves).
+    EXHAUSTIVE_BELOW = 4096
+
+    def __init__(self, example: np.ndarray, window: tuple[int, int], *, feature_mask=None,
+                 coarse_factor: int = 2, overlap: int | None = None, shortlist: int = 96,
+                 use_cache: bool = True):
+        super().__init__(example, window, feature_mask=feature_mask, coarse_factor=coarse_factor)
+        self.overlap = int(overlap) if overlap else max(2, min(window) // 3)
+        self.shortlist = int(shortlist)
+        grid = np.argwhere(self.allowed) * self.f
+        self.positions = grid.astype(np.int32)
+        self.indexes = None
+        if self.positions.shape[0] >= self.EXHAUSTIVE_BELOW:
+            load, save = (_load_index, _save_index) if use_cache else (None, None)
+            self.indexes = LazyIndexes(example, window, self.overlap, self.positions,
+                                       self.prior[self.positions[:, 0], self.positions[:, 1]], load=load, save=save)
+
+    def candidates(self, target: np.ndarray, filled: np.ndarray) -> np.ndarray:
+        """The windows scored exactly for this output window.
+
+        Returns
+        -------
+        ndarray of int32, shape (m, 2)
+            Top-left corners (on the grid): the index's shortlist, or every
+            window on offer for a small example.
+        """
+        if self.indexes is None:
+            return self.positions
+        return self.indexes.get(zone_of(filled, self.overlap)).query(target, filled, self.shortlist)
+
+    def _refine_radius(self) -> int:
+        # The grid windows are scored exactly at full resolution, so a pick
+        # is refined over the cells nearer to it than to any other grid
+        # window; the FFT search scores block means and looks further.
+        return self.f // 2
+
+    def _coarse_best(self, target, filled, count):
+        positions = self.candidates(target, filled)
+        score = self.scores(target, filled, positions)
+        order = np.argsort(score, kind="stable")
+        return self._separated(((int(r) // self.f, int(c) // self.f) for r, c in positions[order]), count)
+
+
+def _load_index(key: str) -> ZoneIndex | None:
+    arrays = cache.load_arrays(key)
+    if arrays is None:
+        return None
+    try:
+        return ZoneIndex.from_arrays(arrays)
+    except Exception:  # a damaged or foreign index: rebuild it
+        return None
+
+
+def _save_index(key: str, index: ZoneIndex) -> None:
+    cache.save_arrays(key, index.to_arrays())
 
 
 def roughness_prior(example: np.ndarray, window: tuple[int, int], allowed: np.ndarray, f: int) -> np.ndarray:

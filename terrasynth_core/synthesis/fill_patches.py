@@ -14,13 +14,13 @@ from .result import PatchRecord
 
 
 def fill_searches(layout: StyleLayout, params: SynthesisParams) -> list[FillSearch | None]:
-    """One FFT search per example a style group on the output uses (None
-    for the others: nothing asks them)."""
+    """One indexed search per example a style group on the output uses
+    (None for the others: nothing asks them)."""
     used = {int(g) for g in np.unique(layout.group_map)}
     size = (params.patch_size, params.patch_size)
     return [
         FillSearch(detail, size, feature_mask=ex.strong_mask, coarse_factor=params.coarse_factor_for(detail.shape),
-                   workers=params.thread_count)
+                   overlap=params.overlap_cells)
         if any(i in layout.members[g] for g in used) else None
         for i, (ex, detail) in enumerate(zip(layout.examples, layout.detail))
     ]

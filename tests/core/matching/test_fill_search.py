@@ -1,16 +1,20 @@
-"""The FFT search for fill windows against brute force (paper §4.2)."""
+"""The fill searches (the engine's indexed one and the exhaustive FFT one)
+against brute force (paper §4.2)."""
 
 import numpy as np
 import pytest
 
 from terrasynth_core.matching.costs import ROUGHNESS_WEIGHT
-from terrasynth_core.matching.fill_search import FillSearch, roughness_prior
+from terrasynth_core.matching.fill_search import FftFillSearch, FillSearch, roughness_prior
+
+SEARCHES = pytest.mark.parametrize("search_class", [FillSearch, FftFillSearch])
 
 
-def test_fft_search_matches_brute_force(white_mountains):
-    """The FFT SSD (offset removed) ranks windows like a direct computation."""
+@SEARCHES
+def test_search_matches_brute_force(white_mountains, search_class):
+    """The SSD (offset removed) ranks windows like a direct computation."""
     E = white_mountains.heights[:160, :160]
-    search = FillSearch(E, (32, 32), coarse_factor=1)
+    search = search_class(E, (32, 32), coarse_factor=1)
     filled = np.zeros((32, 32), bool)
     filled[:, :10] = True
     target = E[50:82, 70:102] + 123.0  # an exact match, shifted in height
@@ -20,12 +24,13 @@ def test_fft_search_matches_brute_force(white_mountains):
     assert ssd < 1e-3 and offset == pytest.approx(123.0, abs=1e-3)
 
 
-def test_fft_search_ranks_by_normalised_ssd_like_brute_force(white_mountains):
+@SEARCHES
+def test_search_ranks_by_normalised_ssd_like_brute_force(white_mountains, search_class):
     """The search ranks windows by the SSD over the two windows' variances
     plus the roughness prior (so rough candidates are not beaten by smooth
     ones just for being smooth): its best pick is the brute-force best."""
     E = white_mountains.heights[:120, :120].astype(np.float64)
-    search = FillSearch(white_mountains.heights[:120, :120], (24, 24), coarse_factor=1)
+    search = search_class(white_mountains.heights[:120, :120], (24, 24), coarse_factor=1)
     filled = np.zeros((24, 24), bool)
     filled[:8, :] = True
     filled[:, :6] = True

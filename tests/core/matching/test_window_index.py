@@ -1,0 +1,145 @@
+"""The indexed fill search (Liang et al. 2001 zones, PCA, faiss IVF) against
+the exhaustive FFT search, its disk cache and its determinism."""
+
+import numpy as np
+import pytest
+
+from terrasynth_core.exemplars import cache
+from terrasynth_core.matching import window_index
+from terrasynth_core.matching.fill_search import FftFillSearch, FillSearch
+from terrasynth_core.matching.window_index import block_means, zone_cells, zone_of
+
+
+def test_zone_is_the_strips_at_least_half_filled():
+    filled = np.zeros((30, 30), bool)
+    filled[:10] = True  # top strip
+    filled[:, :2] = True  # with the top's share of it, 140 of the left strip's 300 cells
+    assert zone_of(filled, 10) == 1
+    filled[:, :6] = True
+    assert zone_of(filled, 10) == 1 | 4
+    filled[:] = True
+    assert zone_of(filled, 10) == 15
+    corner = np.zeros((30, 30), bool)
+    corner[25:, 27:] = True  # a little terrain, in no half-filled strip
+    assert zone_of(corner, 10) in (2, 8)  # the fullest strip alone
+
+
+def test_zone_cells_cover_the_strips_on_the_coarse_grid():
+    top = zone_cells((40, 40), 12, 1, 4)
+    assert set(np.unique(top[:, 0])) == {0, 1, 2}  # coarse rows centred above row 12
+    assert top.shape == (3 * 10, 2)
+    ring = zone_cells((40, 40), 12, 15, 4)
+    assert ring.shape[0] == 100 - 4 * 4  # all but the 4x4 centre
+
+
+def test_block_means_are_the_means_of_the_blocks_below_right():
+    a = np.arange(30, dtype=np.float32).reshape(5, 6)
+    b = block_means(a, 2)
+    assert b.shape == (4, 5)
+    assert b[1, 2] == pytest.approx(a[1:3, 2:4].mean())
+
+
+def _windows_from(example, rng, n, window, noise, zones=((0, 2), (0, 1, 2, 3))):
+    """Output windows cut from the example (plus noise), each filled on the
+    strips of one of ``zones`` (side numbers: top, bottom, left, right)
+    and at a few random cells beside."""
+    h, w = window
+    out = []
+    for i in range(n):
+        r = int(rng.integers(0, example.shape[0] - h))
+        c = int(rng.integers(0, example.shape[1] - w))
+        filled = rng.random(window) < 0.05
+        sides = zones[i % len(zones)]
+        ov = h // 3
+        for s in sides:
+            filled[[np.s_[:ov], np.s_[-ov:], np.s_[:, :ov], np.s_[:, -ov:]][s]] = True
+        target = example[r:r + h, c:c + w] + rng.normal(0, noise, window).astype(np.float32) + 50.0
+        out.append((target, filled))
+    return out
+
+
+def test_index_search_finds_the_exhaustive_searchs_best(white_mountains):
+    """On real terrain the index's shortlist, re-ranked exactly, finds a
+    window as good as the exhaustive search's best, nearly always the same."""
+    example = white_mountains.heights[:300, :300]
+    old = FftFillSearch(example, (32, 32), coarse_factor=2)
+    new = FillSearch(example, (32, 32), coarse_factor=2, use_cache=False)
+    assert new.indexes is not None  # 18 000 windows: indexed, not exhaustive
+    rng = np.random.default_rng(5)
+    same, ratios = 0, []
+    for target, filled in _windows_from(example, rng, 12, (32, 32), noise=5.0):
+        (o_pos, *_), = old.best(target, filled, 1, None)
+        (n_pos, *_), = new.best(target, filled, 1, None)
+        o_score, n_score = new.scores(target, filled, np.array([o_pos, n_pos]))
+        same += o_pos == n_pos
+        ratios.append(n_score / o_score)
+    assert same >= 10
+    assert max(ratios) < 1.05
+
+
+def test_exact_match_is_found_and_refined_to_the_cell(white_mountains):
+    example = white_mountains.heights[:300, :300]
+    search = FillSearch(example, (40, 40), coarse_factor=3, use_cache=False)
+    filled = np.zeros((40, 40), bool)
+    filled[:13] = True
+    filled[:, :13] = True
+    target = example[101:141, 157:197] - 30.0
+    (r, c), ssd, offset, _ = search.best(target, filled, 3, None)[0]
+    assert (r, c) == (101, 157)
+    assert ssd < 1e-6 and offset == pytest.approx(-30.0, abs=1e-3)
+
+
+def test_small_examples_are_scored_exhaustively(white_mountains):
+    """Under EXHAUSTIVE_BELOW windows no index is built, and the best
+    window is the brute-force best."""
+    example = white_mountains.heights[:60, :60]
+    search = FillSearch(example, (24, 24), coarse_factor=1)
+    assert search.indexes is None
+    filled = np.zeros((24, 24), bool)
+    filled[:8] = True
+    target = example[10:34, 20:44] + np.random.default_rng(0).normal(0, 3, (24, 24))
+    grid = np.argwhere(np.ones((37, 37), bool))
+    best = grid[int(np.argmin(search.scores(target, filled, grid)))]
+    assert search.best(target, filled, 1, None)[0][0] == tuple(best)
+
+
+def test_indexes_are_stored_and_loaded_from_the_disk_cache(white_mountains, monkeypatch, tmp_path):
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    example = white_mountains.heights[:200, :200]
+    rng = np.random.default_rng(2)
+    windows = _windows_from(example, rng, 4, (32, 32), noise=3.0, zones=((0, 2),))
+    first = FillSearch(example, (32, 32), coarse_factor=1)
+    expected = [first.candidates(t, m) for t, m in windows]
+    files = sorted(p.name for p in tmp_path.iterdir())
+    assert files and all(name.startswith("example-v") and "-windows-v" in name for name in files)
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("built again instead of loaded")
+
+    monkeypatch.setattr(window_index, "build_zone_index", no_build)
+    second = FillSearch(example, (32, 32), coarse_factor=1)
+    for (t, m), want in zip(windows, expected):
+        np.testing.assert_array_equal(second.candidates(t, m), want)
+
+
+def test_a_damaged_index_file_is_rebuilt(white_mountains, monkeypatch, tmp_path):
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    example = white_mountains.heights[:200, :200]
+    target, filled = _windows_from(example, np.random.default_rng(3), 1, (32, 32), noise=3.0, zones=((0,),))[0]
+    want = FillSearch(example, (32, 32), coarse_factor=1).candidates(target, filled)
+    for path in tmp_path.iterdir():
+        path.write_bytes(b"PK\x03\x04 not an index")
+    got = FillSearch(example, (32, 32), coarse_factor=1).candidates(target, filled)
+    np.testing.assert_array_equal(got, want)
+    assert cache.load_arrays(next(iter(tmp_path.iterdir())).stem.split("-", 2)[2]) is not None
+
+
+def test_builds_are_deterministic(white_mountains):
+    """Two builds from scratch give the same index, byte for byte, so a
+    seed gives the same terrain whether or not the cache is warm."""
+    example = white_mountains.heights[:200, :200]
+    a = FillSearch(example, (32, 32), coarse_factor=2, use_cache=False).indexes.get(15).to_arrays()
+    b = FillSearch(example, (32, 32), coarse_factor=2, use_cache=False).indexes.get(15).to_arrays()
+    assert a.keys() == b.keys()
+    for name in a:
+        np.testing.assert_array_equal(a[name], b[name])
