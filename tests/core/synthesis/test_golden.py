@@ -74,11 +74,12 @@ CASES = {
 #: landform pass, the level anchor scaled by the examples' spread of window
 #: levels and the prominence ranking of feature candidates, and with the
 #: water shaping lifting the inner half of a bank fully to the shore, and
-#: with the fill in waves of independent windows (issue 11, "Speed").
+#: with issue 11 ("Speed"): the fill in waves of independent windows, the
+#: indexed fill search and the narrower last drainage pass.
 GOLDEN = {
-    "y_junction": "6e53de1afad21c65ced5cbf7e63c39b8e160ae7f7c8322024b49d4bcffb0145f",
-    "ring_cross_raster": "92a9c0b40bbe2ca0112bd1fb77425ec79da44b81e1ffa4a803e5cfd651e37de6",
-    "styles_stamp_water_pin": "f1dc2f3a72fe596ea90026b2980dbf82f116493740a8523f69c0ba6866a57821",
+    "y_junction": "f48660860f6121a3448e443bf2be507f9531750ed6bfa3c053e65341c1dcb97d",
+    "ring_cross_raster": "44bdbefa103eb276a84902bd6ad555a9d0c13f7c048c42fc00ed7ed7bdf356d3",
+    "styles_stamp_water_pin": "947806070207149ee269d5f33ef2d1ce528e4c3878a8f762c5195b48a113e107",
 }
 
 
