@@ -36,6 +36,10 @@ from .result import PatchRecord
 #: depend on how many processes fill them.
 WAVE = 4
 
+#: Fewest fill windows worth sending to worker processes (the result is
+#: the same either way).
+MIN_PARALLEL_WINDOWS = 64
+
 #: Seconds an idle worker process waits for more work before it exits.
 IDLE_SECONDS = 300
 

@@ -29,7 +29,7 @@ from ..placing.windows import WindowQueue, estimate_fill_count, fill_windows, re
 from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, SynthesisFinished
 from .feature_patches import feature_pools, place_feature, place_stamp, pool_for, prepare_feature
 from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
-from .fill_workers import WAVE, FillKit, FillWorkers, warm_up, window_task
+from .fill_workers import MIN_PARALLEL_WINDOWS, WAVE, FillKit, FillWorkers, warm_up, window_task
 from .finish import finish_heights
 from .landform import landform_from, preview_patch, split_sigma
 from .params import SynthesisParams
@@ -269,7 +269,11 @@ def fill_stage(state: RunState):
     remaining = WindowQueue(windows, canvas.filled)
     kit = FillKit(searches, lay.detail, lay.anchor, p.seed, p.patch_size, p.k)
     number = 0
-    with FillWorkers(kit, state.processes) as workers:
+    # A short fill (a stroke's crop) stays in this process: sending the
+    # workers a run's searches and loading its indexes there costs more
+    # than a few windows save.
+    processes = state.processes if len(windows) >= MIN_PARALLEL_WINDOWS else 1
+    with FillWorkers(kit, processes) as workers:
         while wave := remaining.pop_wave(WAVE):
             tasks = []
             for j, bbox in enumerate(wave):
