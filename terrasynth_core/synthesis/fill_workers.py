@@ -164,11 +164,26 @@ def _executor(processes: int):
 _THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 
-def warm_up(processes: int) -> None:
-    """Start the worker processes now (in the background), so they are
-    ready when the fill begins.  Nothing happens for 1 process."""
+def _warm(shape: tuple[int, int]) -> int:
+    """In a worker: import what a fill window needs (this module's imports,
+    faiss, PyMaxflow) and make the seam solver of the window's shape."""
+    import faiss  # noqa: F401  (the fill indexes load with it)
+
+    from ..blending.rectangle import rectangle_solver
+    from ..placing import graph_cut  # noqa: F401
+
+    rectangle_solver(shape, build=1)
+    return os.getpid()
+
+
+def warm_up(processes: int, patch_size: int) -> None:
+    """Start the worker processes now (in the background) and have them
+    import and prepare what a fill window needs, so they are ready when
+    the fill begins.  Nothing happens for 1 process."""
     if processes > 1:
-        _executor(processes - 1).submit(os.getpid)
+        pool = _executor(processes - 1)
+        for _ in range(processes - 1):
+            pool.submit(_warm, (patch_size, patch_size))
 
 
 class FillWorkers:

@@ -104,7 +104,7 @@ def run_pipeline(state: RunState) -> Iterator[object]:
     # with OpenBLAS's threads fighting the search thread).
     # The fill's worker processes start now, while the landform and
     # feature stages run, so they are ready when the fill begins.
-    warm_up(state.processes)
+    warm_up(state.processes, state.params.patch_size)
     with _blas_threads().limit(limits=1, user_api="blas"):
         yield from landform_stage(state)
         samples, pools = yield from analyse_stage(state)
