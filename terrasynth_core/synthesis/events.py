@@ -7,9 +7,11 @@ bar tick.  Every event is also a cancellation checkpoint.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Callable, Iterator, Literal
 
 import numpy as np
+
+from ..errors import SynthesisCancelled
 
 #: Stages of a run, in order.
 STAGES = ("landform", "analyse", "features", "fill", "finish")
@@ -98,3 +100,30 @@ class SynthesisFinished:
     """The last event; ``result`` is a :class:`SynthesisResult`."""
 
     result: object
+
+
+def drive(events: Iterator[object], *, progress: Callable[[object], None] | None = None,
+          cancel: Callable[[], bool] | None = None, what: str = "synthesis"):
+    """Run a generator of events to its end and return the result of its
+    :class:`SynthesisFinished`.
+
+    Parameters
+    ----------
+    events : iterator
+        A run's events (``Session.iter_run()`` and the like).
+    progress : callable, optional
+        Called with every event.
+    cancel : callable, optional
+        Polled after every event; when it returns True the run stops and
+        :class:`~..errors.SynthesisCancelled` ("``what`` cancelled") is raised.
+    """
+    result = None
+    for event in events:
+        if progress is not None:
+            progress(event)
+        if cancel is not None and cancel():
+            events.close()
+            raise SynthesisCancelled(f"{what} cancelled")
+        if isinstance(event, SynthesisFinished):
+            result = event.result
+    return result

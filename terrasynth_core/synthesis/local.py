@@ -45,13 +45,13 @@ from scipy import ndimage
 from ..controls.options import Controls
 from ..controls.pins import Pin, PinError
 from ..controls.water import Water
-from ..errors import ParamsError, SynthesisCancelled
+from ..errors import ParamsError
 from ..features import FeatureMaps, SketchMap, sketch_features
 from ..heightfield import HeightField
 from ..io.resample import output_georeference
-from .events import PatchPlaced, SynthesisFinished
+from .events import PatchPlaced, SynthesisFinished, drive
 from .params import SynthesisParams
-from .result import PatchRecord, SynthesisResult
+from .result import SynthesisResult
 from .session import Session
 
 __all__ = ["CONTEXT_PATCHES", "STROKE_REACH", "changed_cells", "crop_box", "iter_resynthesize_region",
@@ -227,18 +227,10 @@ def resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketch: Sk
     SynthesisCancelled
         When ``cancel`` returned True.
     """
-    result = None
-    for event in iter_resynthesize_region(examples, sketch, previous=previous, selection=selection, params=params,
-                                          controls=controls, context=context, previous_patch_id=previous_patch_id,
-                                          previous_seam_mask=previous_seam_mask, features=features,
-                                          landform=landform):
-        if progress is not None:
-            progress(event)
-        if cancel is not None and cancel():
-            raise SynthesisCancelled("re-synthesis cancelled")
-        if isinstance(event, SynthesisFinished):
-            result = event.result
-    return result
+    events = iter_resynthesize_region(examples, sketch, previous=previous, selection=selection, params=params,
+                                      controls=controls, context=context, previous_patch_id=previous_patch_id,
+                                      previous_seam_mask=previous_seam_mask, features=features, landform=landform)
+    return drive(events, progress=progress, cancel=cancel, what="re-synthesis")
 
 
 def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | None, *,

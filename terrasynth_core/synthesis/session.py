@@ -26,12 +26,12 @@ import numpy as np
 
 from ..controls.layout import anchors, build_layout
 from ..controls.options import Controls, check_heights
-from ..errors import ParamsError, SynthesisCancelled
+from ..errors import ParamsError
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
 from ..io.resample import output_georeference
-from .events import SynthesisFinished
+from .events import drive
 from .landform import coarse_session, detail_above
 from .params import SynthesisParams
 from .pipeline import RunState, run_pipeline
@@ -176,15 +176,7 @@ class Session:
             Polled after every patch; when it returns True the run stops and
             :class:`SynthesisCancelled` is raised.
         """
-        result = None
-        for event in self.iter_run():
-            if progress is not None:
-                progress(event)
-            if cancel is not None and cancel():
-                raise SynthesisCancelled("synthesis cancelled")
-            if isinstance(event, SynthesisFinished):
-                result = event.result
-        return result
+        return drive(self.iter_run(), progress=progress, cancel=cancel)
 
     def iter_run(self) -> Iterator[object]:
         """Run step by step, yielding events (see :mod:`.events`).
