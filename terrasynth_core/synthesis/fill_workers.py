@@ -205,11 +205,6 @@ class FillWorkers:
 
     def __enter__(self) -> "FillWorkers":
         if self.processes > 1:
-            # Each process runs its FFTs on one thread: the processes use
-            # the cores (the results do not depend on the thread count).
-            for search in self.kit.searches:
-                if search is not None and hasattr(search, "workers"):
-                    search.workers = 1
             fd, path = tempfile.mkstemp(prefix="terrasynth-fill-", suffix=".pkl")
             with os.fdopen(fd, "wb") as f:
                 pickle.dump(self.kit, f, protocol=pickle.HIGHEST_PROTOCOL)
