@@ -37,7 +37,7 @@ _TIPS = {
                 "pass on a flat level per style, as in the paper.",
     "coarse_factor": "Down-sampling of the example for the fast search of fill patches; the best "
                      "positions are refined at full resolution. auto: from the example's size.",
-    "workers": "Processes that fill windows, and threads for FFTs; 0 uses every core (the terrain is the same).",
+    "workers": "Processes that fill windows; 0 uses every core (the terrain is the same).",
     "feature_weight": "Weight of the feature deformation cost against the overlap mismatch when "
                       "picking feature patches.",
     "cell_size": "Side of the output's square cells on the ground, in metres. Every example, style and "

@@ -47,8 +47,7 @@ class SynthesisParams:
         from the example's size (about 160,000 cells searched per example).
     workers : int, default 0
         Processes that fill windows (this one and ``workers - 1`` worker
-        processes) and threads for FFTs; 0 uses every core.  The result does
-        not depend on it.
+        processes); 0 uses every core.  The result does not depend on it.
     feature_weight : float, default 1.0
         Weight of the deformation cost against the overlap SSD when picking
         among feature candidates.
@@ -133,6 +132,7 @@ class SynthesisParams:
 
     @property
     def thread_count(self) -> int:
+        """Processes the fill uses (``workers``, or one per core)."""
         return self.workers or (os.cpu_count() or 1)
 
     def to_dict(self) -> dict:
