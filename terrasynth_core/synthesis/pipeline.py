@@ -103,8 +103,12 @@ def run_pipeline(state: RunState) -> Iterator[object]:
     # them only contend (a 300x300 Cholesky of a seam solve took 60x longer
     # with OpenBLAS's threads fighting the search thread).
     # The fill's worker processes start now, while the landform and
-    # feature stages run, so they are ready when the fill begins.
-    warm_up(state.processes, state.params.patch_size)
+    # feature stages run, so they are ready when the fill begins (if the
+    # fill will be long enough to use them).
+    p = state.params
+    if estimate_fill_count(state.session.shape, p.patch_size, overlap=p.overlap_cells, n_features=0,
+                           selection=state.controls.selection) >= MIN_PARALLEL_WINDOWS:
+        warm_up(state.processes, p.patch_size)
     with _blas_threads().limit(limits=1, user_api="blas"):
         yield from landform_stage(state)
         samples, pools = yield from analyse_stage(state)
