@@ -27,10 +27,11 @@ References
 from __future__ import annotations
 
 import threading
-from collections import OrderedDict
 
 import numpy as np
 from scipy import fft, linalg
+
+from ..memo import Memo
 
 #: Unit vectors transformed together when building a Green's matrix (bounds
 #: the temporary memory to about 64 windows of float64).
@@ -125,37 +126,29 @@ class RectangleSolver:
 #: Solvers by block shape; a run uses a handful (the patch and its clipped
 #: versions at the map's edges).  Each holds its rim's Green's matrix (about
 #: 0.8 MB for 80 x 80 cells, 13 MB for 320 x 320).
-_SOLVERS: OrderedDict = OrderedDict()
-_SOLVERS_KEPT = 12
-_LOCK = threading.Lock()
-
+_SOLVERS = Memo(12)
 
 #: Block shapes asked for so far, and how often (a solver is built on the
 #: second request: building one costs several sparse factorizations, worth
 #: it for the patch's shape, which recurs hundreds of times, not for a
 #: one-off window clipped by the map's edge).
 _ASKED: dict = {}
+_ASKED_LOCK = threading.Lock()
 
 
 def rectangle_solver(shape: tuple[int, int], *, build: int = 2) -> RectangleSolver | None:
     """The cached solver for blocks of ``shape``, built on the ``build``-th
     request for that shape (None before)."""
-    with _LOCK:
-        solver = _SOLVERS.get(shape)
-        if solver is not None:
-            _SOLVERS.move_to_end(shape)
-            return solver
+    solver = _SOLVERS.peek(shape)
+    if solver is not None:
+        return solver
+    with _ASKED_LOCK:
         if len(_ASKED) > 4096:
             _ASKED.clear()
         _ASKED[shape] = _ASKED.get(shape, 0) + 1
         if _ASKED[shape] < build:
             return None
-    solver = RectangleSolver(shape)
-    with _LOCK:
-        _SOLVERS[shape] = solver
-        while len(_SOLVERS) > _SOLVERS_KEPT:
-            _SOLVERS.popitem(last=False)
-    return solver
+    return _SOLVERS.get(shape, lambda: RectangleSolver(shape))
 
 
 def open_edges(block: tuple[int, int, int, int], known: np.ndarray) -> np.ndarray:

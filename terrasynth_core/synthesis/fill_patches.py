@@ -3,15 +3,12 @@ terrain already in an output window, chosen by match cost plus seam cost."""
 
 from __future__ import annotations
 
-import hashlib
-import threading
-from collections import OrderedDict
-
 import numpy as np
 
 from ..controls.layout import StyleLayout
 from ..matching.costs import ROUGHNESS_WEIGHT, match_cost, settle
 from ..matching.fill_search import FillSearch
+from ..memo import Memo, array_key
 from ..placing.canvas import Canvas
 from .params import SynthesisParams
 from .result import PatchRecord
@@ -33,28 +30,15 @@ def fill_searches(layout: StyleLayout, params: SynthesisParams) -> list[FillSear
 #: a session per run and per live stroke, and a search's set-up (the
 #: windows on offer, their roughness prior, the indexes it has loaded) does
 #: not change with the sketch: 0.4 s a stroke saved.
-_SEARCHES: OrderedDict = OrderedDict()
-_SEARCHES_KEPT = 4
-_SEARCHES_LOCK = threading.Lock()
+_SEARCHES = Memo(4)
 
 
 def _search(detail: np.ndarray, window: tuple[int, int], feature_mask, coarse: int, overlap: int) -> FillSearch:
     """A :class:`FillSearch`, shared with earlier sessions when its inputs
     are the same bytes (searches are read-only once made)."""
-    digest = hashlib.blake2b(np.ascontiguousarray(detail).data, digest_size=16)
-    if feature_mask is not None:
-        digest.update(np.packbits(feature_mask).tobytes())
-    key = (digest.digest(), detail.shape, window, coarse, overlap)
-    with _SEARCHES_LOCK:
-        if key in _SEARCHES:
-            _SEARCHES.move_to_end(key)
-            return _SEARCHES[key]
-    search = FillSearch(detail, window, feature_mask=feature_mask, coarse_factor=coarse, overlap=overlap)
-    with _SEARCHES_LOCK:
-        _SEARCHES[key] = search
-        while len(_SEARCHES) > _SEARCHES_KEPT:
-            _SEARCHES.popitem(last=False)
-    return search
+    return _SEARCHES.get((array_key(detail, feature_mask), window, coarse, overlap),
+                         lambda: FillSearch(detail, window, feature_mask=feature_mask, coarse_factor=coarse,
+                                            overlap=overlap))
 
 
 def window_examples(layout: StyleLayout, bbox) -> tuple[list[int], float]:

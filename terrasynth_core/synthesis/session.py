@@ -17,9 +17,6 @@ Bookstein, "Principal Warps", IEEE PAMI 11(6), 1989.
 
 from __future__ import annotations
 
-import hashlib
-import threading
-from collections import OrderedDict
 from typing import Callable, Iterator, Sequence
 
 import numpy as np
@@ -31,6 +28,7 @@ from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
 from ..io.resample import output_georeference
+from ..memo import Memo, array_key
 from .events import drive
 from .landform import coarse_session, detail_above
 from .params import SynthesisParams
@@ -40,9 +38,7 @@ from .result import SynthesisResult
 __all__ = ["Session"]
 
 #: Detail bands kept between sessions (:func:`_memo_detail_above`).
-_DETAIL_MEMO_SIZE = 4
-_detail_memo: OrderedDict = OrderedDict()
-_detail_lock = threading.Lock()
+_DETAIL_BANDS = Memo(4)
 
 
 class Session:
@@ -193,20 +189,13 @@ def _memo_detail_above(detail: np.ndarray, sigma: float) -> np.ndarray:
     A session is made again after every edit (the app's runs; a crop
     re-synthesis per stroke with its landform pass, :mod:`.local`), and the
     examples' detail band is a Gaussian filter over each whole example
-    (about 0.3 s for a 1201x1201 DEM) that no edit of the sketch changes.  Keyed by the detail's
-    bytes (a hash costs milliseconds), so an edited example is never served
-    a stale band.
+    (about 0.3 s for a 1201x1201 DEM) that no edit of the sketch changes.
+    Keyed by the detail's bytes, so an edited example is never served a
+    stale band.
     """
-    key = (hashlib.blake2b(np.ascontiguousarray(detail).data, digest_size=16).digest(), detail.shape,
-           detail.dtype.str, float(sigma))
-    with _detail_lock:
-        if key in _detail_memo:
-            _detail_memo.move_to_end(key)
-            return _detail_memo[key]
-    band = detail_above(detail, sigma)
-    band.flags.writeable = False  # shared by every session that asks
-    with _detail_lock:
-        _detail_memo[key] = band
-        while len(_detail_memo) > _DETAIL_MEMO_SIZE:
-            _detail_memo.popitem(last=False)
-    return band
+    def make() -> np.ndarray:
+        band = detail_above(detail, sigma)
+        band.flags.writeable = False  # shared by every session that asks
+        return band
+
+    return _DETAIL_BANDS.get((array_key(detail), float(sigma)), make)
