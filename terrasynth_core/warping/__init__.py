@@ -7,9 +7,11 @@ from typing import TYPE_CHECKING
 from .._lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from .thin_plate import ThinPlateSpline, bending_energies, warp_patch
+    from .frame import framed, framed_bending_energies
+    from .thin_plate import ThinPlateSpline, bending_energies, warp_distortion, warp_patch
 
 # Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
-    ".thin_plate": ("ThinPlateSpline", "bending_energies", "warp_patch"),
+    ".frame": ("framed", "framed_bending_energies"),
+    ".thin_plate": ("ThinPlateSpline", "bending_energies", "warp_distortion", "warp_patch"),
 })

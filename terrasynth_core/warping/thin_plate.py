@@ -120,22 +120,48 @@ def _as_points(points, name: str) -> np.ndarray:
     return p
 
 
+def similarity_params(src: np.ndarray, dst: np.ndarray, reflect: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares similarities ``z' = a z + b`` (or ``a conj(z) + b``
+    where ``reflect``) taking one point set onto many, points as complex
+    numbers ``row + i col``.
+
+    Parameters
+    ----------
+    src : ndarray of float64, shape (n, 2)
+    dst : ndarray of float64, shape (M, n, 2)
+    reflect : ndarray of bool, shape (M,)
+
+    Returns
+    -------
+    a, b : ndarray of complex128, shape (M,)
+    """
+    zs = src[:, 0] + 1j * src[:, 1]
+    zs = np.where(reflect[:, None], np.conj(zs)[None, :], zs[None, :])  # (M, n)
+    zd = dst[..., 0] + 1j * dst[..., 1]
+    ms, md = zs.mean(axis=1, keepdims=True), zd.mean(axis=1, keepdims=True)
+    denom = np.sum(np.abs(zs - ms) ** 2, axis=1)
+    num = np.sum(np.conj(zs - ms) * (zd - md), axis=1)
+    a = np.where(denom > 0, num / np.where(denom > 0, denom, 1.0), 1.0 + 0j)
+    b = md[:, 0] - a * ms[:, 0]
+    return a, b
+
+
+
 def _similarity_fit(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Least-squares rotation + uniform scale + translation taking src to dst.
 
-    Returns ``(linear, offset)`` with ``dst ~ src @ linear.T + offset``.
-    Points are treated as complex numbers ``row + i col``: the fit is the
-    linear regression ``z' = a z + b`` with complex ``a``, which is exact for
-    two points.
+    Returns ``(linear, offset)`` with ``dst ~ src @ linear.T + offset``
+    (exact for two points).
     """
-    zs = src[:, 0] + 1j * src[:, 1]
-    zd = dst[:, 0] + 1j * dst[:, 1]
-    ms, md = zs.mean(), zd.mean()
-    denom = np.vdot(zs - ms, zs - ms).real
-    a = np.vdot(zs - ms, zd - md) / denom if denom > 0 else 1.0 + 0j
-    b = md - a * ms
-    linear = np.array([[a.real, -a.imag], [a.imag, a.real]])
-    return linear, np.array([b.real, b.imag])
+    a, b = similarity_params(src, dst[None], np.zeros(1, bool))
+    return _similarity_matrix(a[0], False), np.array([b[0].real, b[0].imag])
+
+
+def _similarity_matrix(a: complex, reflect: bool) -> np.ndarray:
+    """The 2x2 matrix of ``z -> a z`` (or ``a conj(z)``), ``z = row + i col``."""
+    if reflect:
+        return np.array([[a.real, a.imag], [a.imag, -a.real]])
+    return np.array([[a.real, -a.imag], [a.imag, a.real]])
 
 
 class ThinPlateSpline:
@@ -281,6 +307,30 @@ class ThinPlateSpline:
         weights = sol[:n]
         return cls(src, weights, sol[n], sol[n + 1 :].T, center)
 
+    @classmethod
+    def similarity(cls, src, dst, *, reflect: bool = False) -> "ThinPlateSpline":
+        """The least-squares similarity taking ``src`` to ``dst``: rotation,
+        uniform scale, translation, and a reflection with ``reflect``.  It
+        never folds or stretches one way: the warp of last resort.
+
+        Parameters
+        ----------
+        src, dst : array_like of float, shape (n, 2)
+            Corresponding ``(row, col)`` points, n >= 1.
+
+        Returns
+        -------
+        ThinPlateSpline
+            With no kernel points.
+        """
+        src = _as_points(src, "src control points")
+        dst = _as_points(dst, "dst control points")
+        if src.shape != dst.shape:
+            raise ParamsError(f"src and dst control points must have the same shape, got {src.shape} and {dst.shape}")
+        a, b = similarity_params(src, dst[None], np.array([bool(reflect)]))
+        empty = np.zeros((0, 2))
+        return cls(empty, empty, np.array([b[0].real, b[0].imag]), _similarity_matrix(a[0], reflect), np.zeros(2))
+
     # -- evaluation ------------------------------------------------------
     def transform(self, points) -> np.ndarray:
         """Map points.
@@ -300,6 +350,30 @@ class ThinPlateSpline:
             out += radial_kernel(squared_distances(p, self.control_points)) @ self.weights
         return out
 
+    def jacobian(self, points) -> np.ndarray:
+        """Derivatives of the map at points.
+
+        Parameters
+        ----------
+        points : array_like of float, shape (m, 2)
+            ``(row, col)`` positions.
+
+        Returns
+        -------
+        ndarray of float64, shape (m, 2, 2)
+            ``J[i, k, j] = d f_k / d x_j`` at ``points[i]``.
+        """
+        p = _as_points(points, "points")
+        jac = np.broadcast_to(self.linear, (len(p), 2, 2)).copy()
+        if len(self.control_points):
+            diff = p[:, None, :] - self.control_points[None, :, :]  # (m, n, 2)
+            r2 = np.einsum("mnj,mnj->mn", diff, diff)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                # d/dx of r^2 log r^2 = 2 (x - p) (log r^2 + 1), 0 at r = 0.
+                g = np.where(r2 > 0.0, 2.0 * (np.log(r2) + 1.0), 0.0)
+            jac += np.einsum("nk,mn,mnj->mkj", self.weights, g, diff)
+        return jac
+
     @property
     def bending_energy(self) -> float:
         """Bending energy ``sum_k w_k^T K w_k`` over both output coordinates.
@@ -309,6 +383,50 @@ class ThinPlateSpline:
         with the square of the displacements).
         """
         return self._bending_energy
+
+
+def warp_distortion(tps: ThinPlateSpline, top_left, shape, *, step: int = 4) -> float:
+    """How far a warp is from a similarity over the disc inscribed in its
+    window: the largest ratio of its local stretch in two directions.
+
+    A warp that squeezes the example one way draws its ridges out into
+    streaks; one whose Jacobian changes sign folds the example over itself
+    (whorls).  A similarity (with or without a reflection) scores 1.
+
+    Parameters
+    ----------
+    tps : ThinPlateSpline
+        Output-to-source map.
+    top_left : (row, col)
+        Output coordinates of the window's first cell.
+    shape : (h, w)
+        Window size, cells.
+    step : int, default 4
+        Spacing of the cells checked, cells.
+
+    Returns
+    -------
+    float
+        max sigma_1 / sigma_2 of the Jacobian over the disc (>= 1); inf
+        where the map folds (its determinant changes sign or vanishes).
+    """
+    h, w = (int(v) for v in shape)
+    rr, cc = np.mgrid[0:h:step, 0:w:step].astype(float)
+    rr, cc = rr + (h - 1 - rr.max()) / 2, cc + (w - 1 - cc.max()) / 2  # centred grid
+    radius = min(h, w) / 2
+    inside = (rr - (h - 1) / 2) ** 2 + (cc - (w - 1) / 2) ** 2 <= radius**2
+    pts = np.column_stack([rr[inside] + float(top_left[0]), cc[inside] + float(top_left[1])])
+    if len(pts) == 0:
+        return 1.0
+    jac = tps.jacobian(pts)
+    det = jac[:, 0, 0] * jac[:, 1, 1] - jac[:, 0, 1] * jac[:, 1, 0]
+    if not (np.all(det > 0) or np.all(det < 0)):
+        return math.inf
+    # Singular values of a 2x2 matrix: sqrt of the eigenvalues of J^T J.
+    sq = np.einsum("mkj,mkj->m", jac, jac)
+    root = np.sqrt(np.maximum(sq * sq - 4.0 * det * det, 0.0))
+    big, small = np.sqrt((sq + root) / 2), np.sqrt(np.maximum((sq - root) / 2, 0.0))
+    return float(np.max(big / np.maximum(small, 1e-12)))
 
 
 def warp_patch(
