@@ -19,11 +19,17 @@ from ..matching.costs import match_cost, overlap_ssd, settle
 from ..matching.usage import UsageRegistry
 from ..placing.canvas import Canvas, Cut
 from ..placing.windows import patch_window
-from ..warping.thin_plate import ThinPlateSpline, warp_patch
+from ..warping.frame import framed
+from ..warping.thin_plate import ThinPlateSpline, warp_distortion, warp_patch
 from .result import PatchRecord
 
 #: Share of a warped patch's cells that must come from inside its example.
 MIN_VALID_SHARE = 0.98
+
+#: Most a feature warp may stretch the example one way against the other
+#: (:func:`~terrasynth_core.warping.thin_plate.warp_distortion`) inside its
+#: patch's disc: beyond it ridges turn into streaks.
+MAX_STRETCH = 2.0
 
 
 def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
@@ -82,9 +88,25 @@ def standing_map(heights: np.ndarray, size: float) -> np.ndarray:
     return (local - around) / spread
 
 
+#: Where a sample's prominence is read, besides its centre: fractions of the
+#: way from the centre to each crossing.
+PROMINENCE_STATIONS = (0.25, 0.5, 0.75)
+
+#: Half-width, cells, of the square in which the feature line is looked for
+#: around each station (the example's line wanders off the chord).
+PROMINENCE_REACH = 3
+
+
 def sample_prominence(standing: np.ndarray | None, samples: list[FeatureSample], kind: str) -> np.ndarray:
-    """Each sample's prominence: its centre's :func:`standing_map` value,
-    upwards for ridges, downwards for valleys.
+    """Each sample's prominence: how far its feature stands out (up for
+    ridges, down for valleys) all along its line inside the patch.
+
+    Read at the centre and at :data:`PROMINENCE_STATIONS` on the chords
+    from the centre to each crossing, each the most prominent :func:`standing_map` value within
+    :data:`PROMINENCE_REACH` cells, and averaged.  Read at the centre
+    alone, the most prominent samples were peaks and pits: a valley deep at
+    the patch's centre and shallow 20 cells along, so that a painted valley
+    came out as a chain of basins with sills between them.
 
     Parameters
     ----------
@@ -100,11 +122,15 @@ def sample_prominence(standing: np.ndarray | None, samples: list[FeatureSample],
     """
     if not samples:
         return np.zeros(0)
-    rows, cols = standing.shape
-    at = np.array([[min(max(int(round(s.center[0])), 0), rows - 1), min(max(int(round(s.center[1])), 0), cols - 1)]
-                   for s in samples])
-    above = standing[at[:, 0], at[:, 1]]
-    return above if kind == "ridge" else -above
+    up = standing if kind == "ridge" else -standing
+    up = ndimage.maximum_filter(up, size=2 * PROMINENCE_REACH + 1, mode="nearest")
+    rows, cols = up.shape
+    out = np.empty(len(samples))
+    for i, s in enumerate(samples):
+        pts = np.concatenate([s.center[None]] + [s.center + t * (s.crossings - s.center) for t in PROMINENCE_STATIONS])
+        at = np.rint(pts).astype(np.int64)
+        out[i] = up[np.clip(at[:, 0], 0, rows - 1), np.clip(at[:, 1], 0, cols - 1)].mean()
+    return out
 
 
 def pool_for(pools: dict, layout: StyleLayout, sample: FeatureSample, warnings: list[str], *,
@@ -161,12 +187,25 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
     if r1 - r0 < 4 or c1 - c0 < 4:
         return bbox, []
     exclude = usage.exclusion(bbox, sample.center, cap)
-    warped = []
+    window = (r1 - r0, c1 - c0)
+    warped, distorted = [], []
     for cand in pool.rank(sample, count, rng, exclude=exclude):
-        tps = ThinPlateSpline.fit(cand.target, cand.control, regularization=1e-3)
-        patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), (r1 - r0, c1 - c0), return_valid=True)
+        tps = ThinPlateSpline.fit(*framed(cand.target, cand.control, reflect=cand.mirrored), regularization=1e-3)
+        if warp_distortion(tps, (r0, c0), window) > MAX_STRETCH:
+            distorted.append(cand)
+            continue
+        patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, return_valid=True)
         if valid >= MIN_VALID_SHARE:
             warped.append((cand, patch))
+    if not warped:
+        # Every candidate would fold or streak: turn the best ones rigidly
+        # onto the sketch instead (the feature follows the stroke's chord,
+        # the ground keeps its shape).
+        for cand in distorted:
+            tps = ThinPlateSpline.similarity(cand.target, cand.control, reflect=cand.mirrored)
+            patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, return_valid=True)
+            if valid >= MIN_VALID_SHARE:
+                warped.append((cand, patch))
     return bbox, warped
 
 

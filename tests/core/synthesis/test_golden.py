@@ -75,10 +75,11 @@ CASES = {
 #: levels and the prominence ranking of feature candidates, and with the
 #: water shaping lifting the inner half of a bank fully to the shore, and
 #: with issue 11 ("Speed"): the fill in waves of independent windows, the
-#: indexed fill search and the narrower last drainage pass.
+#: indexed fill search and the narrower last drainage pass, and with the
+#: framed feature warps and prominence read along the feature line.
 GOLDEN = {
-    "y_junction": "f48660860f6121a3448e443bf2be507f9531750ed6bfa3c053e65341c1dcb97d",
-    "ring_cross_raster": "44bdbefa103eb276a84902bd6ad555a9d0c13f7c048c42fc00ed7ed7bdf356d3",
+    "y_junction": "ac4b82154154c15fbf6965a6d8cfaed9bec7c648f584d688b91e282182fa498c",
+    "ring_cross_raster": "0fa1fae80887acd0e502bf2e96fd0e84047e205e363b30b3585a1f50d6e0d0bb",
     "styles_stamp_water_pin": "947806070207149ee269d5f33ef2d1ce528e4c3878a8f762c5195b48a113e107",
 }
 
