@@ -58,10 +58,17 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
         if flooded:
             notes.append(f"{flooded} land cells lie below the water level {controls.water.level:g} m "
                          "away from painted water: paint them as water or raise the level")
-    heights, pin_errors = apply_pins(heights, controls.pins, radius=controls.pin_radius, locked=locked)
+    # A pin near the shore must not lift painted water above its level: the
+    # pins' correction bends around water as around locked cells.
+    held = locked
+    if controls.water is not None:
+        held = controls.water.mask if locked is None else locked | controls.water.mask
+    heights, pin_errors = apply_pins(heights, controls.pins, radius=controls.pin_radius, locked=held)
     for e in pin_errors:
         if locked is not None and locked[e.row, e.col]:
             notes.append(f"pin at ({e.row}, {e.col}) is outside the selection: left as it was")
+        elif held is not None and held[e.row, e.col]:
+            notes.append(f"pin at ({e.row}, {e.col}) is on painted water: the water level wins")
     if locked is not None:
         # Every step above keeps locked cells; this makes the promise
         # explicit (bit-identical outside the selection).

@@ -36,3 +36,20 @@ def test_water_outside_a_lock_is_untouched():
     locked[:, :50] = True
     out = apply_water(h, Water(mask, 10.0), bank_width=8, locked=locked)
     assert (out[locked] == h[locked]).all() and not (out[~locked] == h[~locked]).all()
+
+
+def test_a_pin_near_the_shore_does_not_lift_the_water(lowland):
+    from terrasynth_core.controls.pins import Pin
+
+    mask = np.zeros(SHAPE, bool)
+    mask[:, :40] = True  # a sea
+    level = float(np.median(lowland.heights))
+    high = float(lowland.heights.max()) + 500.0
+    # One pin high on the shore, one on the water itself.
+    pins = (Pin(80, 44, high), Pin(20, 10, high))
+    result = Session([lowland], None, shape=SHAPE, params=P,
+                     controls=Controls(water=Water(mask, level), pins=pins, pin_radius=30)).run()
+    h = result.heights
+    assert (h[mask] < level).all()
+    assert h[80, 44] == np.float32(high)  # the shore pin is met
+    assert any("pin at (20, 10) is on painted water" in w for w in result.warnings)
