@@ -125,12 +125,17 @@ def sample_prominence(standing: np.ndarray | None, samples: list[FeatureSample],
     up = standing if kind == "ridge" else -standing
     up = ndimage.maximum_filter(up, size=2 * PROMINENCE_REACH + 1, mode="nearest")
     rows, cols = up.shape
-    out = np.empty(len(samples))
-    for i, s in enumerate(samples):
-        pts = np.concatenate([s.center[None]] + [s.center + t * (s.crossings - s.center) for t in PROMINENCE_STATIONS])
-        at = np.rint(pts).astype(np.int64)
-        out[i] = up[np.clip(at[:, 0], 0, rows - 1), np.clip(at[:, 1], 0, cols - 1)].mean()
-    return out
+    # Every station of every sample in flat arrays: centres, then each
+    # crossing's stations, with the sample each belongs to.
+    centres = np.array([s.center for s in samples], dtype=float)
+    owner = np.repeat(np.arange(len(samples)), [s.degree for s in samples])
+    crossings = np.concatenate([s.crossings for s in samples]).astype(float)
+    along = crossings - centres[owner]
+    pts = np.concatenate([centres] + [centres[owner] + t * along for t in PROMINENCE_STATIONS])
+    whose = np.concatenate([np.arange(len(samples))] + [owner] * len(PROMINENCE_STATIONS))
+    at = np.rint(pts).astype(np.int64)
+    values = up[np.clip(at[:, 0], 0, rows - 1), np.clip(at[:, 1], 0, cols - 1)]
+    return np.bincount(whose, values, len(samples)) / np.bincount(whose, minlength=len(samples))
 
 
 def pool_for(pools: dict, layout: StyleLayout, sample: FeatureSample, warnings: list[str], *,
