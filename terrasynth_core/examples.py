@@ -150,4 +150,7 @@ def resolve_dem(spec: str | Path, *, size: tuple[int, int] | None = None, band: 
         return builtin_example(text[len(BUILTIN_PREFIX):]).load()
     from .io import load_dem
 
+    if not Path(text).exists() and text in {ex.key for ex in BUILTIN_EXAMPLES}:
+        # A built-in's bare name, not a file: say how to name it.
+        raise DEMFormatError(f"{text}: no such file; the built-in example is {BUILTIN_PREFIX}{text}")
     return load_dem(text, size=size, band=band)

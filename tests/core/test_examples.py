@@ -152,3 +152,12 @@ def test_wheel_config_ships_resources():
         assert (root / rel).is_file(), rel
         assert _shipped(root / rel, tool), f"resources/{rel} is not in the wheel's package-data"
     assert config["project"]["scripts"]["terrasynth-cli"] == "terrasynth_core.cli:main"
+
+
+def test_a_bare_builtin_key_says_how_to_name_it(tmp_path, monkeypatch):
+    from terrasynth_core.errors import DEMFormatError
+    from terrasynth_core.examples import resolve_dem
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(DEMFormatError, match="builtin:himalaya"):
+        resolve_dem("himalaya")
