@@ -361,7 +361,11 @@ def _chains_in_order(
     # The lengths are differences of one running sum over all chains, so
     # equal chains can differ in the last bits; keeping this exact sum keeps
     # every threshold and tie of the branch reduction as it was.
-    step = np.hypot(*np.diff(coords[pixels], axis=0).T.astype(np.float64))
+    # Steps within a chain join 8-neighbours: 1 or sqrt(2) cells, which
+    # np.sqrt of the squared integer step gives exactly as np.hypot does,
+    # several times faster (the steps between chains are zeroed below).
+    d_row, d_col = np.diff(coords[:, 0][pixels]), np.diff(coords[:, 1][pixels])
+    step = np.sqrt((d_row * d_row + d_col * d_col).astype(np.float64))
     step[offsets[1:-1] - 1] = 0.0
     cumulative = np.concatenate([[0.0], np.cumsum(step)])
     length = cumulative[offsets[1:] - 1] - cumulative[offsets[:-1]]
