@@ -177,12 +177,27 @@ def _strongest_first(strength: np.ndarray) -> np.ndarray:
 
     Whole-number strengths (integer DEMs such as SRTM tiles) take a quicker
     path: the value and the index packed into one distinct int64 key, which
-    the default (unstable) sort orders the same way in half the time.
+    the default (unstable) sort orders the same way in half the time.  Other
+    strengths (resampled examples) are sorted by the default sort too, a
+    third of the stable sort's time, and only the runs of equal values are
+    put back in index order.
     """
     n = len(strength)
     if n and np.abs(strength).max() * n < 2.0**52 and np.array_equal(strength, np.floor(strength)):
         return np.argsort((-strength).astype(np.int64) * n + np.arange(n))
-    return np.argsort(-strength, kind="stable")
+    order = np.argsort(-strength)
+    ordered = strength[order]
+    tie = ordered[1:] == ordered[:-1]
+    if tie.any():
+        in_run = np.zeros(n, dtype=bool)
+        in_run[1:] |= tie
+        in_run[:-1] |= tie
+        at = np.flatnonzero(in_run)
+        run = np.cumsum(np.concatenate([[True], ~tie]))[at]
+        # Runs are contiguous and numbered in order: sorting (run, index)
+        # keys keeps every run in its place, its indices ascending.
+        order[at] = np.sort(run * n + order[at]) % n
+    return order
 
 
 def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray) -> None:

@@ -114,3 +114,20 @@ def test_chains_start_at_their_first_listed_end_and_do_not_depend_on_pixel_numbe
 ])
 def test_strongest_first_is_a_stable_descending_sort(values):
     assert _strongest_first(values).tolist() == np.argsort(-values, kind="stable").tolist()
+
+
+def test_strongest_first_is_a_stable_sort_from_the_largest():
+    """The quick paths (packed integer keys; the default sort with its runs
+    of equal values put back in index order) give the stable sort's order."""
+    from terrasynth_core.features.network import _strongest_first
+
+    rng = np.random.default_rng(1)
+    for trial in range(60):
+        n = int(rng.integers(0, 2000))
+        whole = rng.integers(-20, 20, n).astype(float)
+        cases = (whole, whole * 0.37 + (rng.random(n) < 0.5) * rng.random(n), rng.random(n))
+        for strength in cases:
+            if trial % 3 == 0:
+                strength[rng.random(n) < 0.3] = 0.0
+                strength[rng.random(n) < 0.2] = -0.0
+            np.testing.assert_array_equal(_strongest_first(strength), np.argsort(-strength, kind="stable"))
