@@ -485,14 +485,71 @@ def _drop(chains: Chains, remove: np.ndarray, coords: np.ndarray) -> Chains:
     key = np.where(key == _NO_INNER, n + staying, key)
     if not joined.any():
         return _chains_in_order(chains.pixels, chains.offsets[staying], sizes[staying], key, coords)
-    # The joined chains: their links in list order, as compress_chains sees them.
-    # (Each has an inner pixel: the node it was joined at.)
-    laid, chain_offsets, _, _ = _walk_chains(chains.edges(joined), (degree != 2) & (degree > 0))
+    # The joined chains, laid out as compress_chains would lay out their
+    # links. (Each has an inner pixel: the node it was joined at.)
+    laid, chain_offsets = _join_chains(chains, np.flatnonzero(joined), (degree != 2) & (degree > 0))
     source = np.concatenate([chains.pixels, laid])
     first = np.concatenate([chains.offsets[staying], len(chains.pixels) + chain_offsets[:-1]])
     size = np.concatenate([sizes[staying], np.diff(chain_offsets)])
     key = np.concatenate([key, _inner_min(laid, chain_offsets)])
     return _chains_in_order(source, first, size, key, coords)
+
+
+def _join_chains(chains: Chains, joined: np.ndarray, is_node: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Join chains end to end at the pixels that are no longer nodes:
+    exactly ``_walk_chains(chains.edges(mask), is_node)[:2]`` for the chains
+    ``joined`` (ids ascending; ``mask`` is True at them), without walking
+    their pixels again.
+
+    Parameters
+    ----------
+    chains : Chains
+    joined : ndarray of int64, shape (m,)
+        Chains to join, ascending; each meets another at a pixel that is
+        not in ``is_node``.
+    is_node : ndarray of bool, shape (n_pixels,)
+        Where the joined chains stop (degree 1 or >= 3 after the removal).
+
+    Returns
+    -------
+    laid, chain_offsets
+        As :func:`_walk_chains`.
+
+    Notes
+    -----
+    Each joined chain is one link between its end pixels, and
+    :func:`_walk_chains` walks these links: the same runs, from the same
+    first end, since a chain's ends come in the same order among the
+    chain links as its end links among the pixel links (chain by chain,
+    start before end).  Each run's chains are then laid out pixel by
+    pixel, turned where the run enters one at its end.
+    """
+    ends = np.stack([chains.start[joined], chains.end[joined]], axis=1)
+    nodes, run_offsets, n_steps, _ = _walk_chains(ends, is_node)
+    run = np.repeat(np.arange(len(n_steps)), n_steps + 1)
+    inside = run[1:] == run[:-1]
+    a, b = nodes[:-1][inside], nodes[1:][inside]  # the steps of all runs, in order
+    # The chain of each step: the joined chain between its two pixels (a
+    # forest has one at most).
+    big = np.int64(len(is_node))
+    chain_key = np.minimum(ends[:, 0], ends[:, 1]) * big + np.maximum(ends[:, 0], ends[:, 1])
+    by_key = np.argsort(chain_key)
+    step_key = np.minimum(a, b) * big + np.maximum(a, b)
+    chain = joined[by_key[np.searchsorted(chain_key[by_key], step_key)]]
+    forward = chains.start[chain] == a
+    # Every chain's pixels, but the first of each after a run's first chain
+    # (the pixel where it meets the chain before).
+    first_step = np.zeros(len(chain), dtype=bool)
+    first_step[run_offsets[:-1] - np.arange(len(n_steps))] = True
+    skip = (~first_step).astype(np.int64)
+    size = np.diff(chains.offsets)[chain] - skip
+    out = np.cumsum(size) - size
+    step = np.repeat(np.arange(len(chain)), size)
+    k = np.arange(len(step)) - out[step] + skip[step]  # position along the chain's own pixels
+    at = np.where(forward[step], chains.offsets[chain][step] + k, chains.offsets[chain + 1][step] - 1 - k)
+    laid = chains.pixels[at]
+    run_size = np.add.reduceat(size, run_offsets[:-1] - np.arange(len(n_steps))) if len(size) else size
+    return laid, np.concatenate([[0], np.cumsum(run_size)]).astype(np.int64)
 
 
 def smooth_polylines(points: np.ndarray, offsets: np.ndarray, window: int) -> np.ndarray:

@@ -131,3 +131,30 @@ def test_strongest_first_is_a_stable_sort_from_the_largest():
                 strength[rng.random(n) < 0.3] = 0.0
                 strength[rng.random(n) < 0.2] = -0.0
             np.testing.assert_array_equal(_strongest_first(strength), np.argsort(-strength, kind="stable"))
+
+
+def test_joined_chains_are_the_walked_links(lowland, monkeypatch):
+    """Branch reduction joins chains at the chain level: the same runs, from
+    the same end, as walking their pixel links again."""
+    from terrasynth_core.features import network
+    from terrasynth_core.features.ppa import extract_features
+
+    join = network._join_chains
+    checked = []
+
+    def join_and_check(chains, joined, is_node):
+        mask = np.zeros(len(chains), dtype=bool)
+        mask[joined] = True
+        walked = network._walk_chains(chains.edges(mask), is_node)[:2]
+        got = join(chains, joined, is_node)
+
+        def runs(laid, offsets):
+            return sorted(tuple(laid[offsets[i] : offsets[i + 1]].tolist()) for i in range(len(offsets) - 1))
+
+        assert runs(*got) == runs(*walked)
+        checked.append(len(joined))
+        return got
+
+    monkeypatch.setattr(network, "_join_chains", join_and_check)
+    extract_features(lowland)
+    assert len(checked) >= 2 and sum(checked) > 20
