@@ -130,9 +130,11 @@ def spanning_forest(mask: np.ndarray, strength: np.ndarray) -> PixelForest:
     rows, cols = mask.shape
     coords = np.argwhere(mask)
     n = len(coords)
-    index = np.full(mask.shape, -1, dtype=np.int64)
-    index[mask] = np.arange(n)
-    s = np.where(mask, strength, 0).astype(np.float64)
+    # Flat (row-major) cell numbers throughout: a neighbour is a fixed
+    # offset away, and 1-D gathers are the quickest numpy has.
+    index = np.full(mask.size, -1, dtype=np.int64)
+    index[mask.ravel()] = np.arange(n)
+    s = np.where(mask, strength, 0).astype(np.float64).ravel()
 
     # Links by direction (_FORWARD_OFFSETS), on the grid of their first pixel.
     present = []
@@ -143,19 +145,22 @@ def spanning_forest(mask: np.ndarray, strength: np.ndarray) -> PixelForest:
         linked[src] = mask[src] & mask[dst]
         present.append(linked)
     # Both diagonals of a full 2x2 block: keep only the stronger one.
-    r, c = np.nonzero(present[2][:-1, :-1] & present[3][:-1, 1:])
-    se = s[r, c] + s[r + 1, c + 1]
-    sw = s[r, c + 1] + s[r + 1, c]
-    present[2][r[se < sw], c[se < sw]] = False
-    present[3][r[sw <= se], c[sw <= se] + 1] = False
-    _drop_weakest_in_triangles(present, s)
+    block = np.zeros(mask.shape, dtype=bool)  # by the block's top-left pixel
+    block[:-1, :-1] = present[2][:-1, :-1] & present[3][:-1, 1:]
+    at = np.flatnonzero(block)
+    se = s[at] + s[at + cols + 1]
+    sw = s[at + 1] + s[at + cols]
+    present[2].ravel()[at[se < sw]] = False
+    present[3].ravel()[at[sw <= se] + 1] = False
+    _drop_weakest_in_triangles(present, s, block)
 
     a_parts, b_parts, strength_parts = [], [], []
     for (dr, dc), linked in zip(_FORWARD_OFFSETS, present):
-        r, c = np.nonzero(linked)
-        a_parts.append(index[r, c])
-        b_parts.append(index[r + dr, c + dc])
-        strength_parts.append(s[r, c] + s[r + dr, c + dc])
+        at = np.flatnonzero(linked)
+        to = at + (dr * cols + dc)
+        a_parts.append(index[at])
+        b_parts.append(index[to])
+        strength_parts.append(s[at] + s[to])
     a = np.concatenate(a_parts)
     b = np.concatenate(b_parts)
     if len(a) == 0:
@@ -200,7 +205,7 @@ def _strongest_first(strength: np.ndarray) -> np.ndarray:
     return order
 
 
-def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray) -> None:
+def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray, block: np.ndarray) -> None:
     """Remove, in place, the weakest link of every triangle of links.
 
     The weakest link of a cycle is in no maximum spanning forest (when all
@@ -210,11 +215,13 @@ def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray) -> None
 
     Parameters
     ----------
-    present : list of 4 ndarrays of bool, shape (rows, cols)
+    present : list of 4 ndarrays of bool, shape (rows, cols), C-contiguous
         Whether each link of :data:`_FORWARD_OFFSETS` leaves each pixel;
         updated.
-    s : ndarray of float64, shape (rows, cols)
-        Pixel strengths; a link's is the sum of its pixels'.
+    s : ndarray of float64, shape (rows * cols,)
+        Pixel strengths, flat (row-major); a link's is the sum of its pixels'.
+    block : ndarray of bool, shape (rows, cols)
+        Scratch space, overwritten.
 
     Notes
     -----
@@ -224,6 +231,7 @@ def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray) -> None
     fixed ``<`` or ``<=``.  Only the blocks holding a whole triangle are
     compared.
     """
+    cols = present[0].shape[1]
     east, south, down_right, down_left = present
     # The 2x2 block with top-left pixel (r, c): its links, where present.
     top, bottom = east[:-1, :-1], east[1:, :-1]
@@ -238,15 +246,17 @@ def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray) -> None
         (top & left & diagonal_sw, ((0, 0, 0), (1, 0, 0), (3, 0, 1))),
         (bottom & right & diagonal_sw, ((0, 1, 0), (1, 0, 1), (3, 0, 1))),
     ):
-        r, c = np.nonzero(whole)
-        power = [s[r + i, c + j] + s[r + i + _FORWARD_OFFSETS[k][0], c + j + _FORWARD_OFFSETS[k][1]]
-                 for k, i, j in links]
+        block[:-1, :-1] = whole
+        at = np.flatnonzero(block)  # flat number of the block's top-left pixel
+        first = [at + (i * cols + j) for _, i, j in links]
+        power = [s[f] + s[f + (_FORWARD_OFFSETS[k][0] * cols + _FORWARD_OFFSETS[k][1])]
+                 for f, (k, _, _) in zip(first, links)]
         x, y, z = power
         weakest = ((x < y) & (x < z), (y <= x) & (y < z), (z <= x) & (z <= y))
-        for (k, i, j), gone in zip(links, weakest):
-            drops.append((k, r[gone] + i, c[gone] + j))
-    for k, r, c in drops:
-        present[k][r, c] = False
+        for (k, _, _), f, gone in zip(links, first, weakest):
+            drops.append((k, f[gone]))
+    for k, at in drops:
+        present[k].ravel()[at] = False
 
 
 def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
