@@ -159,6 +159,10 @@ def auto_min_drop(heights: np.ndarray, profile_length: int, relative_drop: float
         grid without any valid cell).
     """
     valid = ~np.isnan(heights)
+    if valid.all():  # the usual case: no copies with nodata masked out
+        relief = ndimage.maximum_filter(heights, size=profile_length)
+        relief -= ndimage.minimum_filter(heights, size=profile_length)
+        return float(relative_drop * np.median(relief))
     if not valid.any():
         return 0.0
     high = ndimage.maximum_filter(np.where(valid, heights, -np.inf), size=profile_length)
