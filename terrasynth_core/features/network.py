@@ -299,9 +299,7 @@ def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
     return _chains_in_order(laid, chain_offsets[:-1], n_links + 1, key, coords)
 
 
-def _walk_chains(
-    edges: np.ndarray, is_node: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _walk_chains(edges: np.ndarray, is_node: np.ndarray, *, with_links: bool = False) -> tuple:
     """The chains of some links of a forest, split at the pixels where
     ``is_node`` (shape (n_pixels,): degree 1 or >= 3 in the whole forest),
     each laid out from its first end, in no particular order.
@@ -315,6 +313,9 @@ def _walk_chains(
     n_links : ndarray of int64, shape (n_chains,)
     first : ndarray of int64, shape (n_chains,)
         The end (``2 * link + side`` in ``edges``) each chain starts at.
+    arrived : ndarray of int64, shape (n,)
+        Only ``with_links``: the link (row of ``edges``) by which the walk
+        reached each pixel of ``laid``; -1 at each chain's first pixel.
     """
     n_edges = len(edges)
     pixel = np.asarray(edges, dtype=np.int64).ravel()  # pixel at each end (slot)
@@ -350,7 +351,12 @@ def _walk_chains(
     chain_of_stop[stop[first]] = np.arange(len(first))
     forward = stop > stop[stop]  # walks towards the later node end
     chain = chain_of_stop[stop[forward]]
-    laid[chain_offsets[chain] + n_links[chain] - links_to_stop[forward] + 1] = pixel[leave[forward]]
+    at = chain_offsets[chain] + n_links[chain] - links_to_stop[forward] + 1
+    laid[at] = pixel[leave[forward]]
+    if with_links:
+        arrived = np.full(len(laid), -1, dtype=np.int64)
+        arrived[at] = leave[forward] >> 1
+        return laid, chain_offsets, n_links, first, arrived
     return laid, chain_offsets, n_links, first
 
 
@@ -426,12 +432,19 @@ def _small_components(chains: Chains, n_pixels: int, min_length: float) -> np.nd
     ``min_length`` cells in total, shape (n_chains,)."""
     if len(chains) == 0:
         return np.zeros(0, dtype=bool)
-    graph = sparse.csr_matrix(
-        (np.ones(len(chains)), (chains.start, chains.end)), shape=(n_pixels, n_pixels)
-    )
+    # On the node pixels alone, numbered compactly: a graph of thousands of
+    # vertices instead of every pixel's.  (The sums below add each
+    # component's chains in list order whatever the labels.)
+    is_node = np.zeros(n_pixels, dtype=bool)
+    is_node[chains.start] = True
+    is_node[chains.end] = True
+    compact = np.cumsum(is_node) - 1
+    start, end = compact[chains.start], compact[chains.end]
+    n_nodes = int(compact[-1]) + 1
+    graph = sparse.csr_matrix((np.ones(len(chains)), (start, end)), shape=(n_nodes, n_nodes))
     _, label = connected_components(graph, directed=False)
-    component_length = np.bincount(label[chains.start], weights=chains.length)
-    return component_length[label[chains.start]] < min_length
+    component_length = np.bincount(label[start], weights=chains.length)
+    return component_length[label[start]] < min_length
 
 
 def reduce_branches(
@@ -535,18 +548,12 @@ def _join_chains(chains: Chains, joined: np.ndarray, is_node: np.ndarray) -> tup
     pixel, turned where the run enters one at its end.
     """
     ends = np.stack([chains.start[joined], chains.end[joined]], axis=1)
-    nodes, run_offsets, n_steps, _ = _walk_chains(ends, is_node)
-    run = np.repeat(np.arange(len(n_steps)), n_steps + 1)
-    inside = run[1:] == run[:-1]
-    a, b = nodes[:-1][inside], nodes[1:][inside]  # the steps of all runs, in order
-    # The chain of each step: the joined chain between its two pixels (a
-    # forest has one at most).
-    big = np.int64(len(is_node))
-    chain_key = np.minimum(ends[:, 0], ends[:, 1]) * big + np.maximum(ends[:, 0], ends[:, 1])
-    by_key = np.argsort(chain_key)
-    step_key = np.minimum(a, b) * big + np.maximum(a, b)
-    chain = joined[by_key[np.searchsorted(chain_key[by_key], step_key)]]
-    forward = chains.start[chain] == a
+    nodes, run_offsets, n_steps, _, arrived = _walk_chains(ends, is_node, with_links=True)
+    # The steps of all runs, in order: each is the joined chain by which the
+    # walk reached its second pixel, entered from the first.
+    step_to = np.flatnonzero(arrived >= 0)
+    chain = joined[arrived[step_to]]
+    forward = chains.start[chain] == nodes[step_to - 1]
     # Every chain's pixels, but the first of each after a run's first chain
     # (the pixel where it meets the chain before).
     first_step = np.zeros(len(chain), dtype=bool)
