@@ -18,6 +18,7 @@ from scipy import ndimage
 from ..measures import topographic_position_index
 from ..errors import ParamsError
 from ..features import FeatureMaps, extract_features
+from ..features.ppa import spare_core
 from ..heightfield import HeightField, largest_valid_rectangle
 from . import cache
 from ..features.samples import example_samples
@@ -98,19 +99,25 @@ _CACHE = cache.Memo(8, cache.load, lambda key, value: cache.save(key, *value))
 def _analyse(heights: np.ndarray, patch_size: int) -> tuple:
     """The analysis :data:`_CACHE` stores: ``(features, samples, strong, relief)``.
 
-    The TPI and the relief, which need no features, are computed on a
+    With a core to spare (:func:`~terrasynth_core.features.ppa.spare_core`)
+    the TPI and the relief, which need no features, are computed on a
     second thread while PPA runs (its ridge and valley threads rarely finish
-    together, and the FFTs release the GIL); the two networks' samples are
-    then taken on two threads.  Every part is computed exactly as alone.
+    together, and the FFTs release the GIL), and the two networks' samples
+    are then taken on two threads.  Every part is computed exactly as alone.
     """
     radius = patch_size / 2
-    with ThreadPoolExecutor(max_workers=2, thread_name_prefix="analysis") as pool:
-        tpi_and_relief = pool.submit(_tpi_and_relief, heights, radius, patch_size)
+    if spare_core():
+        with ThreadPoolExecutor(max_workers=2, thread_name_prefix="analysis") as pool:
+            tpi_and_relief = pool.submit(_tpi_and_relief, heights, radius, patch_size)
+            features = extract_features(heights)
+            tpi, relief = tpi_and_relief.result()
+            pools = list(pool.map(_sample_pool, (features.ridges, features.valleys), (1.0, -1.0),
+                                  (tpi, tpi), (radius, radius)))
+    else:
         features = extract_features(heights)
-        tpi, relief = tpi_and_relief.result()
-        graphs = ((features.ridges, 1.0), (features.valleys, -1.0))
-        pools = pool.map(lambda job: _sample_pool(job[0], job[1], tpi, radius), graphs)
-        samples = {graph.kind: pool_of_kind for (graph, _), pool_of_kind in zip(graphs, pools)}
+        tpi, relief = _tpi_and_relief(heights, radius, patch_size)
+        pools = [_sample_pool(features.ridges, 1.0, tpi, radius), _sample_pool(features.valleys, -1.0, tpi, radius)]
+    samples = {"ridge": pools[0], "valley": pools[1]}
     strong = np.zeros(heights.shape, dtype=bool)
     for graph in (features.ridges, features.valleys):
         long_paths = tuple(p for p in graph.paths if p.length >= patch_size)

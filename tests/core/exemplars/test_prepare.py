@@ -2,12 +2,15 @@
 networks' samples on two threads) give what they give one after another."""
 
 import numpy as np
+import pytest
 
 from terrasynth_core.exemplars import prepare
 from terrasynth_core.features import extract_features
 
 
-def test_analysis_is_its_parts_in_turn(white_mountains):
+@pytest.mark.parametrize("threads", [True, False])
+def test_analysis_is_its_parts_in_turn(white_mountains, threads, monkeypatch):
+    monkeypatch.setattr(prepare, "spare_core", lambda: threads)
     heights = np.ascontiguousarray(white_mountains.heights, dtype=np.float32)
     features, samples, strong, relief = prepare._analyse(heights, 48)
 

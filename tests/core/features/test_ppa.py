@@ -264,9 +264,23 @@ def test_two_threads_give_the_graphs_of_one(white_mountains, monkeypatch):
     import terrasynth_core.features.ppa as ppa
 
     monkeypatch.setattr(ppa, "THREADED_CELLS", 0)
+    monkeypatch.setattr(ppa, "spare_core", lambda: True)
     both = extract_features(white_mountains)
     ridges = extract_features(white_mountains, kind="ridge").ridges
     valleys = extract_features(white_mountains, kind="valley").valleys
     assert len(both.ridges.paths) > 50 and len(both.valleys.paths) > 50
     assert _graph_digest(both.ridges) == _graph_digest(ridges)
     assert _graph_digest(both.valleys) == _graph_digest(valleys)
+
+
+def test_spare_core_follows_the_load(monkeypatch):
+    import terrasynth_core.features.ppa as ppa
+
+    monkeypatch.setattr(ppa.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(ppa.os, "getloadavg", lambda: (0.7, 0.5, 0.5))
+    assert ppa.spare_core()
+    monkeypatch.setattr(ppa.os, "getloadavg", lambda: (6.0, 5.0, 4.0))
+    assert not ppa.spare_core()
+    monkeypatch.setattr(ppa.os, "cpu_count", lambda: 1)
+    monkeypatch.setattr(ppa.os, "getloadavg", lambda: (0.0, 0.0, 0.0))
+    assert not ppa.spare_core()
