@@ -641,13 +641,18 @@ def chains_to_graph(
     degree = chains.node_degree(n)
     branch = degree >= 3
     link = branch[chains.start] & branch[chains.end] & (chains.length <= junction_merge_distance)
+    # Groups of merged branch points, found on the node pixels alone
+    # (numbered compactly in pixel order, so the groups are numbered as on
+    # all pixels: in the order of their first pixel).
+    is_node = degree > 0
+    node_pixels = np.flatnonzero(is_node)
+    compact = np.cumsum(is_node) - 1
     merged = sparse.csr_matrix(
-        (np.ones(int(link.sum())), (chains.start[link], chains.end[link])), shape=(n, n)
+        (np.ones(int(link.sum())), (compact[chains.start[link]], compact[chains.end[link]])),
+        shape=(len(node_pixels), len(node_pixels)),
     )
-    _, group = connected_components(merged, directed=False)
-
-    node_pixels = np.unique(np.concatenate([chains.start, chains.end]))
-    n_groups = group.max() + 1
+    group = np.full(n, -1, dtype=np.int64)
+    n_groups, group[node_pixels] = connected_components(merged, directed=False)
     count = np.bincount(group[node_pixels], minlength=n_groups)
     position = np.stack(
         [np.bincount(group[node_pixels], weights=coords[node_pixels, k], minlength=n_groups) for k in (0, 1)],
