@@ -7,7 +7,7 @@ Usage::
 For each DEM (``resources/dems``) a fresh process makes
 ``Session([dem], s_valley_1000.png)`` with ``TERRASYNTH_CACHE_DIR`` set to a
 new empty folder, after a warm-up session on a 200x200 corner (imports), and
-reports its CPU and wall seconds, split into:
+reports its CPU seconds, split into:
 
 - ``PPA``: ``extract_features`` of the example (ridges and valleys);
 - ``samples``: ``example_samples`` of both networks (feature patch centres);
@@ -15,11 +15,15 @@ reports its CPU and wall seconds, split into:
   leaves NaN edges to crop);
 - ``resample``: ``to_square_cells``, the rest of putting the example on
   square cells;
-- ``other``: everything else (the sketch's graphs, TPI, the strong mask,
-  relief, saving the cache).
+- ``sketch``: the sketch's graphs (every session pays them, whatever its
+  examples);
+- ``other``: everything else (TPI, the strong mask, relief, saving the
+  cache).
 
-CPU seconds count every thread of the process (PPA runs ridges and valleys
-on two).  With ``--baseline DIR`` (another checkout, e.g. ``git worktree add
+CPU seconds count every thread of the process: with a core to spare the
+analysis runs on two threads (PPA's ridges and valleys, the TPI beside
+them), and a part's CPU then includes the work overlapping it; the last
+column is the session's wall time.  With ``--baseline DIR`` (another checkout, e.g. ``git worktree add
 /tmp/base <commit>``) the baseline's process and this tree's alternate,
 ``--repeat`` times each; the table shows medians and the new/base ratios,
 and whether both made the same example analysis (a digest of the graphs,
@@ -40,7 +44,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DEMS_DIR = ROOT / "resources" / "dems"
 SKETCH = ROOT / "resources" / "sketches" / "s_valley_1000.png"
 DEFAULT_DEMS = ("N00E010.hgt", "N44W072.hgt")
-PARTS = ("PPA", "samples", "rectangle", "resample", "other")
+PARTS = ("PPA", "samples", "rectangle", "resample", "sketch", "other")
 
 #: Run in a fresh process: one Session with an empty cache, timed by part, as JSON.
 _ONE_RUN = r"""
@@ -54,6 +58,7 @@ from terrasynth_core.exemplars import ground, prepare
 from terrasynth_core.features import read_sketch
 from terrasynth_core.io import load_dem
 from terrasynth_core.synthesis import Session
+from terrasynth_core.synthesis import session as session_module
 
 spent = {}
 inner_time = [[0.0, 0.0]]  # per open timed call: time of the timed calls inside it
@@ -86,6 +91,7 @@ timed(prepare, "example_samples", "samples")
 timed(heightfield, "largest_valid_rectangle", "rectangle")
 timed(prepare, "largest_valid_rectangle", "rectangle")
 timed(ground, "to_square_cells", "resample")
+timed(session_module, "sketch_features", "sketch")
 wall, cpu = time.perf_counter(), time.process_time()
 session = Session([dem], sketch)
 wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
