@@ -447,12 +447,50 @@ def _small_components(chains: Chains, n_pixels: int, min_length: float) -> np.nd
     return component_length[label[start]] < min_length
 
 
+def _small_forest_components(forest: PixelForest, min_length: float,
+                             component: np.ndarray | None) -> np.ndarray | None:
+    """Links of the forest's components shorter than ``min_length`` cells,
+    shape (n_edges,) bool; None when a component's length is too close to
+    ``min_length`` to tell.
+
+    Notes
+    -----
+    Dropping these links before compressing the forest gives exactly the
+    chains that compressing it all and dropping the small components'
+    chains gives (:func:`_drop` of whole components joins nothing and
+    keeps every chain's direction and order), without laying out every
+    chain twice.  Which components are small must agree too: a component
+    of ``a`` straight and ``b`` diagonal links is ``a + b * sqrt(2)``
+    cells long, which the chains' lengths (differences of one running sum,
+    :func:`_chains_in_order`) give to within far less than 1e-6; nearer
+    than that to ``min_length`` (``b = 0`` and ``a = min_length``, say),
+    only the chains' sums decide, and the caller goes that way.
+    """
+    edges, coords = forest.edges, forest.coords
+    if len(edges) == 0:
+        return np.zeros(0, dtype=bool)
+    if component is None:
+        n = len(coords)
+        graph = sparse.csr_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+        _, component = connected_components(graph, directed=False)
+    a, b = edges[:, 0], edges[:, 1]
+    diagonal = (coords[a, 0] != coords[b, 0]) & (coords[a, 1] != coords[b, 1])
+    label = np.asarray(component)[a]
+    straight = np.bincount(label[~diagonal], minlength=label.max() + 1)
+    slanted = np.bincount(label[diagonal], minlength=label.max() + 1)
+    length = straight + slanted * np.sqrt(2.0)
+    if np.any((np.abs(length - min_length) <= 1e-6) & (straight + slanted > 0)):
+        return None
+    return (length < min_length)[label]
+
+
 def reduce_branches(
     forest: PixelForest,
     *,
     prune_length: float,
     prune_iterations: int,
     min_component_length: float,
+    component: np.ndarray | None = None,
 ) -> Chains:
     """PPA's branch reduction on a pixel forest.
 
@@ -467,6 +505,9 @@ def reduce_branches(
     min_component_length : float
         Connected components shorter than this many cells in total are
         dropped (before and after pruning).
+    component : ndarray of int, shape (n_pixels,), optional
+        The connected component of each pixel (any numbering), when the
+        caller has it; otherwise it is found here.
 
     Returns
     -------
@@ -474,10 +515,14 @@ def reduce_branches(
         The chains of the reduced forest; no node pixel has degree 2.
     """
     n = len(forest.coords)
-    chains = compress_chains(forest.edges, forest.coords)
     # Small components go first (PPA leaves many fragments, no need to prune
     # them) and again last, as pruning can shrink a component below the limit.
-    chains = _drop(chains, _small_components(chains, n, min_component_length), forest.coords)
+    small = _small_forest_components(forest, min_component_length, component)
+    if small is None:
+        chains = compress_chains(forest.edges, forest.coords)
+        chains = _drop(chains, _small_components(chains, n, min_component_length), forest.coords)
+    else:
+        chains = compress_chains(forest.edges[~small], forest.coords)
     for _ in range(prune_iterations):
         remove = _spurs_to_remove(chains, n, prune_length)
         if not remove.any():
@@ -772,6 +817,7 @@ def feature_graph_from_mask(
         prune_length=prune_length,
         prune_iterations=prune_iterations,
         min_component_length=min_component_length,
+        component=labels[mask] if n_labels else None,
     )
     return chains_to_graph(
         chains,

@@ -158,3 +158,34 @@ def test_joined_chains_are_the_walked_links(lowland, monkeypatch):
     monkeypatch.setattr(network, "_join_chains", join_and_check)
     extract_features(lowland)
     assert len(checked) >= 2 and sum(checked) > 20
+
+
+def test_small_components_dropped_before_compressing_give_the_same_chains(lowland, monkeypatch):
+    """Dropping the small components' links before compressing the forest
+    gives the chains (pixels, order, lengths to the bit) of compressing it
+    all and dropping their chains after."""
+    from terrasynth_core.features import network
+    from terrasynth_core.features.ppa import auto_min_drop, profile_targets
+
+    heights = np.asarray(lowland.heights, dtype=np.float32)
+    targets = profile_targets(heights, profile_length=7, min_drop=auto_min_drop(heights, 7, 0.15))
+    forest = spanning_forest(targets, heights)
+    options = dict(prune_length=12.0, prune_iterations=3, min_component_length=30.0)
+    assert network._small_forest_components(forest, 30.0, None).any()
+    early = network.reduce_branches(forest, **options)
+    monkeypatch.setattr(network, "_small_forest_components", lambda *args: None)
+    late = network.reduce_branches(forest, **options)
+    assert len(early) == len(late) > 20
+    for name in ("pixels", "offsets", "start", "end", "length"):
+        np.testing.assert_array_equal(getattr(early, name), getattr(late, name))
+
+
+def test_a_component_as_long_as_the_limit_is_left_to_the_chains():
+    from terrasynth_core.features import network
+
+    mask = np.zeros((5, 40), dtype=bool)
+    mask[2, 3:34] = True  # 31 pixels, 30 straight links: exactly 30 cells
+    forest = spanning_forest(mask, np.ones(mask.shape))
+    assert network._small_forest_components(forest, 30.0, None) is None
+    assert not network._small_forest_components(forest, 29.0, None).any()
+    assert network._small_forest_components(forest, 31.0, None).all()
