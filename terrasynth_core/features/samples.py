@@ -233,13 +233,11 @@ def example_samples(graph: FeatureGraph, radius: float, spacing: float) -> list[
     # First walks: a node sample along every path at its node, a path
     # sample both ways from its point.
     node_ids = np.arange(len(graph.nodes), dtype=np.int64)
-    counts = np.diff(at_offsets)
-    entry = np.arange(at_offsets[-1])
-    walk_sample = np.concatenate([np.repeat(node_ids, counts),
+    walk_sample = np.concatenate([np.repeat(node_ids, np.diff(at_offsets)),
                                   np.repeat(len(graph.nodes) + np.arange(len(sample_path)), 2)])
-    walk_path = np.concatenate([at_path[entry], np.repeat(sample_path, 2)])
-    walk_step = np.concatenate([at_step[entry], np.tile(np.array([1, -1], dtype=np.int64), len(sample_path))])
-    from_node = offsets[walk_path[: len(entry)]] + np.where(at_step[entry] > 0, 0, sizes[at_path[entry]] - 1)
+    walk_path = np.concatenate([at_path, np.repeat(sample_path, 2)])
+    walk_step = np.concatenate([at_step, np.tile(np.array([1, -1], dtype=np.int64), len(sample_path))])
+    from_node = offsets[at_path] + np.where(at_step > 0, 0, sizes[at_path] - 1)
     walk_from = np.concatenate([from_node, np.repeat(offsets[sample_path] + sample_index, 2)])
 
     crossing_sample, crossing_point = _crossings(
