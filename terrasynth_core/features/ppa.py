@@ -55,7 +55,7 @@ def spare_core() -> bool:
     Two threads only pay when a core is idle: on a machine whose cores are
     all busy (load average at or above the core count) the interpreter
     lock changes hands behind the other processes' time slices, and
-    measured here PPA took 1.2-1.5x the wall time of one thread, against
+    measured here PPA took 1.05-1.5x the wall time of one thread, against
     0.6x at a load of 2 on 2 cores.  The result is the same either way.
     """
     cores = os.cpu_count() or 1
