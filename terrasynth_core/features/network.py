@@ -190,6 +190,8 @@ def _strongest_first(strength: np.ndarray) -> np.ndarray:
     n = len(strength)
     if n and np.abs(strength).max() * n < 2.0**52 and np.array_equal(strength, np.floor(strength)):
         return np.argsort((-strength).astype(np.int64) * n + np.arange(n))
+    if np.isnan(strength).any():  # NaN is never equal to itself: no runs to repair
+        return np.argsort(-strength, kind="stable")
     order = np.argsort(-strength)
     ordered = strength[order]
     tie = ordered[1:] == ordered[:-1]

@@ -125,7 +125,9 @@ def test_strongest_first_is_a_stable_sort_from_the_largest():
     for trial in range(60):
         n = int(rng.integers(0, 2000))
         whole = rng.integers(-20, 20, n).astype(float)
-        cases = (whole, whole * 0.37 + (rng.random(n) < 0.5) * rng.random(n), rng.random(n))
+        with_nan = rng.random(n)
+        with_nan[rng.random(n) < 0.1] = np.nan
+        cases = (whole, whole * 0.37 + (rng.random(n) < 0.5) * rng.random(n), rng.random(n), with_nan)
         for strength in cases:
             if trial % 3 == 0:
                 strength[rng.random(n) < 0.3] = 0.0
