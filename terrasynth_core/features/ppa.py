@@ -61,7 +61,7 @@ def spare_core() -> bool:
     cores = os.cpu_count() or 1
     try:
         load = os.getloadavg()[0]
-    except OSError:  # no load average on this platform
+    except (AttributeError, OSError):  # no load average on this platform (Windows)
         load = 0.0
     return cores >= 2 and load < cores
 
