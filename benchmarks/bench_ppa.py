@@ -25,8 +25,11 @@ wide) for N44W072, bigtujunga and SainteHelens.
 ``git worktree add /tmp/base <commit>``) instead: for every DEM it times
 one ``extract_features`` call in fresh processes, the baseline's and this
 tree's in turn, ``--repeat`` times each, and prints the medians of wall and
-CPU time (CPU time is steadier on a shared machine), their ratios, and
-whether both gave the same graphs (a digest of every node and path point).
+CPU time (CPU time is steadier on a shared machine), their ratios, whether both
+gave the same graphs (a digest of every node and path point), and in how
+many of this tree's runs PPA could use two threads (it does only with a
+core to spare, :func:`terrasynth_core.features.ppa.spare_core`, unless
+``--threads on`` or ``off`` says otherwise).
 """
 
 from __future__ import annotations
@@ -62,6 +65,11 @@ from terrasynth_core.features import extract_features
 from terrasynth_core.io import load_dem
 field = load_dem(sys.argv[1])
 extract_features(field.heights[:64, :64])  # warm-up (imports, caches)
+import terrasynth_core.features.ppa as ppa
+if sys.argv[2] != "auto" and hasattr(ppa, "spare_core"):
+    ppa.spare_core = lambda: sys.argv[2] == "on"
+# Whether this run could use two threads (trees from before them: no).
+threads = field.heights.size >= getattr(ppa, "THREADED_CELLS", float("inf")) and ppa.spare_core()
 wall, cpu = time.perf_counter(), time.process_time()
 maps = extract_features(field)
 wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
@@ -72,16 +80,17 @@ for graph in (maps.ridges, maps.valleys):
     for path in graph.paths:
         digest.update(path.points.tobytes())
 import terrasynth_core
-print(json.dumps({"wall": wall, "cpu": cpu, "digest": digest.hexdigest(), "module": terrasynth_core.__file__}))
+print(json.dumps({"wall": wall, "cpu": cpu, "digest": digest.hexdigest(), "module": terrasynth_core.__file__,
+                  "threads": bool(threads)}))
 """
 
 
-def _one_run(tree: Path, dem: Path) -> dict:
+def _one_run(tree: Path, dem: Path, threads: str = "auto") -> dict:
     """Time one PPA of ``dem`` with the project in ``tree``, in a fresh process."""
     # -P: "python -c" would otherwise put the current directory (perhaps
     # this tree) ahead of PYTHONPATH.
     env = dict(os.environ, PYTHONPATH=str(tree))
-    done = subprocess.run([sys.executable, "-P", "-c", _ONE_RUN, str(dem)], env=env, capture_output=True,
+    done = subprocess.run([sys.executable, "-P", "-c", _ONE_RUN, str(dem), threads], env=env, capture_output=True,
                           text=True, check=True)
     run = json.loads(done.stdout)
     if not Path(run["module"]).resolve().is_relative_to(tree.resolve()):
@@ -89,11 +98,11 @@ def _one_run(tree: Path, dem: Path) -> dict:
     return run
 
 
-def compare(baseline: Path, repeat: int) -> int:
+def compare(baseline: Path, repeat: int, threads: str = "auto") -> int:
     """Print the baseline's and this tree's PPA times side by side; 1 if any graph differs."""
     here = Path(__file__).resolve().parents[1]
     header = (f"{'DEM':<14} {'base wall':>9} {'new wall':>9} {'ratio':>6} {'base CPU':>9} {'new CPU':>8} "
-              f"{'ratio':>6}  same graphs")
+              f"{'ratio':>6}  same graphs  new on 2 threads")
     print(f"PPA (extract_features, kind='both'), medians of {repeat} fresh processes each, alternating; seconds")
     print(header)
     print("-" * len(header))
@@ -102,14 +111,15 @@ def compare(baseline: Path, repeat: int) -> int:
         runs = {"base": [], "new": []}
         for _ in range(max(1, repeat)):
             runs["base"].append(_one_run(baseline, DEMS_DIR / file))
-            runs["new"].append(_one_run(here, DEMS_DIR / file))
+            runs["new"].append(_one_run(here, DEMS_DIR / file, threads))
         med = {(k, m): statistics.median(r[m] for r in runs[k]) for k in runs for m in ("wall", "cpu")}
         same = {r["digest"] for r in runs["base"] + runs["new"]}
         differ |= len(same) != 1
         print(f"{Path(file).stem:<14} {med['base', 'wall']:>9.2f} {med['new', 'wall']:>9.2f} "
               f"{med['new', 'wall'] / med['base', 'wall']:>6.2f} {med['base', 'cpu']:>9.2f} "
               f"{med['new', 'cpu']:>8.2f} {med['new', 'cpu'] / med['base', 'cpu']:>6.2f}  "
-              f"{'yes' if len(same) == 1 else 'NO'}", flush=True)
+              f"{'yes' if len(same) == 1 else 'NO':<11}  {sum(r['threads'] for r in runs['new'])}/{len(runs['new'])}",
+              flush=True)
     return 1 if differ else 0
 
 
@@ -119,9 +129,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--overlays", type=Path, default=None, help="directory for overlay PNGs")
     parser.add_argument("--baseline", type=Path, default=None, metavar="DIR",
                         help="compare with the project checked out in DIR (fresh processes, medians)")
+    parser.add_argument("--threads", choices=("auto", "on", "off"), default="auto",
+                        help="with --baseline: this tree's PPA on two threads when a core is spare (auto), "
+                             "always (on) or never (off)")
     args = parser.parse_args(argv)
     if args.baseline is not None:
-        return compare(args.baseline, args.repeat)
+        return compare(args.baseline, args.repeat, args.threads)
 
     header = (
         f"{'DEM':<14} {'shape':>10} {'seconds':>8} {'#branch':>10} {'#end':>11} {'#paths':>11} "

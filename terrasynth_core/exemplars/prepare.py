@@ -9,6 +9,7 @@ memory and on disk (:mod:`.cache`).
 from __future__ import annotations
 
 import hashlib
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,6 +18,7 @@ from scipy import ndimage
 from ..measures import topographic_position_index
 from ..errors import ParamsError
 from ..features import FeatureMaps, extract_features
+from ..features.ppa import spare_core
 from ..heightfield import HeightField, largest_valid_rectangle
 from . import cache
 from ..features.samples import example_samples
@@ -95,36 +97,65 @@ _CACHE = cache.Memo(8, cache.load, lambda key, value: cache.save(key, *value))
 
 
 def _analyse(heights: np.ndarray, patch_size: int) -> tuple:
-    features = extract_features(heights)
+    """The analysis :data:`_CACHE` stores: ``(features, samples, strong, relief)``.
+
+    With a core to spare (:func:`~terrasynth_core.features.ppa.spare_core`)
+    the TPI and the relief, which need no features, are computed on a
+    second thread while PPA runs (its ridge and valley threads rarely finish
+    together, and the FFTs release the GIL), and the two networks' samples
+    are then taken on two threads.  Every part is computed exactly as alone.
+    """
     radius = patch_size / 2
-    # Sample centres must leave room for the patch (and a little warp) inside.
-    margin = radius * 1.1
-    H, W = heights.shape
-    # How far a sample's centre stands above (ridge) or below (valley) the
-    # patch around it, in standard deviations: PPA finds every little spur,
-    # but a sketched stroke asks for a real ridge or valley.
-    tpi = topographic_position_index(heights, radius=radius)
-    tpi /= float(np.nanstd(tpi)) or 1.0
-    samples = {}
-    for graph, sign in ((features.ridges, 1.0), (features.valleys, -1.0)):
-        pool = [
-            s for s in example_samples(graph, radius, spacing=radius / 2)
-            if margin <= s.center[0] <= H - 1 - margin and margin <= s.center[1] <= W - 1 - margin
-        ]
-        if pool:
-            rc = np.rint([s.center for s in pool]).astype(int)
-            strength = sign * tpi[rc[:, 0], rc[:, 1]]
-            keep = strength >= min(np.quantile(strength, STRONG_QUANTILE), MIN_STRENGTH)
-            pool = [s for s, k in zip(pool, keep) if k]
-        samples[graph.kind] = pool
+    if spare_core():
+        with ThreadPoolExecutor(max_workers=2, thread_name_prefix="analysis") as pool:
+            tpi_and_relief = pool.submit(_tpi_and_relief, heights, radius, patch_size)
+            features = extract_features(heights)
+            tpi, relief = tpi_and_relief.result()
+            pools = list(pool.map(_sample_pool, (features.ridges, features.valleys), (1.0, -1.0),
+                                  (tpi, tpi), (radius, radius)))
+    else:
+        features = extract_features(heights)
+        tpi, relief = _tpi_and_relief(heights, radius, patch_size)
+        pools = [_sample_pool(features.ridges, 1.0, tpi, radius), _sample_pool(features.valleys, -1.0, tpi, radius)]
+    samples = {"ridge": pools[0], "valley": pools[1]}
     strong = np.zeros(heights.shape, dtype=bool)
     for graph in (features.ridges, features.valleys):
         long_paths = tuple(p for p in graph.paths if p.length >= patch_size)
         if long_paths:
             strong |= type(graph)(graph.kind, graph.shape, graph.nodes, long_paths).rasterize()
     strong = ndimage.binary_dilation(strong, iterations=2)
+    return features, samples, strong, relief
+
+
+def _tpi_and_relief(heights: np.ndarray, radius: float, patch_size: int) -> tuple[np.ndarray, float]:
+    """The TPI in standard deviations, shape (H, W) float32, and the relief.
+
+    The TPI tells how far a sample's centre stands above (ridge) or below
+    (valley) the patch around it: PPA finds every little spur, but a
+    sketched stroke asks for a real ridge or valley.  The relief is the
+    median local standard deviation within a patch, in metres.
+    """
+    tpi = topographic_position_index(heights, radius=radius)
+    tpi /= float(np.nanstd(tpi)) or 1.0
     mean = ndimage.uniform_filter(heights.astype(np.float64), patch_size)
     mean2 = ndimage.uniform_filter(heights.astype(np.float64) ** 2, patch_size)
     local_std = np.sqrt(np.maximum(mean2 - mean**2, 0.0))
-    relief = float(np.median(local_std)) or 1.0
-    return features, samples, strong, relief
+    return tpi, float(np.median(local_std)) or 1.0
+
+
+def _sample_pool(graph, sign: float, tpi: np.ndarray, radius: float) -> list:
+    """The candidate samples of one network: centres that leave room for
+    the patch (and a little warp) inside the example, standing out enough
+    by TPI (``sign`` +1 for ridges, -1 for valleys)."""
+    margin = radius * 1.1
+    H, W = tpi.shape
+    pool = [
+        s for s in example_samples(graph, radius, spacing=radius / 2)
+        if margin <= s.center[0] <= H - 1 - margin and margin <= s.center[1] <= W - 1 - margin
+    ]
+    if pool:
+        rc = np.rint([s.center for s in pool]).astype(int)
+        strength = sign * tpi[rc[:, 0], rc[:, 1]]
+        keep = strength >= min(np.quantile(strength, STRONG_QUANTILE), MIN_STRENGTH)
+        pool = [s for s, k in zip(pool, keep) if k]
+    return pool

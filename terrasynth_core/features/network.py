@@ -130,9 +130,11 @@ def spanning_forest(mask: np.ndarray, strength: np.ndarray) -> PixelForest:
     rows, cols = mask.shape
     coords = np.argwhere(mask)
     n = len(coords)
-    index = np.full(mask.shape, -1, dtype=np.int64)
-    index[mask] = np.arange(n)
-    s = np.where(mask, strength, 0).astype(np.float64)
+    # Flat (row-major) cell numbers throughout: a neighbour is a fixed
+    # offset away, and 1-D gathers are the quickest numpy has.
+    index = np.full(mask.size, -1, dtype=np.int64)
+    index[mask.ravel()] = np.arange(n)
+    s = np.where(mask, strength, 0).astype(np.float64).ravel()
 
     # Links by direction (_FORWARD_OFFSETS), on the grid of their first pixel.
     present = []
@@ -143,19 +145,22 @@ def spanning_forest(mask: np.ndarray, strength: np.ndarray) -> PixelForest:
         linked[src] = mask[src] & mask[dst]
         present.append(linked)
     # Both diagonals of a full 2x2 block: keep only the stronger one.
-    r, c = np.nonzero(present[2][:-1, :-1] & present[3][:-1, 1:])
-    se = s[r, c] + s[r + 1, c + 1]
-    sw = s[r, c + 1] + s[r + 1, c]
-    present[2][r[se < sw], c[se < sw]] = False
-    present[3][r[sw <= se], c[sw <= se] + 1] = False
-    _drop_weakest_in_triangles(present, s)
+    block = np.zeros(mask.shape, dtype=bool)  # by the block's top-left pixel
+    block[:-1, :-1] = present[2][:-1, :-1] & present[3][:-1, 1:]
+    at = np.flatnonzero(block)
+    se = s[at] + s[at + cols + 1]
+    sw = s[at + 1] + s[at + cols]
+    present[2].ravel()[at[se < sw]] = False
+    present[3].ravel()[at[sw <= se] + 1] = False
+    _drop_weakest_in_triangles(present, s, block)
 
     a_parts, b_parts, strength_parts = [], [], []
     for (dr, dc), linked in zip(_FORWARD_OFFSETS, present):
-        r, c = np.nonzero(linked)
-        a_parts.append(index[r, c])
-        b_parts.append(index[r + dr, c + dc])
-        strength_parts.append(s[r, c] + s[r + dr, c + dc])
+        at = np.flatnonzero(linked)
+        to = at + (dr * cols + dc)
+        a_parts.append(index[at])
+        b_parts.append(index[to])
+        strength_parts.append(s[at] + s[to])
     a = np.concatenate(a_parts)
     b = np.concatenate(b_parts)
     if len(a) == 0:
@@ -177,15 +182,32 @@ def _strongest_first(strength: np.ndarray) -> np.ndarray:
 
     Whole-number strengths (integer DEMs such as SRTM tiles) take a quicker
     path: the value and the index packed into one distinct int64 key, which
-    the default (unstable) sort orders the same way in half the time.
+    the default (unstable) sort orders the same way in half the time.  Other
+    strengths (resampled examples) are sorted by the default sort too, a
+    third of the stable sort's time, and only the runs of equal values are
+    put back in index order.
     """
     n = len(strength)
     if n and np.abs(strength).max() * n < 2.0**52 and np.array_equal(strength, np.floor(strength)):
         return np.argsort((-strength).astype(np.int64) * n + np.arange(n))
-    return np.argsort(-strength, kind="stable")
+    if np.isnan(strength).any():  # NaN is never equal to itself: no runs to repair
+        return np.argsort(-strength, kind="stable")
+    order = np.argsort(-strength)
+    ordered = strength[order]
+    tie = ordered[1:] == ordered[:-1]
+    if tie.any():
+        in_run = np.zeros(n, dtype=bool)
+        in_run[1:] |= tie
+        in_run[:-1] |= tie
+        at = np.flatnonzero(in_run)
+        run = np.cumsum(np.concatenate([[True], ~tie]))[at]
+        # Runs are contiguous and numbered in order: sorting (run, index)
+        # keys keeps every run in its place, its indices ascending.
+        order[at] = np.sort(run * n + order[at]) % n
+    return order
 
 
-def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray) -> None:
+def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray, block: np.ndarray) -> None:
     """Remove, in place, the weakest link of every triangle of links.
 
     The weakest link of a cycle is in no maximum spanning forest (when all
@@ -195,11 +217,13 @@ def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray) -> None
 
     Parameters
     ----------
-    present : list of 4 ndarrays of bool, shape (rows, cols)
+    present : list of 4 ndarrays of bool, shape (rows, cols), C-contiguous
         Whether each link of :data:`_FORWARD_OFFSETS` leaves each pixel;
         updated.
-    s : ndarray of float64, shape (rows, cols)
-        Pixel strengths; a link's is the sum of its pixels'.
+    s : ndarray of float64, shape (rows * cols,)
+        Pixel strengths, flat (row-major); a link's is the sum of its pixels'.
+    block : ndarray of bool, shape (rows, cols)
+        Scratch space, overwritten.
 
     Notes
     -----
@@ -209,6 +233,7 @@ def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray) -> None
     fixed ``<`` or ``<=``.  Only the blocks holding a whole triangle are
     compared.
     """
+    cols = present[0].shape[1]
     east, south, down_right, down_left = present
     # The 2x2 block with top-left pixel (r, c): its links, where present.
     top, bottom = east[:-1, :-1], east[1:, :-1]
@@ -223,15 +248,17 @@ def _drop_weakest_in_triangles(present: list[np.ndarray], s: np.ndarray) -> None
         (top & left & diagonal_sw, ((0, 0, 0), (1, 0, 0), (3, 0, 1))),
         (bottom & right & diagonal_sw, ((0, 1, 0), (1, 0, 1), (3, 0, 1))),
     ):
-        r, c = np.nonzero(whole)
-        power = [s[r + i, c + j] + s[r + i + _FORWARD_OFFSETS[k][0], c + j + _FORWARD_OFFSETS[k][1]]
-                 for k, i, j in links]
+        block[:-1, :-1] = whole
+        at = np.flatnonzero(block)  # flat number of the block's top-left pixel
+        first = [at + (i * cols + j) for _, i, j in links]
+        power = [s[f] + s[f + (_FORWARD_OFFSETS[k][0] * cols + _FORWARD_OFFSETS[k][1])]
+                 for f, (k, _, _) in zip(first, links)]
         x, y, z = power
         weakest = ((x < y) & (x < z), (y <= x) & (y < z), (z <= x) & (z <= y))
-        for (k, i, j), gone in zip(links, weakest):
-            drops.append((k, r[gone] + i, c[gone] + j))
-    for k, r, c in drops:
-        present[k][r, c] = False
+        for (k, _, _), f, gone in zip(links, first, weakest):
+            drops.append((k, f[gone]))
+    for k, at in drops:
+        present[k].ravel()[at] = False
 
 
 def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
@@ -274,9 +301,7 @@ def compress_chains(edges: np.ndarray, coords: np.ndarray) -> Chains:
     return _chains_in_order(laid, chain_offsets[:-1], n_links + 1, key, coords)
 
 
-def _walk_chains(
-    edges: np.ndarray, is_node: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _walk_chains(edges: np.ndarray, is_node: np.ndarray, *, with_links: bool = False) -> tuple:
     """The chains of some links of a forest, split at the pixels where
     ``is_node`` (shape (n_pixels,): degree 1 or >= 3 in the whole forest),
     each laid out from its first end, in no particular order.
@@ -290,6 +315,9 @@ def _walk_chains(
     n_links : ndarray of int64, shape (n_chains,)
     first : ndarray of int64, shape (n_chains,)
         The end (``2 * link + side`` in ``edges``) each chain starts at.
+    arrived : ndarray of int64, shape (n,)
+        Only ``with_links``: the link (row of ``edges``) by which the walk
+        reached each pixel of ``laid``; -1 at each chain's first pixel.
     """
     n_edges = len(edges)
     pixel = np.asarray(edges, dtype=np.int64).ravel()  # pixel at each end (slot)
@@ -325,7 +353,12 @@ def _walk_chains(
     chain_of_stop[stop[first]] = np.arange(len(first))
     forward = stop > stop[stop]  # walks towards the later node end
     chain = chain_of_stop[stop[forward]]
-    laid[chain_offsets[chain] + n_links[chain] - links_to_stop[forward] + 1] = pixel[leave[forward]]
+    at = chain_offsets[chain] + n_links[chain] - links_to_stop[forward] + 1
+    laid[at] = pixel[leave[forward]]
+    if with_links:
+        arrived = np.full(len(laid), -1, dtype=np.int64)
+        arrived[at] = leave[forward] >> 1
+        return laid, chain_offsets, n_links, first, arrived
     return laid, chain_offsets, n_links, first
 
 
@@ -361,7 +394,11 @@ def _chains_in_order(
     # The lengths are differences of one running sum over all chains, so
     # equal chains can differ in the last bits; keeping this exact sum keeps
     # every threshold and tie of the branch reduction as it was.
-    step = np.hypot(*np.diff(coords[pixels], axis=0).T.astype(np.float64))
+    # Steps within a chain join 8-neighbours: 1 or sqrt(2) cells, which
+    # np.sqrt of the squared integer step gives exactly as np.hypot does,
+    # several times faster (the steps between chains are zeroed below).
+    d_row, d_col = np.diff(coords[:, 0][pixels]), np.diff(coords[:, 1][pixels])
+    step = np.sqrt((d_row * d_row + d_col * d_col).astype(np.float64))
     step[offsets[1:-1] - 1] = 0.0
     cumulative = np.concatenate([[0.0], np.cumsum(step)])
     length = cumulative[offsets[1:] - 1] - cumulative[offsets[:-1]]
@@ -397,12 +434,56 @@ def _small_components(chains: Chains, n_pixels: int, min_length: float) -> np.nd
     ``min_length`` cells in total, shape (n_chains,)."""
     if len(chains) == 0:
         return np.zeros(0, dtype=bool)
-    graph = sparse.csr_matrix(
-        (np.ones(len(chains)), (chains.start, chains.end)), shape=(n_pixels, n_pixels)
-    )
+    # On the node pixels alone, numbered compactly: a graph of thousands of
+    # vertices instead of every pixel's.  (The sums below add each
+    # component's chains in list order whatever the labels.)
+    is_node = np.zeros(n_pixels, dtype=bool)
+    is_node[chains.start] = True
+    is_node[chains.end] = True
+    compact = np.cumsum(is_node) - 1
+    start, end = compact[chains.start], compact[chains.end]
+    n_nodes = int(compact[-1]) + 1
+    graph = sparse.csr_matrix((np.ones(len(chains)), (start, end)), shape=(n_nodes, n_nodes))
     _, label = connected_components(graph, directed=False)
-    component_length = np.bincount(label[chains.start], weights=chains.length)
-    return component_length[label[chains.start]] < min_length
+    component_length = np.bincount(label[start], weights=chains.length)
+    return component_length[label[start]] < min_length
+
+
+def _small_forest_components(forest: PixelForest, min_length: float,
+                             component: np.ndarray | None) -> np.ndarray | None:
+    """Links of the forest's components shorter than ``min_length`` cells,
+    shape (n_edges,) bool; None when a component's length is too close to
+    ``min_length`` to tell.
+
+    Notes
+    -----
+    Dropping these links before compressing the forest gives exactly the
+    chains that compressing it all and dropping the small components'
+    chains gives (:func:`_drop` of whole components joins nothing and
+    keeps every chain's direction and order), without laying out every
+    chain twice.  Which components are small must agree too: a component
+    of ``a`` straight and ``b`` diagonal links is ``a + b * sqrt(2)``
+    cells long, which the chains' lengths (differences of one running sum,
+    :func:`_chains_in_order`) give to within far less than 1e-6; nearer
+    than that to ``min_length`` (``b = 0`` and ``a = min_length``, say),
+    only the chains' sums decide, and the caller goes that way.
+    """
+    edges, coords = forest.edges, forest.coords
+    if len(edges) == 0:
+        return np.zeros(0, dtype=bool)
+    if component is None:
+        n = len(coords)
+        graph = sparse.csr_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+        _, component = connected_components(graph, directed=False)
+    a, b = edges[:, 0], edges[:, 1]
+    diagonal = (coords[a, 0] != coords[b, 0]) & (coords[a, 1] != coords[b, 1])
+    label = np.asarray(component)[a]
+    straight = np.bincount(label[~diagonal], minlength=label.max() + 1)
+    slanted = np.bincount(label[diagonal], minlength=label.max() + 1)
+    length = straight + slanted * np.sqrt(2.0)
+    if np.any((np.abs(length - min_length) <= 1e-6) & (straight + slanted > 0)):
+        return None
+    return (length < min_length)[label]
 
 
 def reduce_branches(
@@ -411,6 +492,7 @@ def reduce_branches(
     prune_length: float,
     prune_iterations: int,
     min_component_length: float,
+    component: np.ndarray | None = None,
 ) -> Chains:
     """PPA's branch reduction on a pixel forest.
 
@@ -425,6 +507,9 @@ def reduce_branches(
     min_component_length : float
         Connected components shorter than this many cells in total are
         dropped (before and after pruning).
+    component : ndarray of int, shape (n_pixels,), optional
+        The connected component of each pixel (any numbering), when the
+        caller has it; otherwise it is found here.
 
     Returns
     -------
@@ -432,10 +517,14 @@ def reduce_branches(
         The chains of the reduced forest; no node pixel has degree 2.
     """
     n = len(forest.coords)
-    chains = compress_chains(forest.edges, forest.coords)
     # Small components go first (PPA leaves many fragments, no need to prune
     # them) and again last, as pruning can shrink a component below the limit.
-    chains = _drop(chains, _small_components(chains, n, min_component_length), forest.coords)
+    small = _small_forest_components(forest, min_component_length, component)
+    if small is None:
+        chains = compress_chains(forest.edges, forest.coords)
+        chains = _drop(chains, _small_components(chains, n, min_component_length), forest.coords)
+    else:
+        chains = compress_chains(forest.edges[~small], forest.coords)
     for _ in range(prune_iterations):
         remove = _spurs_to_remove(chains, n, prune_length)
         if not remove.any():
@@ -466,14 +555,65 @@ def _drop(chains: Chains, remove: np.ndarray, coords: np.ndarray) -> Chains:
     key = np.where(key == _NO_INNER, n + staying, key)
     if not joined.any():
         return _chains_in_order(chains.pixels, chains.offsets[staying], sizes[staying], key, coords)
-    # The joined chains: their links in list order, as compress_chains sees them.
-    # (Each has an inner pixel: the node it was joined at.)
-    laid, chain_offsets, _, _ = _walk_chains(chains.edges(joined), (degree != 2) & (degree > 0))
+    # The joined chains, laid out as compress_chains would lay out their
+    # links. (Each has an inner pixel: the node it was joined at.)
+    laid, chain_offsets = _join_chains(chains, np.flatnonzero(joined), (degree != 2) & (degree > 0))
     source = np.concatenate([chains.pixels, laid])
     first = np.concatenate([chains.offsets[staying], len(chains.pixels) + chain_offsets[:-1]])
     size = np.concatenate([sizes[staying], np.diff(chain_offsets)])
     key = np.concatenate([key, _inner_min(laid, chain_offsets)])
     return _chains_in_order(source, first, size, key, coords)
+
+
+def _join_chains(chains: Chains, joined: np.ndarray, is_node: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Join chains end to end at the pixels that are no longer nodes:
+    exactly ``_walk_chains(chains.edges(mask), is_node)[:2]`` for the chains
+    ``joined`` (ids ascending; ``mask`` is True at them), without walking
+    their pixels again.
+
+    Parameters
+    ----------
+    chains : Chains
+    joined : ndarray of int64, shape (m,)
+        Chains to join, ascending; each meets another at a pixel that is
+        not in ``is_node``.
+    is_node : ndarray of bool, shape (n_pixels,)
+        Where the joined chains stop (degree 1 or >= 3 after the removal).
+
+    Returns
+    -------
+    laid, chain_offsets
+        As :func:`_walk_chains`.
+
+    Notes
+    -----
+    Each joined chain is one link between its end pixels, and
+    :func:`_walk_chains` walks these links: the same runs, from the same
+    first end, since a chain's ends come in the same order among the
+    chain links as its end links among the pixel links (chain by chain,
+    start before end).  Each run's chains are then laid out pixel by
+    pixel, turned where the run enters one at its end.
+    """
+    ends = np.stack([chains.start[joined], chains.end[joined]], axis=1)
+    nodes, run_offsets, n_steps, _, arrived = _walk_chains(ends, is_node, with_links=True)
+    # The steps of all runs, in order: each is the joined chain by which the
+    # walk reached its second pixel, entered from the first.
+    step_to = np.flatnonzero(arrived >= 0)
+    chain = joined[arrived[step_to]]
+    forward = chains.start[chain] == nodes[step_to - 1]
+    # Every chain's pixels, but the first of each after a run's first chain
+    # (the pixel where it meets the chain before).
+    first_step = np.zeros(len(chain), dtype=bool)
+    first_step[run_offsets[:-1] - np.arange(len(n_steps))] = True
+    skip = (~first_step).astype(np.int64)
+    size = np.diff(chains.offsets)[chain] - skip
+    out = np.cumsum(size) - size
+    step = np.repeat(np.arange(len(chain)), size)
+    k = np.arange(len(step)) - out[step] + skip[step]  # position along the chain's own pixels
+    at = np.where(forward[step], chains.offsets[chain][step] + k, chains.offsets[chain + 1][step] - 1 - k)
+    laid = chains.pixels[at]
+    run_size = np.add.reduceat(size, run_offsets[:-1] - np.arange(len(n_steps))) if len(size) else size
+    return laid, np.concatenate([[0], np.cumsum(run_size)]).astype(np.int64)
 
 
 def smooth_polylines(points: np.ndarray, offsets: np.ndarray, window: int) -> np.ndarray:
@@ -548,13 +688,18 @@ def chains_to_graph(
     degree = chains.node_degree(n)
     branch = degree >= 3
     link = branch[chains.start] & branch[chains.end] & (chains.length <= junction_merge_distance)
+    # Groups of merged branch points, found on the node pixels alone
+    # (numbered compactly in pixel order, so the groups are numbered as on
+    # all pixels: in the order of their first pixel).
+    is_node = degree > 0
+    node_pixels = np.flatnonzero(is_node)
+    compact = np.cumsum(is_node) - 1
     merged = sparse.csr_matrix(
-        (np.ones(int(link.sum())), (chains.start[link], chains.end[link])), shape=(n, n)
+        (np.ones(int(link.sum())), (compact[chains.start[link]], compact[chains.end[link]])),
+        shape=(len(node_pixels), len(node_pixels)),
     )
-    _, group = connected_components(merged, directed=False)
-
-    node_pixels = np.unique(np.concatenate([chains.start, chains.end]))
-    n_groups = group.max() + 1
+    group = np.full(n, -1, dtype=np.int64)
+    n_groups, group[node_pixels] = connected_components(merged, directed=False)
     count = np.bincount(group[node_pixels], minlength=n_groups)
     position = np.stack(
         [np.bincount(group[node_pixels], weights=coords[node_pixels, k], minlength=n_groups) for k in (0, 1)],
@@ -674,6 +819,7 @@ def feature_graph_from_mask(
         prune_length=prune_length,
         prune_iterations=prune_iterations,
         min_component_length=min_component_length,
+        component=labels[mask] if n_labels else None,
     )
     return chains_to_graph(
         chains,

@@ -184,11 +184,227 @@ def example_samples(graph: FeatureGraph, radius: float, spacing: float) -> list[
         Inscribed-circle radius in cells (half the patch).
     spacing : float
         Distance between path samples in cells.
+
+    Returns
+    -------
+    list of FeatureSample
+        The node samples in node order (nodes with nothing leaving the disc
+        left out), then each path's samples from its start, path by path:
+        exactly what :class:`NetworkSampler`'s ``node_sample`` and
+        ``path_samples`` give, which :func:`walked_example_samples` calls.
+
+    Notes
+    -----
+    The walks of all samples advance together (:func:`_crossings`), a
+    few array passes per step of the walks instead of a Python call per
+    path per sample: an example's samples walk hundreds of thousands of
+    paths (a plateau's dense networks put many short paths in a disc).
+    A graph with a loop (never PPA's, which are forests) and samples whose
+    crossings lie at nearly the same angle (their order would hang on the
+    last bit) are walked by :class:`NetworkSampler`.
     """
+    if not graph.paths:
+        return []
+    if not graph.is_acyclic():
+        return walked_example_samples(graph, radius, spacing)
+    radius = float(radius)
+    points = [np.asarray(p.points, dtype=float) for p in graph.paths]
+    sizes = np.array([len(p) for p in points], dtype=np.int64)
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+    flat = np.concatenate(points)
+    start_node = np.array([p.start for p in graph.paths], dtype=np.int64)
+    end_node = np.array([p.end for p in graph.paths], dtype=np.int64)
+
+    # Samples: every node, then the positions along each path.
+    node_centers = np.array([[n.row, n.col] for n in graph.nodes], dtype=float).reshape(-1, 2)
+    sample_path, sample_index = _path_sample_positions(points, flat, offsets, spacing)
+    centers = np.concatenate([node_centers, flat[offsets[sample_path] + sample_index]])
+
+    # The paths at each node, as NetworkSampler.at_node lists them (by path
+    # index): entry e walks path at_path[e] in direction at_step[e].
+    n_paths = len(points)
+    at_nodes = np.concatenate([start_node, end_node])
+    at_path = np.tile(np.arange(n_paths, dtype=np.int64), 2)
+    at_step = np.repeat(np.array([1, -1], dtype=np.int64), n_paths)
+    order = np.lexsort((at_path, at_nodes))
+    at_path, at_step = at_path[order], at_step[order]
+    at_offsets = np.concatenate([[0], np.cumsum(np.bincount(at_nodes, minlength=len(graph.nodes)))])
+
+    # First walks: a node sample along every path at its node, a path
+    # sample both ways from its point.
+    node_ids = np.arange(len(graph.nodes), dtype=np.int64)
+    walk_sample = np.concatenate([np.repeat(node_ids, np.diff(at_offsets)),
+                                  np.repeat(len(graph.nodes) + np.arange(len(sample_path)), 2)])
+    walk_path = np.concatenate([at_path, np.repeat(sample_path, 2)])
+    walk_step = np.concatenate([at_step, np.tile(np.array([1, -1], dtype=np.int64), len(sample_path))])
+    from_node = offsets[at_path] + np.where(at_step > 0, 0, sizes[at_path] - 1)
+    walk_from = np.concatenate([from_node, np.repeat(offsets[sample_path] + sample_index, 2)])
+
+    crossing_sample, crossing_point = _crossings(
+        flat, offsets, start_node, end_node, at_offsets, at_path, at_step, centers, radius,
+        walk_sample, walk_path, walk_step, walk_from)
+
+    # Crossings counter-clockwise (north up) around their centre.
+    rel = crossing_point - centers[crossing_sample]
+    angle = np.arctan2(-rel[:, 0], rel[:, 1])
+    order = np.lexsort((angle, crossing_sample))
+    crossing_sample, crossing_point, angle = crossing_sample[order], crossing_point[order], angle[order]
+    # Angles this close could be ordered otherwise by the walk's order (a
+    # stable sort): those samples are walked one by one.
+    near = (crossing_sample[1:] == crossing_sample[:-1]) & (np.abs(np.diff(angle)) <= _ANGLE_TIE)
+    walked = set(crossing_sample[1:][near].tolist())
+
+    count = np.bincount(crossing_sample, minlength=len(centers))
+    first = np.concatenate([[0], np.cumsum(count)]).tolist()
+    sampler = NetworkSampler(graph, radius) if walked else None
+    kind = graph.kind
+    n_nodes = len(graph.nodes)
+    out: list[FeatureSample] = []
+    for s in np.flatnonzero(count).tolist():
+        if s in walked:
+            if s < n_nodes:
+                sample = sampler.node_sample(s)
+            else:
+                path, index = int(sample_path[s - n_nodes]), int(sample_index[s - n_nodes])
+                sample = _make_sample(points[path][index], kind, sampler.crossings_from_path(
+                    points[path][index], path, index))
+            out.append(sample)
+        else:
+            out.append(FeatureSample(centers[s], kind, crossing_point[first[s] : first[s + 1]]))
+    return out
+
+
+#: Crossing angles (radians) closer than this are ordered by a walk.
+_ANGLE_TIE = 1e-9
+
+#: Points each walk looks at per step of :func:`_crossings`.
+_STEP_POINTS = 32
+
+
+def _path_sample_positions(points: list[np.ndarray], flat: np.ndarray, offsets: np.ndarray,
+                           spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """The path samples' ``(path, point index)``, each shape (n,), in order.
+
+    Only the paths that may be long enough for a sample go through
+    :func:`_arc_positions` (whose cumulative sums decide); a path shorter
+    than ``1.5 * spacing`` by a margin far beyond rounding has none.
+    """
+    step = np.hypot(*np.diff(flat, axis=0).T)
+    step[offsets[1:-1] - 1] = 0.0
+    cumulative = np.concatenate([[0.0], np.cumsum(step)])
+    length = cumulative[offsets[1:] - 1] - cumulative[offsets[:-1]]
+    paths, indices = [], []
+    for i in np.flatnonzero(length >= 1.5 * spacing - 1e-6).tolist():
+        positions = _arc_positions(points[i], spacing, spacing / 2)
+        paths.extend([i] * len(positions))
+        indices.extend(positions)
+    return np.array(paths, dtype=np.int64), np.array(indices, dtype=np.int64)
+
+
+def _crossings(flat, offsets, start_node, end_node, at_offsets, at_path, at_step, centers, radius,
+               sample, path, step, position):
+    """Where the walks of all samples leave their discs.
+
+    Parameters
+    ----------
+    flat : ndarray of float64, shape (n_points, 2)
+        The paths' points, concatenated; path ``i`` is
+        ``flat[offsets[i]:offsets[i + 1]]``.
+    start_node, end_node : ndarray of int64, shape (n_paths,)
+    at_offsets, at_path, at_step : ndarray of int64
+        The paths at node ``k``: ``at_path[at_offsets[k]:at_offsets[k + 1]]``,
+        walked away from ``k`` in direction ``at_step`` (+1: from the start).
+    centers : ndarray of float64, shape (n_samples, 2)
+    radius : float
+    sample, path, step, position : ndarray of int64, shape (n_walks,)
+        The first walks: their sample, path, direction and first point
+        (an index of ``flat``).
+
+    Returns
+    -------
+    crossing_sample : ndarray of int64, shape (n,)
+    crossing_point : ndarray of float64, shape (n, 2)
+        The crossings, as :meth:`NetworkSampler._walk` finds them (the
+        first point of a walk at or beyond ``radius``, or where the segment
+        to it leaves the circle), in no particular order.
+
+    Notes
+    -----
+    A walk whose path ends inside the disc goes on along the other paths
+    at the node it reached; in a forest no path is walked twice by one
+    sample, so "the other paths" are all but the one it came along.
+    """
+    begin = position.copy()
+    last = np.where(step > 0, offsets[path + 1] - 1, offsets[path])
+    found_sample, found_point = [], []
+    while len(sample):
+        left = (last - position) * step + 1  # points still to look at
+        # This step's points of every walk, concatenated: at most _STEP_POINTS each.
+        count = np.minimum(left, _STEP_POINTS)
+        first = np.cumsum(count) - count
+        walk = np.repeat(np.arange(len(sample)), count)
+        k = np.arange(len(walk)) - first[walk]
+        index = position[walk] + step[walk] * k
+        center = centers[sample]
+        dist = np.hypot(flat[index, 0] - center[walk, 0], flat[index, 1] - center[walk, 1])
+        # The first point of each walk at or beyond the radius (count: none).
+        out_k = np.minimum.reduceat(np.where(dist >= radius, k, _STEP_POINTS), first)
+        found = out_k < count
+        # Leaving the disc: at the first point if the walk starts outside,
+        # else where the segment into the first outside point crosses it.
+        f = np.flatnonzero(found)
+        at = position[f] + step[f] * out_k[f]
+        at_first = at == begin[f]
+        b = flat[at]
+        a = flat[np.where(at_first, at, at - step[f])]
+        exit_point = _circle_exits(a, b, center[f], radius)
+        exit_point[at_first] = b[at_first]
+        found_sample.append(sample[f])
+        found_point.append(exit_point)
+        # Walks whose path ends inside the disc go on at its far node.
+        ended = np.flatnonzero(~found & (left <= _STEP_POINTS))
+        node = np.where(step[ended] > 0, end_node[path[ended]], start_node[path[ended]])
+        n_next = at_offsets[node + 1] - at_offsets[node]
+        parent = np.repeat(ended, n_next)
+        entry = np.arange(n_next.sum()) + np.repeat(at_offsets[node] - np.cumsum(n_next) + n_next, n_next)
+        other = at_path[entry] != path[parent]
+        parent, entry = parent[other], entry[other]
+        next_path, next_step = at_path[entry], at_step[entry]
+        next_first = np.where(next_step > 0, offsets[next_path], offsets[next_path + 1] - 1)
+        going = np.flatnonzero(~found & (left > _STEP_POINTS))
+        next_last = np.where(next_step > 0, offsets[next_path + 1] - 1, offsets[next_path])
+        sample, path, step, position, begin, last = (
+            np.concatenate([sample[going], sample[parent]]),
+            np.concatenate([path[going], next_path]),
+            np.concatenate([step[going], next_step]),
+            np.concatenate([position[going] + _STEP_POINTS * step[going], next_first]),
+            np.concatenate([begin[going], next_first]),
+            np.concatenate([last[going], next_last]),
+        )
+    if not found_sample:
+        return np.empty(0, dtype=np.int64), np.empty((0, 2))
+    return np.concatenate(found_sample), np.concatenate(found_point)
+
+
+def _circle_exits(a: np.ndarray, b: np.ndarray, c: np.ndarray, r: float) -> np.ndarray:
+    """:func:`_circle_exit` of many segments, shape (n, 2) each; the same
+    operations in the same order, so the same floats."""
+    d = b - a
+    f = a - c
+    qa = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
+    qb = 2.0 * (f[:, 0] * d[:, 0] + f[:, 1] * d[:, 1])
+    qc = (f[:, 0] * f[:, 0] + f[:, 1] * f[:, 1]) - r * r
+    disc = np.maximum(qb * qb - 4 * qa * qc, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(qa > 0, (-qb + np.sqrt(disc)) / (2 * qa), 0.0)
+    return a + np.clip(t, 0.0, 1.0)[:, None] * d
+
+
+def walked_example_samples(graph: FeatureGraph, radius: float, spacing: float) -> list[FeatureSample]:
+    """:func:`example_samples` by :class:`NetworkSampler`, one walk at a time
+    (any graph, loops included; the reference the vectorised walks match)."""
     sampler = NetworkSampler(graph, radius)
     out = [s for s in (sampler.node_sample(node.id) for node in graph.nodes) if s is not None]
     for i in range(len(graph.paths)):
         out.extend(sampler.path_samples(i, spacing))
     return out
-
-

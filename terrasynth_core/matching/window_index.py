@@ -254,7 +254,7 @@ def _single_thread() -> None:
 
 
 def build_zone_index(example: np.ndarray, window: tuple[int, int], overlap: int, zone: int,
-                     positions: np.ndarray, prior: np.ndarray) -> ZoneIndex:
+                     positions: np.ndarray, prior: np.ndarray, *, blocks: np.ndarray | None = None) -> ZoneIndex:
     """Index an example's windows for one zone.
 
     Parameters
@@ -269,17 +269,35 @@ def build_zone_index(example: np.ndarray, window: tuple[int, int], overlap: int,
         Top-left corners of the windows on offer (each window must fit).
     prior : ndarray of float, shape (n,)
         Each window's roughness prior (added to its score).
+    blocks : ndarray of float32, or None
+        :func:`centred_blocks` of ``example`` for this window, when the
+        caller keeps it for the example's other zones; None computes it.
 
     Returns
     -------
     ZoneIndex
     """
-    parts, vectors = zone_vectors(example, window, overlap, zone, positions, prior)
+    parts, vectors = zone_vectors(example, window, overlap, zone, positions, prior, blocks=blocks)
     return ZoneIndex(**parts, positions=positions.astype(np.int32), index=ivf_index(vectors))
 
 
+def centred_blocks(example: np.ndarray, window: tuple[int, int]) -> np.ndarray:
+    """The coarse grid every zone's descriptors read: :func:`block_means`
+    of ``example`` at the window's :func:`descriptor_step`, less their mean
+    (so float32 keeps the detail of high terrain).
+
+    Returns
+    -------
+    ndarray of float32, shape (H - step + 1, W - step + 1)
+        The same for all 15 zones: :class:`LazyIndexes` makes it once.
+    """
+    blocks = block_means(example, descriptor_step(window))
+    return blocks - np.float32(blocks.mean())
+
+
 def zone_vectors(example: np.ndarray, window: tuple[int, int], overlap: int, zone: int,
-                 positions: np.ndarray, prior: np.ndarray) -> tuple[dict, np.ndarray]:
+                 positions: np.ndarray, prior: np.ndarray, *,
+                 blocks: np.ndarray | None = None) -> tuple[dict, np.ndarray]:
     """The index vectors of an example's windows for one zone.
 
     Parameters are those of :func:`build_zone_index`.
@@ -295,12 +313,12 @@ def zone_vectors(example: np.ndarray, window: tuple[int, int], overlap: int, zon
     """
     step = descriptor_step(window)
     cells = zone_cells(window, overlap, zone, step)
-    blocks = block_means(example, step)
+    if blocks is None:
+        blocks = centred_blocks(example, window)
     # Heights differences below a millimetre are noise: the floor keeps
     # flat windows' directions finite.
     floor = 1e-3
-    # Centred, so float32 keeps the detail of high terrain.
-    flat = (blocks - np.float32(blocks.mean())).ravel()
+    flat = blocks.ravel()
     width = blocks.shape[1]
     flat_offsets = (cells[:, 0] * step) * width + cells[:, 1] * step
     n = positions.shape[0]
@@ -381,6 +399,7 @@ class LazyIndexes:
         self._indexes: dict[int, ZoneIndex] = {}
         self._lock = threading.Lock()
         self._base_key = None
+        self._blocks = None  # centred_blocks, made by the first build
 
     def __getstate__(self) -> dict:
         # Sent to the fill's worker processes without the indexes built so
@@ -388,6 +407,7 @@ class LazyIndexes:
         # index from the disk cache the first time it needs it.
         state = self.__dict__.copy()
         state["_indexes"] = {}
+        state["_blocks"] = None
         del state["_lock"]
         return state
 
@@ -405,7 +425,10 @@ class LazyIndexes:
             key = f"{self._base_key}-z{zone}"
             got = self._load(key) if self._load else None
             if got is None:
-                got = build_zone_index(self.example, self.window, self.overlap, zone, self.positions, self.prior)
+                if self._blocks is None:
+                    self._blocks = centred_blocks(self.example, self.window)
+                got = build_zone_index(self.example, self.window, self.overlap, zone, self.positions, self.prior,
+                                       blocks=self._blocks)
                 if self._save:
                     self._save(key, got)
             self._indexes[zone] = got

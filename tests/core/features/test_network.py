@@ -114,3 +114,80 @@ def test_chains_start_at_their_first_listed_end_and_do_not_depend_on_pixel_numbe
 ])
 def test_strongest_first_is_a_stable_descending_sort(values):
     assert _strongest_first(values).tolist() == np.argsort(-values, kind="stable").tolist()
+
+
+def test_strongest_first_is_a_stable_sort_from_the_largest():
+    """The quick paths (packed integer keys; the default sort with its runs
+    of equal values put back in index order) give the stable sort's order."""
+    from terrasynth_core.features.network import _strongest_first
+
+    rng = np.random.default_rng(1)
+    for trial in range(60):
+        n = int(rng.integers(0, 2000))
+        whole = rng.integers(-20, 20, n).astype(float)
+        with_nan = rng.random(n)
+        with_nan[rng.random(n) < 0.1] = np.nan
+        cases = (whole, whole * 0.37 + (rng.random(n) < 0.5) * rng.random(n), rng.random(n), with_nan)
+        for strength in cases:
+            if trial % 3 == 0:
+                strength[rng.random(n) < 0.3] = 0.0
+                strength[rng.random(n) < 0.2] = -0.0
+            np.testing.assert_array_equal(_strongest_first(strength), np.argsort(-strength, kind="stable"))
+
+
+def test_joined_chains_are_the_walked_links(lowland, monkeypatch):
+    """Branch reduction joins chains at the chain level: the same runs, from
+    the same end, as walking their pixel links again."""
+    from terrasynth_core.features import network
+    from terrasynth_core.features.ppa import extract_features
+
+    join = network._join_chains
+    checked = []
+
+    def join_and_check(chains, joined, is_node):
+        mask = np.zeros(len(chains), dtype=bool)
+        mask[joined] = True
+        walked = network._walk_chains(chains.edges(mask), is_node)[:2]
+        got = join(chains, joined, is_node)
+
+        def runs(laid, offsets):
+            return sorted(tuple(laid[offsets[i] : offsets[i + 1]].tolist()) for i in range(len(offsets) - 1))
+
+        assert runs(*got) == runs(*walked)
+        checked.append(len(joined))
+        return got
+
+    monkeypatch.setattr(network, "_join_chains", join_and_check)
+    extract_features(lowland)
+    assert len(checked) >= 2 and sum(checked) > 20
+
+
+def test_small_components_dropped_before_compressing_give_the_same_chains(lowland, monkeypatch):
+    """Dropping the small components' links before compressing the forest
+    gives the chains (pixels, order, lengths to the bit) of compressing it
+    all and dropping their chains after."""
+    from terrasynth_core.features import network
+    from terrasynth_core.features.ppa import auto_min_drop, profile_targets
+
+    heights = np.asarray(lowland.heights, dtype=np.float32)
+    targets = profile_targets(heights, profile_length=7, min_drop=auto_min_drop(heights, 7, 0.15))
+    forest = spanning_forest(targets, heights)
+    options = dict(prune_length=12.0, prune_iterations=3, min_component_length=30.0)
+    assert network._small_forest_components(forest, 30.0, None).any()
+    early = network.reduce_branches(forest, **options)
+    monkeypatch.setattr(network, "_small_forest_components", lambda *args: None)
+    late = network.reduce_branches(forest, **options)
+    assert len(early) == len(late) > 20
+    for name in ("pixels", "offsets", "start", "end", "length"):
+        np.testing.assert_array_equal(getattr(early, name), getattr(late, name))
+
+
+def test_a_component_as_long_as_the_limit_is_left_to_the_chains():
+    from terrasynth_core.features import network
+
+    mask = np.zeros((5, 40), dtype=bool)
+    mask[2, 3:34] = True  # 31 pixels, 30 straight links: exactly 30 cells
+    forest = spanning_forest(mask, np.ones(mask.shape))
+    assert network._small_forest_components(forest, 30.0, None) is None
+    assert not network._small_forest_components(forest, 29.0, None).any()
+    assert network._small_forest_components(forest, 31.0, None).all()

@@ -251,3 +251,36 @@ def test_bad_arguments_raise_params_error(gaussian_ridge):
         extract_features(np.full((5, 5), np.inf))
     with pytest.raises(ParamsError, match="PPAParams"):
         extract_features(gaussian_ridge, params={"profile_length": 5})
+
+
+def _graph_digest(graph):
+    nodes = [(n.id, n.row, n.col, n.type, n.degree) for n in graph.nodes]
+    return repr((graph.kind, graph.shape, nodes, [(p.start, p.end, p.points.tobytes()) for p in graph.paths]))
+
+
+def test_two_threads_give_the_graphs_of_one(white_mountains, monkeypatch):
+    """Ridges and valleys on two threads (large grids) are exactly those
+    extracted one kind at a time."""
+    import terrasynth_core.features.ppa as ppa
+
+    monkeypatch.setattr(ppa, "THREADED_CELLS", 0)
+    monkeypatch.setattr(ppa, "spare_core", lambda: True)
+    both = extract_features(white_mountains)
+    ridges = extract_features(white_mountains, kind="ridge").ridges
+    valleys = extract_features(white_mountains, kind="valley").valleys
+    assert len(both.ridges.paths) > 50 and len(both.valleys.paths) > 50
+    assert _graph_digest(both.ridges) == _graph_digest(ridges)
+    assert _graph_digest(both.valleys) == _graph_digest(valleys)
+
+
+def test_spare_core_follows_the_load(monkeypatch):
+    import terrasynth_core.features.ppa as ppa
+
+    monkeypatch.setattr(ppa.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(ppa.os, "getloadavg", lambda: (0.7, 0.5, 0.5))
+    assert ppa.spare_core()
+    monkeypatch.setattr(ppa.os, "getloadavg", lambda: (6.0, 5.0, 4.0))
+    assert not ppa.spare_core()
+    monkeypatch.setattr(ppa.os, "cpu_count", lambda: 1)
+    monkeypatch.setattr(ppa.os, "getloadavg", lambda: (0.0, 0.0, 0.0))
+    assert not ppa.spare_core()

@@ -143,3 +143,22 @@ def test_builds_are_deterministic(white_mountains):
     assert a.keys() == b.keys()
     for name in a:
         np.testing.assert_array_equal(a[name], b[name])
+
+
+def test_lazy_indexes_share_the_coarse_grid_and_build_the_same_index():
+    """The zones of one example read one coarse grid (made once): each
+    index is byte for byte the one a lone build makes."""
+    import faiss
+
+    rng = np.random.default_rng(3)
+    example = np.cumsum(np.cumsum(rng.normal(size=(150, 170)), 0), 1).astype(np.float32)
+    window, overlap = (32, 32), 6
+    positions = np.stack(np.meshgrid(np.arange(0, 118, 3), np.arange(0, 138, 3), indexing="ij"), -1).reshape(-1, 2)
+    prior = rng.random(len(positions)) * 0.1
+    lazy = window_index.LazyIndexes(example, window, overlap, positions, prior)
+    for zone in (15, 1, 6):
+        alone = window_index.build_zone_index(example, window, overlap, zone, positions, prior)
+        shared = lazy.get(zone)
+        assert np.array_equal(faiss.serialize_index(shared._index), faiss.serialize_index(alone._index))
+        assert np.array_equal(shared.pca_axes, alone.pca_axes)
+    assert lazy._blocks is not None
