@@ -186,6 +186,10 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
     bbox : (r0, r1, c0, c1)
     warped : list of (Candidate, ndarray of float32)
         Candidates whose warp stays inside their example, best first.
+    rigid : bool
+        Every candidate's warp would fold or stretch over
+        :data:`MAX_STRETCH`: ``warped`` holds them turned rigidly onto the
+        sketch (the run says so in its warnings).
     """
     bbox = patch_window(sample.center, patch_size, shape)
     r0, r1, c0, c1 = bbox
@@ -202,7 +206,8 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
         patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, return_valid=True)
         if valid >= MIN_VALID_SHARE:
             warped.append((cand, patch))
-    if not warped:
+    rigid = not warped and bool(distorted)
+    if rigid:
         # Every candidate would fold or streak: turn the best ones rigidly
         # onto the sketch instead (the feature follows the stroke's chord,
         # the ground keeps its shape).
@@ -211,7 +216,7 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
             patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, return_valid=True)
             if valid >= MIN_VALID_SHARE:
                 warped.append((cand, patch))
-    return bbox, warped
+    return bbox, warped, rigid
 
 
 def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: StyleLayout, *, index: int,
@@ -250,7 +255,7 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
     PatchRecord or None
         None when no candidate survived the preparation.
     """
-    bbox, warped = prepared
+    bbox, warped, _ = prepared
     if not warped:
         return None
     warped = allowed(warped, usage, bbox, sample.center, cap)

@@ -203,6 +203,7 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
         yield state.placed(place_stamp(state.canvas, stamp, lay.level, index=len(state.records), stamp_index=i),
                            total)
     fallbacks: dict[tuple[str, int, int], int] = {}
+    rigid = {"ridge": 0, "valley": 0}
     # Variety: no example window supplies more than its share of the run's
     # feature patches, and neighbours never share one (matching/usage.py).
     usage = UsageRegistry(p.patch_size)
@@ -229,6 +230,7 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
                 key = (sample.kind, sample.degree, got)
                 fallbacks[key] = fallbacks.get(key, 0) + 1
             prepared = future.result()
+            rigid[sample.kind] += prepared[2]
             pending = prepare(i + 1) if i + 1 < len(samples) else None
             rec = place_feature(state.canvas, sample, prepared, lay, index=len(state.records), radius=state.radius,
                                 k=p.k, feature_weight=p.feature_weight, usage=usage, cap=cap)
@@ -239,6 +241,12 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
         state.warnings.append(
             f"no degree-{want} {kind} patch in the examples: used degree {got} instead ({n} patch(es))"
         )
+    for kind, n in rigid.items():
+        if n:
+            state.warnings.append(
+                f"{n} of {n_kind[kind]} {kind} patches placed unbent: no example {kind} bends onto those strokes "
+                "without folding or streaking (the examples' are too curved or too few); a larger or more varied "
+                "example, or straighter strokes, would help")
     state.timings["features"] = time.perf_counter() - t
     yield StageFinished("features", state.timings["features"])
 

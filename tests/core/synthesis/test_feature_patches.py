@@ -68,11 +68,11 @@ def test_folding_candidates_are_never_warped_while_a_fitting_one_exists():
                          target, False, 0.02)
     window = dict(shape=(240, 240), patch_size=80, count=2, rng=np.random.default_rng(0),
                   usage=UsageRegistry(80), cap=5)
-    bbox, warped = prepare_feature(sample, _Pool([hairpin, straight]), [example], **window)
-    assert [c for c, _ in warped] == [straight]
+    bbox, warped, rigid = prepare_feature(sample, _Pool([hairpin, straight]), [example], **window)
+    assert [c for c, _ in warped] == [straight] and not rigid
     # With only the hairpin, it is turned rigidly onto the stroke instead.
-    bbox, warped = prepare_feature(sample, _Pool([hairpin]), [example], **window)
-    assert [c for c, _ in warped] == [hairpin]
+    bbox, warped, rigid = prepare_feature(sample, _Pool([hairpin]), [example], **window)
+    assert [c for c, _ in warped] == [hairpin] and rigid
     r0, r1, c0, c1 = bbox
     bent = ThinPlateSpline.fit(*framed(hairpin.target, hairpin.control, reflect=False), regularization=1e-3)
     assert warp_distortion(bent, (r0, c0), (r1 - r0, c1 - c0)) > MAX_STRETCH
