@@ -53,8 +53,10 @@ def frame_points(points: np.ndarray) -> np.ndarray:
     """
     centre = points[0]
     rel = points[1:] - centre
+    if len(rel) == 0:
+        return np.zeros((0, 2))
     radius = float(np.mean(np.hypot(rel[:, 0], rel[:, 1])))
-    if len(rel) == 0 or radius <= 0.0:
+    if radius <= 0.0:
         return np.zeros((0, 2))
     angles = np.sort(np.arctan2(rel[:, 1], rel[:, 0]))
     gaps = np.diff(np.append(angles, angles[0] + 2 * np.pi))
