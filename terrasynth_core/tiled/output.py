@@ -25,7 +25,7 @@ from ..heightfield import GeoReference
 from ..io._common import atomic_outputs, wrap_errors
 from ..io.gdal import NO_GEOREF_TAG, field_crs, georef_transform
 from .plan import TilePlan
-from .store import TileStore
+from .store import TileStore, compose
 
 __all__ = ["BLOCK", "Written", "write_geotiff_from_tiles"]
 
@@ -92,14 +92,4 @@ def write_geotiff_from_tiles(store: TileStore, plan: TilePlan, out: Path, *, cel
 
 def _band(store: TileStore, plan: TilePlan, b0: int, b1: int) -> np.ndarray:
     """Rows ``b0..b1`` of the output, from the tiles under them (memory-mapped)."""
-    band = np.empty((b1 - b0, plan.shape[1]), np.float32)
-    edges = plan.row_edges
-    for i in range(len(edges) - 1):
-        r0, r1 = edges[i], edges[i + 1]
-        lo, hi = max(r0, b0), min(r1, b1)
-        if lo >= hi:
-            continue
-        for j in range(len(plan.col_edges) - 1):
-            c0, c1 = plan.col_edges[j], plan.col_edges[j + 1]
-            band[lo - b0:hi - b0, c0:c1] = store.load((i, j), mmap=True)[lo - r0:hi - r0]
-    return band
+    return compose(store, plan, (b0, b1, 0, plan.shape[1]))

@@ -9,7 +9,10 @@ alone, phase 1 tiles see their left and right neighbours, phase 2 tiles
 the ones above and below, phase 3 tiles all eight.  Every tile border is so
 synthesized once, by the later of its two tiles, against the finished
 terrain of the earlier one, as a local re-synthesis merges new patches
-with kept terrain (graph cut and seam solve).  What a tile sees depends
+with kept terrain (graph cut and seam solve).  The later tile may replace
+a *band* of the earlier one's cells along the border, so its graph cuts
+choose where the two meet (the tile's *region*: its box and those bands);
+the output takes each cell from the latest phase whose region holds it.  What a tile sees depends
 only on the plan, never on which tile finished first: the run gives the
 same bytes on any number of workers.
 """
@@ -31,8 +34,17 @@ __all__ = ["CONTEXT_PATCHES", "MIN_TILE_PATCHES", "Tile", "TilePlan", "plan_tile
 #: global, so unlike a crop re-synthesis no context is needed for it.)
 CONTEXT_PATCHES = 1.0
 
-#: Smallest tile side, in patch sizes: a tile holds a few patches.
-MIN_TILE_PATCHES = 2
+#: How far a tile's seams may reach into a finished neighbour, in patch
+#: sizes: the graph cut chooses where within this band the new terrain
+#: meets the old (the finished terrain is kept beyond it).  Without it the
+#: seam is forced onto the tile border, where old and new meet with a
+#: crease however well they are matched.
+BAND_PATCHES = 0.5
+
+#: Smallest tile side, in patch sizes: a tile holds a few patches, and no
+#: tile (not even a last, thinner one) is narrower than the context and
+#: band that its two neighbours reach into it from either side.
+MIN_TILE_PATCHES = 3
 
 Box = tuple[int, int, int, int]
 
@@ -50,6 +62,9 @@ class Tile:
     crop : (r0, r1, c0, c1)
         The window its session runs on: ``box`` and the finished context
         around it.
+    region : (r0, r1, c0, c1)
+        The cells it makes: ``box`` and a band of the finished neighbours
+        where its seams may run (it replaces them there).
     phase : int
         0 to 3; a tile starts when every tile it ``needs`` is finished.
     needs : tuple of (row, col)
@@ -62,6 +77,7 @@ class Tile:
     col: int
     box: Box
     crop: Box
+    region: Box
     phase: int
     needs: tuple[tuple[int, int], ...]
     seed: int
@@ -77,10 +93,13 @@ class Tile:
 
     @property
     def inner(self) -> tuple[slice, slice]:
-        """The tile's cells within its crop."""
-        r0, r1, c0, c1 = self.box
-        q0, _, p0, _ = self.crop
-        return slice(r0 - q0, r1 - q0), slice(c0 - p0, c1 - p0)
+        """The tile's own cells within its crop."""
+        return _within(self.box, self.crop)
+
+    @property
+    def made(self) -> tuple[slice, slice]:
+        """The cells it makes (``region``) within its crop."""
+        return _within(self.region, self.crop)
 
 
 @dataclass(frozen=True)
@@ -95,6 +114,8 @@ class TilePlan:
         The nominal tile side, cells.
     context : int
         Cells of finished terrain a tile sees across a border.
+    band : int
+        Cells of it a tile may replace (where its seams run).
     row_edges, col_edges : tuple of int
         The tile grid's lines, from 0 to ``rows`` (``cols``).
     tiles : tuple of Tile
@@ -104,6 +125,7 @@ class TilePlan:
     shape: tuple[int, int]
     tile: int
     context: int
+    band: int
     row_edges: tuple[int, ...]
     col_edges: tuple[int, ...]
     tiles: tuple[Tile, ...]
@@ -138,7 +160,7 @@ def tile_seed(seed: int, row: int, col: int) -> int:
 
 
 def plan_tiles(shape: tuple[int, int], tile: int, *, patch_size: int, seed: int = 0,
-               context_patches: float = CONTEXT_PATCHES) -> TilePlan:
+               context_patches: float = CONTEXT_PATCHES, band_patches: float = BAND_PATCHES) -> TilePlan:
     """The tile plan of an output.
 
     Parameters
@@ -152,6 +174,8 @@ def plan_tiles(shape: tuple[int, int], tile: int, *, patch_size: int, seed: int 
     seed : int, default 0
         The run's seed.
     context_patches : float, default :data:`CONTEXT_PATCHES`
+    band_patches : float, default :data:`BAND_PATCHES`
+        At most ``context_patches``.
 
     Returns
     -------
@@ -172,33 +196,42 @@ def plan_tiles(shape: tuple[int, int], tile: int, *, patch_size: int, seed: int 
         raise ParamsError(f"tile size {tile} is larger than the output {rows}x{cols}: give a smaller --tile, or "
                           "run without tiles")
     context = int(math.ceil(context_patches * patch_size))
+    band = min(int(math.ceil(band_patches * patch_size)), context)
     r_edges, c_edges = tile_edges(rows, tile), tile_edges(cols, tile)
     n_r, n_c = len(r_edges) - 1, len(c_edges) - 1
 
     def phase(i: int, j: int) -> int:
         return 2 * (i % 2) + (j % 2)
 
+    boxes = {(i, j): (r_edges[i], r_edges[i + 1], c_edges[j], c_edges[j + 1])
+             for i in range(n_r) for j in range(n_c)}
+    grown = {}
+    for (i, j), (r0, r1, c0, c1) in boxes.items():
+        p = phase(i, j)
+        # Grow towards finished (earlier-phase) sides only.
+        up = i > 0 and phase(i - 1, j) < p
+        down = i + 1 < n_r and phase(i + 1, j) < p
+        left = j > 0 and phase(i, j - 1) < p
+        right = j + 1 < n_c and phase(i, j + 1) < p
+        grown[i, j] = tuple((r0 - d * up, r1 + d * down, c0 - d * left, c1 + d * right) for d in (context, band))
     tiles = []
-    for i in range(n_r):
-        for j in range(n_c):
-            r0, r1, c0, c1 = r_edges[i], r_edges[i + 1], c_edges[j], c_edges[j + 1]
-            p = phase(i, j)
-            # Grow the crop only towards finished (earlier-phase) sides.
-            up = i > 0 and phase(i - 1, j) < p
-            down = i + 1 < n_r and phase(i + 1, j) < p
-            left = j > 0 and phase(i, j - 1) < p
-            right = j + 1 < n_c and phase(i, j + 1) < p
-            crop = (r0 - context * up, r1 + context * down, c0 - context * left, c1 + context * right)
-            needs = tuple((a, b) for a in range(max(i - 1, 0), min(i + 2, n_r))
-                          for b in range(max(j - 1, 0), min(j + 2, n_c))
-                          if (a, b) != (i, j) and _overlaps(crop, (r_edges[a], r_edges[a + 1],
-                                                                   c_edges[b], c_edges[b + 1])))
-            # The checkerboard guarantees it; a broken plan must not run.
-            assert all(phase(a, b) < p for a, b in needs), (i, j, needs)
-            tiles.append(Tile(i, j, (r0, r1, c0, c1), crop, p, needs, tile_seed(seed, i, j)))
+    for (i, j), box in boxes.items():
+        p = phase(i, j)
+        crop, region = grown[i, j]
+        # Every earlier tile whose made cells reach into the crop (a
+        # diagonal neighbour's band may): what the tile sees is then fixed
+        # by the plan, whatever finished first.
+        needs = tuple((a, b) for a in range(max(i - 1, 0), min(i + 2, n_r)) for b in range(max(j - 1, 0), min(j + 2, n_c))
+                      if phase(a, b) < p and _overlaps(crop, grown[a, b][1]))
+        tiles.append(Tile(i, j, box, crop, region, p, needs, tile_seed(seed, i, j)))
     tiles.sort(key=lambda t: (t.phase, t.row, t.col))
-    return TilePlan((rows, cols), tile, context, r_edges, c_edges, tuple(tiles))
+    return TilePlan((rows, cols), tile, context, band, r_edges, c_edges, tuple(tiles))
 
 
 def _overlaps(a: Box, b: Box) -> bool:
     return a[0] < b[1] and b[0] < a[1] and a[2] < b[3] and b[2] < a[3]
+
+
+def _within(inner: Box, outer: Box) -> tuple[slice, slice]:
+    r0, r1, c0, c1 = inner
+    return slice(r0 - outer[0], r1 - outer[0]), slice(c0 - outer[2], c1 - outer[2])

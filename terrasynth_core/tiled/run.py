@@ -35,7 +35,7 @@ from ..synthesis.session import Session
 from .inputs import CoarseLevel, coarse_level, sketch_window
 from .output import write_geotiff_from_tiles
 from .plan import Tile, TilePlan, plan_tiles
-from .store import TileStore, run_digest, store_path
+from .store import TileStore, compose, run_digest, store_path
 from .tile import TileJob, synthesize_tile, tile_params
 
 __all__ = ["TileFinished", "TiledResult", "check_scheduler", "run_tiled"]
@@ -371,15 +371,6 @@ def _run_tiles(client, store: TileStore, plan: TilePlan, examples, sketch, coars
 
 def _job(tile: Tile, plan: TilePlan, store: TileStore, sketch, coarse, params) -> TileJob:
     """A tile's job: its sketch, its landform window and its neighbours' strips."""
-    context = None
-    if tile.needs:
-        r0, r1, c0, c1 = tile.crop
-        context = np.zeros((r1 - r0, c1 - c0), np.float32)
-        for key in tile.needs:
-            i, j = key
-            a0, a1, b0, b1 = plan.row_edges[i], plan.row_edges[i + 1], plan.col_edges[j], plan.col_edges[j + 1]
-            lo_r, hi_r, lo_c, hi_c = max(a0, r0), min(a1, r1), max(b0, c0), min(b1, c1)
-            strip = store.load(key, mmap=True)[lo_r - a0:hi_r - a0, lo_c - b0:hi_c - b0]
-            context[lo_r - r0:hi_r - r0, lo_c - c0:hi_c - c0] = strip
+    context = None if not tile.needs else compose(store, plan, tile.crop, set(tile.needs))
     return TileJob(tile, tile_params(params, tile), sketch_window(sketch, plan.shape, tile.crop),
                    None if coarse is None else coarse.window(tile.crop), context)

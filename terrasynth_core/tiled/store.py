@@ -28,7 +28,7 @@ from ..io._common import atomic_outputs, open_new
 from ..synthesis.params import SynthesisParams
 from .plan import TilePlan
 
-__all__ = ["STORE_FORMAT", "TileStore", "run_digest", "store_path"]
+__all__ = ["STORE_FORMAT", "TileStore", "compose", "run_digest", "store_path"]
 
 #: ``run.json``'s ``"format"``: a folder without it is not a tile store.
 STORE_FORMAT = "terrasynth-tiles"
@@ -63,7 +63,7 @@ def run_digest(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap |
     """
     h = hashlib.sha256()
     described = {"version": __version__, "store": STORE_VERSION, "params": params.to_dict(),
-                 "shape": list(plan.shape), "tile": plan.tile, "context": plan.context,
+                 "shape": list(plan.shape), "tile": plan.tile, "context": plan.context, "band": plan.band,
                  "rows": list(plan.row_edges), "cols": list(plan.col_edges), "examples": []}
     for ex in examples:
         heights = np.ascontiguousarray(ex.heights if isinstance(ex, HeightField) else ex)
@@ -139,7 +139,8 @@ class TileStore:
         return self.tile_path(key).exists()
 
     def load(self, key: tuple[int, int], *, mmap: bool = False) -> np.ndarray:
-        """A finished tile's heights, float32 (memory-mapped with ``mmap``)."""
+        """A finished tile's heights over its region, float32 (memory-mapped
+        with ``mmap``)."""
         return np.load(self.tile_path(key), mmap_mode="r" if mmap else None, allow_pickle=False)
 
     def save(self, key: tuple[int, int], heights: np.ndarray) -> None:
@@ -171,3 +172,36 @@ class TileStore:
     def remove(self) -> None:
         """Delete the store (after the output is written)."""
         shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def compose(store: TileStore, plan: TilePlan, box: tuple[int, int, int, int],
+            keys: set[tuple[int, int]] | None = None) -> np.ndarray:
+    """The terrain over ``box`` from the finished tiles: each cell from the
+    latest phase whose region holds it.
+
+    Parameters
+    ----------
+    store : TileStore
+    plan : TilePlan
+    box : (r0, r1, c0, c1)
+        Output cells.
+    keys : set of (row, col), optional
+        Only these tiles (default: every tile whose region meets ``box``).
+
+    Returns
+    -------
+    ndarray of float32, shape (r1 - r0, c1 - c0)
+        Zero where no tile given holds a cell.
+    """
+    r0, r1, c0, c1 = box
+    out = np.zeros((r1 - r0, c1 - c0), np.float32)
+    for tile in plan.tiles:  # in phase order: later phases paint over earlier ones
+        if keys is not None and tile.key not in keys:
+            continue
+        a0, a1, b0, b1 = tile.region
+        lo_r, hi_r, lo_c, hi_c = max(a0, r0), min(a1, r1), max(b0, c0), min(b1, c1)
+        if lo_r >= hi_r or lo_c >= hi_c:
+            continue
+        made = store.load(tile.key, mmap=True)
+        out[lo_r - r0:hi_r - r0, lo_c - c0:hi_c - c0] = made[lo_r - a0:hi_r - a0, lo_c - b0:hi_c - b0]
+    return out

@@ -49,6 +49,8 @@ class TileJob:
     context : ndarray of float32, shape of the crop, or None
         The finished neighbours' heights in the crop (metres; the tile's
         own cells are ignored); None for a tile without finished neighbours.
+        Those in the tile's band (``tile.region`` less ``tile.box``) may
+        change: the tile's seams run there.
     """
 
     tile: Tile
@@ -76,8 +78,8 @@ def synthesize_tile(job: TileJob, examples: Sequence[HeightField | np.ndarray]) 
 
     Returns
     -------
-    ndarray of float32, shape ``job.tile.shape``
-        The tile's heights, metres.
+    ndarray of float32, shape of ``job.tile.region``
+        The heights of the cells the tile makes, metres.
     """
     tile = job.tile
     r0, r1, c0, c1 = tile.crop
@@ -85,12 +87,19 @@ def synthesize_tile(job: TileJob, examples: Sequence[HeightField | np.ndarray]) 
     controls = Controls()
     if job.context is not None:
         selection = np.zeros(crop_shape, bool)
-        selection[tile.inner] = True
+        selection[tile.made] = True
         previous = np.array(job.context, dtype=np.float32)
-        previous[selection] = 0.0  # not read: those cells are synthesized
+        previous[tile.inner] = 0.0  # not read: those cells are synthesized
         controls = Controls(previous=previous, selection=selection)
     session = Session(examples, job.sketch, shape=crop_shape, params=job.params, controls=controls)
     state = RunState.start(session)
+    if job.context is not None:
+        # The band: terrain that is there (graph cuts weigh it as any
+        # filled cell) but may be replaced, so a seam can run through it.
+        band = np.zeros(crop_shape, bool)
+        band[tile.made] = True
+        band[tile.inner] = False
+        state.canvas.filled |= band
     if job.coarse is not None:
         # The pipeline's landform stage, with the whole map's landforms: the
         # level is the window of the global pass, the examples' detail is
@@ -99,4 +108,4 @@ def synthesize_tile(job: TileJob, examples: Sequence[HeightField | np.ndarray]) 
         state.layout = dataclasses.replace(state.layout, level=job.coarse.level(tile.crop), detail=detail,
                                            anchor=anchor)
     result = drive(run_pipeline(state), what=f"tile {tile.row},{tile.col}")
-    return np.ascontiguousarray(result.heights[tile.inner], dtype=np.float32)
+    return np.ascontiguousarray(result.heights[tile.made], dtype=np.float32)
