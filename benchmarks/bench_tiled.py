@@ -1,0 +1,156 @@
+"""Time tiled runs on Dask: time, speed-up over one worker, peak memory per
+worker and of the whole process tree, and the tile-border measure.
+
+Usage::
+
+    python benchmarks/bench_tiled.py                          # 2048^2 and 4096^2, 1 and 2 workers
+    python benchmarks/bench_tiled.py --sizes 8192 --workers 2 --json out.json
+
+Each run is a child process (``run_tiled`` on a fresh local cluster); this
+process samples the resident memory of the child and all its descendants
+(coordinator, nannies, workers) with psutil every 0.2 s, and measures the
+borders on the written GeoTIFF after the child has ended.  The examples'
+analysis cache is kept between runs (TERRASYNTH_CACHE_DIR, as a user's).
+The machine is shared: compare the ratios, not the seconds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import psutil
+
+from terrasynth_core.tiled.measure import border_ratio
+from terrasynth_core.tiled.plan import plan_tiles
+
+
+def _child(args) -> int:
+    """Run one tiled synthesis and print its figures as JSON."""
+    from terrasynth_core.examples import DEFAULT_EXAMPLE, DEFAULT_SKETCH, builtin_example, resource_path
+    from terrasynth_core.features import read_sketch
+    from terrasynth_core.synthesis import SynthesisParams
+    from terrasynth_core.tiled import run_tiled
+
+    example = builtin_example(DEFAULT_EXAMPLE).load()
+    sketch = read_sketch(resource_path("sketches", DEFAULT_SKETCH))
+    params = SynthesisParams(patch_size=args.patch, seed=args.seed)
+    result = run_tiled([example], sketch, shape=(args.size, args.size), tile=args.tile, out=args.out,
+                       params=params, workers=args.n)
+    print(json.dumps({"seconds": result.seconds, "timings": result.timings, "workers": result.workers}))
+    return 0
+
+
+class _TreeMemory:
+    """Peak resident memory of a process and its descendants, sampled."""
+
+    def __init__(self, pid: int, every: float = 0.2):
+        self.root = psutil.Process(pid)
+        self.peak_tree = 0
+        self.peak_each: dict[int, int] = {}
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._watch, args=(every,), daemon=True)
+        self._thread.start()
+
+    def _watch(self, every: float) -> None:
+        while not self._stop.is_set():
+            try:
+                procs = [self.root, *self.root.children(recursive=True)]
+            except psutil.NoSuchProcess:
+                return
+            total = 0
+            for p in procs:
+                try:
+                    rss = p.memory_info().rss
+                except psutil.NoSuchProcess:
+                    continue
+                total += rss
+                self.peak_each[p.pid] = max(self.peak_each.get(p.pid, 0), rss)
+            self.peak_tree = max(self.peak_tree, total)
+            self._stop.wait(every)
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join()
+
+
+def _run(size: int, tile: int, n: int, patch: int, seed: int, folder: Path) -> dict:
+    import rasterio
+
+    out = folder / f"tiled_{size}_{n}.tif"
+    cmd = [sys.executable, __file__, "--child", "--size", str(size), "--tile", str(tile), "--n", str(n),
+           "--patch", str(patch), "--seed", str(seed), "--out", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
+    memory = _TreeMemory(proc.pid)
+    stdout, _ = proc.communicate()
+    memory.stop()
+    if proc.returncode:
+        raise SystemExit(f"the run {size}x{size} with {n} worker(s) failed (exit {proc.returncode})")
+    figures = json.loads(stdout.strip().splitlines()[-1])
+    with rasterio.open(out) as ds:
+        heights = ds.read(1)
+    plan = plan_tiles((size, size), tile, patch_size=patch, seed=seed)
+    # The largest processes but the coordinator (the child itself) are the
+    # workers (nannies are small).
+    others = sorted((v for pid, v in memory.peak_each.items() if pid != proc.pid), reverse=True)
+    out.unlink()
+    return dict(size=size, tile=tile, workers=n, seconds=figures["seconds"], timings=figures["timings"],
+                peak_tree_mb=memory.peak_tree / 2**20, peak_worker_mb=(others[0] if others else 0) / 2**20,
+                peak_coordinator_mb=memory.peak_each.get(proc.pid, 0) / 2**20,
+                border_ratio=border_ratio(heights, plan))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default="2048,4096", help="output sides, comma-separated (default 2048,4096)")
+    ap.add_argument("--tile", type=int, default=1024, help="tile side (default 1024)")
+    ap.add_argument("--workers", default="1,2", help="worker counts, comma-separated (default 1,2)")
+    ap.add_argument("--patch", type=int, default=80)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", metavar="OUT", help="also write the rows as JSON")
+    ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--size", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--out", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.child:
+        return _child(args)
+    sizes = [int(s) for s in args.sizes.split(",")]
+    counts = [int(n) for n in args.workers.split(",")]
+    rows = []
+    print(f"{'size':>6} {'tile':>5} {'workers':>7} {'time s':>8} {'speed-up':>8} {'worker MB':>9} "
+          f"{'tree MB':>8} {'border':>7}", flush=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        for size in sizes:
+            first = None
+            for n in counts:
+                row = _run(size, args.tile, n, args.patch, args.seed, Path(tmp))
+                first = first or (row["seconds"] if n == 1 else None)
+                row["speed_up"] = None if first is None else first / row["seconds"]
+                rows.append(row)
+                speed = "-" if row["speed_up"] is None else f"{row['speed_up']:.2f}x"
+                print(f"{size:>6} {args.tile:>5} {n:>7} {row['seconds']:>8.1f} {speed:>8} "
+                      f"{row['peak_worker_mb']:>9.0f} {row['peak_tree_mb']:>8.0f} {row['border_ratio']:>7.3f}",
+                      flush=True)
+    by_size = {}
+    for r in rows:
+        by_size.setdefault(r["workers"], {})[r["size"]] = r["peak_tree_mb"]
+    for n, peaks in by_size.items():
+        if 2048 in peaks and 4096 in peaks:
+            print(f"tree memory 4096^2 / 2048^2 with {n} worker(s): {peaks[4096] / peaks[2048]:.2f}x")
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("PYTHONHASHSEED", "0")
+    sys.exit(main())
