@@ -273,19 +273,12 @@ def _client(workers: int | None, scheduler: str | None):
         return client, (client, None)
     n = workers or os.cpu_count() or 1
     # One thread per worker: a worker is one core (the engine runs in one
-    # process there); no dashboard unless its package is installed.
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=_dashboard(),
+    # process there).  The scheduler's web server (the dashboard when bokeh
+    # is installed) on a free port: a fixed one may be taken.
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                            silence_logs=logging.ERROR)
     client = Client(cluster)
     return client, (client, cluster)
-
-
-def _dashboard() -> str | None:
-    try:
-        import bokeh  # noqa: F401  (the dashboard's own dependency)
-    except ImportError:
-        return None
-    return ":0"
 
 
 def _close(client, own) -> None:
