@@ -217,6 +217,22 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
         notes.append("drainage is not applied to a tiled run (it needs the whole map's streams): the heights are "
                      "as synthesized")
     store = TileStore(store_path(out), run_digest(examples, sketch, params, plan))
+    try:
+        timings, n_workers, written = _run_stored(store, plan, examples, sketch, params, out, probe.cell_size, workers,
+                                                  scheduler, client, progress, cancel, notes)
+        reused = store.reused
+        if not keep_tiles:
+            store.remove()
+    finally:
+        store.close()  # a failed or cancelled run leaves its tiles for the next
+    cell = probe.cell_size
+    return TiledResult(out, (rows, cols), plan, reused, n_workers, time.perf_counter() - t_start, timings,
+                       tuple(notes), written.lowest, written.highest, cell)
+
+
+def _run_stored(store: TileStore, plan: TilePlan, examples, sketch, params, out: Path, cell: float | None,
+                workers, scheduler, client, progress, cancel, notes: list[str]):
+    """The landform pass, the tiles and the GeoTIFF, with ``store``."""
     timings: dict[str, float] = {}
     own = None
     if client is None:
@@ -224,7 +240,7 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
     try:
         n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
         t = time.perf_counter()
-        coarse, coarse_notes = _landform(client, store, examples, sketch, (rows, cols), params)
+        coarse, coarse_notes = _landform(client, store, examples, sketch, plan.shape, params)
         notes.extend(coarse_notes)
         timings["landform"] = time.perf_counter() - t
         t = time.perf_counter()
@@ -234,15 +250,10 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
         if own is not None:
             _close(client, own)
     t = time.perf_counter()
-    cell = probe.cell_size
-    georef = None if cell is None else output_georeference(examples, (rows, cols), cell)
+    georef = None if cell is None else output_georeference(examples, plan.shape, cell)
     written = write_geotiff_from_tiles(store, plan, out, cell_size=cell, georef=georef)
     timings["write"] = time.perf_counter() - t
-    reused = store.reused
-    if not keep_tiles:
-        store.remove()
-    return TiledResult(out, (rows, cols), plan, reused, n_workers, time.perf_counter() - t_start, timings,
-                       tuple(notes), written.lowest, written.highest, cell)
+    return timings, n_workers, written
 
 
 def _quiet(params: SynthesisParams) -> SynthesisParams:

@@ -101,16 +101,19 @@ class TileStore:
         self.digest = digest
         #: Tiles found from an earlier run of the same digest.
         self.reused = 0
+        self._lock = None
         marker = self.folder / "run.json"
         if self.folder.exists():
             if not self._is_store(marker):
                 raise ParamsError(f"{self.folder} exists and is not a TerraSynth tile store (no run.json of format "
                                   f"{STORE_FORMAT!r}): move it away, or give another --out")
+        else:
+            self.folder.mkdir(parents=True)
+        self._lock = _lock(self.folder)
+        if marker.exists():
             if json.loads(marker.read_text()).get("digest") != digest:
                 # Another run's tiles (changed inputs or parameters): never reused.
                 self._clear()
-        else:
-            self.folder.mkdir(parents=True)
         if not marker.exists():
             self._write_json(marker, {"format": STORE_FORMAT, "digest": digest})
         self.reused = len(list(self.folder.glob("tile_*.npy")))
@@ -169,9 +172,33 @@ class TileStore:
         # The description last: it says the pass is complete.
         self._write_json(self.folder / "coarse.json", dict(info, heights=heights is not None))
 
+    def close(self) -> None:
+        """Let another run use the store."""
+        if self._lock is not None:
+            self._lock.close()  # closing the file releases its lock
+            self._lock = None
+
     def remove(self) -> None:
         """Delete the store (after the output is written)."""
+        self.close()
         shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def _lock(folder: Path):
+    """An exclusive lock on the store for this process's run, released when
+    the file is closed or the process ends (a kill included), so a second
+    run on the same output is refused instead of mixing its tiles in."""
+    try:
+        import fcntl
+    except ImportError:  # Windows: no advisory locks; one run at a time is the user's care
+        return None
+    handle = open(folder / "lock", "a+b")
+    try:
+        fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        handle.close()
+        raise ParamsError(f"another run is writing {folder}: wait for it to end, or give another --out") from None
+    return handle
 
 
 def compose(store: TileStore, plan: TilePlan, box: tuple[int, int, int, int],

@@ -154,12 +154,16 @@ def test_resume_reuses_tiles_and_changed_params_do_not(reference, one_worker, wh
     assert np.array_equal(_read(out), heights)
 
     # Another seed: the kept tiles are another run's, never reused.
+    seen.clear()
     with pytest.raises(SynthesisCancelled):
         run_tiled([white_mountains], sketch, shape=SHAPE, tile=TILE, out=out, params=P, client=one_worker,
-                  cancel=lambda: True)
-    other = run_tiled([white_mountains], sketch, shape=SHAPE, tile=TILE, out=out,
-                      params=SynthesisParams(patch_size=32, k=2, seed=8), client=one_worker)
-    assert other.reused == 0 and not np.array_equal(_read(out), heights)
+                  progress=seen.append, cancel=lambda: len(seen) >= 2)
+    seen.clear()
+    with pytest.raises(SynthesisCancelled):
+        run_tiled([white_mountains], sketch, shape=SHAPE, tile=TILE, out=out, client=one_worker,
+                  params=SynthesisParams(patch_size=32, k=2, seed=8), progress=seen.append, cancel=lambda: True)
+    assert [e.reused for e in seen] == [False]
+    assert len(list(store_path(out).glob("tile_*.npy"))) == 1
 
 
 def test_kill_minus_nine_then_rerun_gives_the_same_bytes(reference, one_worker, white_mountains, sketch, tmp_path,
@@ -233,3 +237,14 @@ def test_cli_tiled_output_must_be_a_geotiff(tmp_path, capsys, dems_dir):
                           "--patch-size", "32", "--tile", "128", "--out", str(tmp_path / "o.png")])
     assert code == EXIT_BAD_INPUT
     assert "a tiled run writes a GeoTIFF" in capsys.readouterr().err
+
+
+def test_one_run_at_a_time_per_output(tmp_path):
+    from terrasynth_core.tiled.store import TileStore
+
+    folder = store_path(tmp_path / "busy.tif")
+    first = TileStore(folder, "a" * 64)
+    with pytest.raises(ParamsError, match="another run is writing"):
+        TileStore(folder, "a" * 64)
+    first.close()
+    TileStore(folder, "b" * 64).close()  # free again (and another run's digest empties it)
