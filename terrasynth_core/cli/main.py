@@ -280,8 +280,7 @@ def _fill_run_defaults(args: argparse.Namespace) -> None:
 
 #: ``synth`` options a tiled run does not take (a tiled run streams one
 #: GeoTIFF and applies no whole-map control), with why.
-_NOT_TILED = {"project": "render the project's sketch and examples with --sketch and --example",
-              "variations": "run the command once per seed", "report": None, "debug_dir": None, "cog": None,
+_NOT_TILED = {"variations": "run the command once per seed", "report": None, "debug_dir": None, "cog": None,
               "styles": None, "style": None, "water": None, "stamp": None, "pin": None, "height_range": None}
 
 
@@ -290,10 +289,7 @@ def _synth_tiled(args: argparse.Namespace) -> int:
     output synthesized as tiles on Dask (:mod:`terrasynth_core.tiled`)."""
     from tqdm import tqdm
 
-    from ..examples import resolve_dem
-    from ..features import read_sketch
-    from ..synthesis import SynthesisParams
-    from ..tiled import TileFinished, check_scheduler, run_tiled
+    from ..tiled import TileFinished, check_scheduler, run_tiled, tiled_inputs
     from ..tiled.run import check_tiled_output
 
     if args.tile is None:
@@ -308,22 +304,25 @@ def _synth_tiled(args: argparse.Namespace) -> int:
         if value not in (None, [], False) and not (name == "variations" and value == 1):
             option = "--" + name.replace("_", "-")
             raise TerraSynthError(f"{option} is not available with --tile" + (f": {how}" if how else ""))
-    _fill_run_defaults(args)
     if args.workers is not None and args.workers < 1:
         raise TerraSynthError(f"--workers must be at least 1, got {args.workers}")
-    if not args.example:
-        raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY)")
     out = check_tiled_output(Path(args.out))
-    sketch = read_sketch(args.sketch) if args.sketch else None
-    size = tuple(args.size) if args.size else (None if sketch is None else sketch.shape)
-    if size is None:
-        raise TerraSynthError("give the output --size (ROWSxCOLS) or a --sketch")
-    examples = [resolve_dem(e, band=args.band) for e in args.example]
-    params = SynthesisParams(
-        patch_size=args.patch_size, seed=args.seed, order=args.order, seam=args.seam, blend=args.blend,
-        cell_size=args.cell_size, drainage=not args.no_drainage, landform=not args.no_landform,
-        **({"overlap": args.overlap} if args.overlap is not None else {}),
-    )
+    if args.project:
+        import dataclasses
+
+        from ..project import read_project
+
+        given = [name for name in _RUN_OPTIONS if getattr(args, name) not in (None, [])]
+        if given:
+            raise TerraSynthError(f"--{given[0].replace('_', '-')} cannot be combined with --project {args.project}: "
+                                  "the project holds the examples, sketch and parameters")
+        project = read_project(args.project)
+        examples, sketch, params = tiled_inputs(project.run_spec())
+        if args.seed is not None:
+            params = dataclasses.replace(params, seed=args.seed)
+        size = tuple(args.size) if args.size else project.shape
+    else:
+        examples, sketch, params, size = _tiled_run_options(args)
     bar = tqdm(total=0, desc="tiles", unit="tile", file=sys.stderr, disable=None, leave=False)
 
     def progress(event) -> None:
@@ -346,6 +345,28 @@ def _synth_tiled(args: argparse.Namespace) -> int:
     print(f"wrote {out}: {rows}x{cols} in {grid} tiles of {tile} on {result.workers} worker(s) in "
           f"{result.seconds:.1f} s{kept}; heights {result.lowest:.1f} .. {result.highest:.1f} m", file=sys.stderr)
     return EXIT_OK
+
+
+def _tiled_run_options(args: argparse.Namespace):
+    """The examples, sketch, parameters and size of ``synth --tile`` without a project."""
+    from ..examples import resolve_dem
+    from ..features import read_sketch
+    from ..synthesis import SynthesisParams
+
+    _fill_run_defaults(args)
+    if not args.example:
+        raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY)")
+    sketch = read_sketch(args.sketch) if args.sketch else None
+    size = tuple(args.size) if args.size else (None if sketch is None else sketch.shape)
+    if size is None:
+        raise TerraSynthError("give the output --size (ROWSxCOLS) or a --sketch")
+    examples = [resolve_dem(e, band=args.band) for e in args.example]
+    params = SynthesisParams(
+        patch_size=args.patch_size, seed=args.seed, order=args.order, seam=args.seam, blend=args.blend,
+        cell_size=args.cell_size, drainage=not args.no_drainage, landform=not args.no_landform,
+        **({"overlap": args.overlap} if args.overlap is not None else {}),
+    )
+    return examples, sketch, params, size
 
 
 def _tile_size(text: str) -> int:

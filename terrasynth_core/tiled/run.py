@@ -38,7 +38,7 @@ from .plan import Tile, TilePlan, plan_tiles
 from .store import TileStore, compose, run_digest, store_path
 from .tile import TileJob, synthesize_tile, tile_params
 
-__all__ = ["TileFinished", "TiledResult", "check_scheduler", "run_tiled"]
+__all__ = ["TileFinished", "TiledResult", "check_scheduler", "run_tiled", "tiled_inputs"]
 
 #: Extensions a tiled run writes (the GeoTIFF is streamed; other formats
 #: would need the whole terrain in memory).
@@ -51,6 +51,9 @@ MAX_SIDE = 131_072
 #: idles while this process prepares the next job, and jobs (with their
 #: border strips) do not pile up on the workers.
 IN_FLIGHT_PER_WORKER = 2
+
+#: Seconds between two looks at ``cancel`` while tiles run.
+CANCEL_POLL = 0.25
 
 #: A scheduler address: ``tcp://host:port`` (or tls, ws, wss, ucx), or ``host:port``.
 _ADDRESS = re.compile(r"^((tcp|tls|ws|wss|ucx)://)?(\[[0-9a-fA-F:]+\]|[A-Za-z0-9_.-]+):\d{1,5}$")
@@ -128,6 +131,26 @@ def check_scheduler(address: str) -> str:
         raise ParamsError(f"scheduler address {address!r}: expected tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786, "
                           "the address a dask scheduler prints)")
     return address.strip()
+
+
+def tiled_inputs(spec) -> tuple[list[HeightField], SketchMap | None, SynthesisParams]:
+    """The examples, sketch and parameters of a project's run
+    (:class:`~terrasynth_core.project.RunSpec`) for a tiled run.
+
+    Raises
+    ------
+    ParamsError
+        Naming the first control a tiled run does not take (styles, water,
+        stamps, pins, a height range, a re-synthesis).
+    """
+    unsupported = [("style regions", bool(spec.styles)), ("water", spec.water is not None and bool(spec.water.any())),
+                   ("stamps", bool(spec.stamps)), ("pins", bool(spec.pins)),
+                   ("a height range", spec.height_range is not None), ("a re-synthesis", spec.selection is not None)]
+    for what, used in unsupported:
+        if used:
+            raise ParamsError(f"the project uses {what}, which a tiled run does not take yet: render it without tiles, "
+                              f"or remove {what} from a copy of the project")
+    return list(spec.example_fields()), spec.sketch_map, spec.params
 
 
 def check_tiled_output(out: Path) -> Path:
@@ -320,7 +343,7 @@ def _landform(client, store: TileStore, examples, sketch, shape, params) -> tupl
 def _run_tiles(client, store: TileStore, plan: TilePlan, examples, sketch, coarse, params, n_workers: int,
                progress, cancel) -> None:
     """Submit each tile when its needs are finished; keep each result."""
-    from distributed import as_completed
+    from distributed import wait
 
     tiles = plan.by_key()
     done = {key for key in tiles if store.has(key)}
@@ -336,7 +359,6 @@ def _run_tiles(client, store: TileStore, plan: TilePlan, examples, sketch, coars
         return
     shared = client.scatter(list(examples), broadcast=True)
     limit = IN_FLIGHT_PER_WORKER * n_workers
-    running = as_completed()
     pending: dict[str, object] = {}  # future key -> (future, tile)
 
     def submit_ready() -> None:
@@ -349,20 +371,23 @@ def _run_tiles(client, store: TileStore, plan: TilePlan, examples, sketch, coars
                 future = client.submit(synthesize_tile, job, shared, key=f"tile-{t.row}-{t.col}-{store.digest[:12]}",
                                        retries=1, pure=False)
                 pending[future.key] = (future, t)
-                running.add(future)
 
     try:
         submit_ready()
-        for future in running:
-            tile = pending[future.key][1]
-            heights = future.result()
-            del pending[future.key]
-            future.release()
-            store.save(tile.key, heights)
-            done.add(tile.key)
-            count += 1
-            if progress is not None:
-                progress(TileFinished(tile.row, tile.col, count, total, False))
+        while pending:
+            try:
+                finished, _ = wait([f for f, _ in pending.values()], timeout=CANCEL_POLL, return_when="FIRST_COMPLETED")
+            except TimeoutError:
+                finished = set()
+            for future in sorted(finished, key=lambda f: pending[f.key][1].key):
+                tile = pending.pop(future.key)[1]
+                heights = future.result()
+                future.release()
+                store.save(tile.key, heights)
+                done.add(tile.key)
+                count += 1
+                if progress is not None:
+                    progress(TileFinished(tile.row, tile.col, count, total, False))
             if cancel is not None and cancel():
                 raise SynthesisCancelled("tiled synthesis cancelled")
             submit_ready()

@@ -161,9 +161,9 @@ def test_resume_reuses_tiles_and_changed_params_do_not(reference, one_worker, wh
     seen.clear()
     with pytest.raises(SynthesisCancelled):
         run_tiled([white_mountains], sketch, shape=SHAPE, tile=TILE, out=out, client=one_worker,
-                  params=SynthesisParams(patch_size=32, k=2, seed=8), progress=seen.append, cancel=lambda: True)
-    assert [e.reused for e in seen] == [False]
-    assert len(list(store_path(out).glob("tile_*.npy"))) == 1
+                  params=SynthesisParams(patch_size=32, k=2, seed=8), progress=seen.append, cancel=lambda: bool(seen))
+    assert seen and not any(e.reused for e in seen)
+    assert len(list(store_path(out).glob("tile_*.npy"))) == len(seen)
 
 
 def test_kill_minus_nine_then_rerun_gives_the_same_bytes(reference, one_worker, white_mountains, sketch, tmp_path,
