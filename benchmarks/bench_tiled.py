@@ -5,6 +5,7 @@ Usage::
 
     python benchmarks/bench_tiled.py                          # 2048^2 and 4096^2, 1 and 2 workers
     python benchmarks/bench_tiled.py --sizes 8192 --workers 2 --json out.json
+    python benchmarks/bench_tiled.py --sizes 2048 --workers 1 --baseline   # + a whole-map run's border figure
 
 Each run is a child process (``run_tiled`` on a fresh local cluster); this
 process samples the resident memory of the child and all its descendants
@@ -12,6 +13,11 @@ process samples the resident memory of the child and all its descendants
 borders on the written GeoTIFF after the child has ended.  The examples'
 analysis cache is kept between runs (TERRASYNTH_CACHE_DIR, as a user's).
 The machine is shared: compare the ratios, not the seconds.
+
+The border measure is noisy where there are few borders (a sketch stroke
+crossing one dominates its top 0.1 %): ``--baseline`` also synthesizes the
+same problem as one whole map (no tiles, one process) and measures it on
+the same grid, which says what the measure gives without any tile.
 """
 
 from __future__ import annotations
@@ -33,15 +39,29 @@ from terrasynth_core.tiled.measure import border_ratio
 from terrasynth_core.tiled.plan import plan_tiles
 
 
-def _child(args) -> int:
-    """Run one tiled synthesis and print its figures as JSON."""
+def _inputs():
     from terrasynth_core.examples import DEFAULT_EXAMPLE, DEFAULT_SKETCH, builtin_example, resource_path
     from terrasynth_core.features import read_sketch
+
+    return builtin_example(DEFAULT_EXAMPLE).load(), read_sketch(resource_path("sketches", DEFAULT_SKETCH))
+
+
+def _baseline(size: int, tile: int, patch: int, seed: int) -> float:
+    """The border measure of a whole-map run (no tiles) on the tile grid."""
+    from terrasynth_core.synthesis import Session, SynthesisParams
+
+    example, sketch = _inputs()
+    params = SynthesisParams(patch_size=patch, seed=seed, drainage=False, workers=1)
+    heights = Session([example], sketch, shape=(size, size), params=params).run().heights
+    return border_ratio(heights, plan_tiles((size, size), tile, patch_size=patch, seed=seed))
+
+
+def _child(args) -> int:
+    """Run one tiled synthesis and print its figures as JSON."""
     from terrasynth_core.synthesis import SynthesisParams
     from terrasynth_core.tiled import run_tiled
 
-    example = builtin_example(DEFAULT_EXAMPLE).load()
-    sketch = read_sketch(resource_path("sketches", DEFAULT_SKETCH))
+    example, sketch = _inputs()
     params = SynthesisParams(patch_size=args.patch, seed=args.seed)
     result = run_tiled([example], sketch, shape=(args.size, args.size), tile=args.tile, out=args.out,
                        params=params, workers=args.n)
@@ -116,6 +136,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--patch", type=int, default=80)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", metavar="OUT", help="also write the rows as JSON")
+    ap.add_argument("--baseline", action="store_true",
+                    help="also measure the borders of a whole-map run of each size (slow: one process)")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--size", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
@@ -143,6 +165,10 @@ def main(argv: list[str] | None = None) -> int:
     by_size = {}
     for r in rows:
         by_size.setdefault(r["workers"], {})[r["size"]] = r["peak_tree_mb"]
+    if args.baseline:
+        for size in sizes:
+            print(f"whole-map run {size}x{size} (no tiles) on the same grid: border "
+                  f"{_baseline(size, args.tile, args.patch, args.seed):.3f}", flush=True)
     for n, peaks in by_size.items():
         if 2048 in peaks and 4096 in peaks:
             print(f"tree memory 4096^2 / 2048^2 with {n} worker(s): {peaks[4096] / peaks[2048]:.2f}x")
