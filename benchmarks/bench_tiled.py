@@ -29,10 +29,8 @@ import subprocess
 import sys
 import tempfile
 import threading
-import time
 from pathlib import Path
 
-import numpy as np
 import psutil
 
 from terrasynth_core.tiled.measure import border_ratio

@@ -19,6 +19,7 @@ import dataclasses
 import logging
 import os
 import re
+import secrets
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -359,6 +360,9 @@ def _run_tiles(client, store: TileStore, plan: TilePlan, examples, sketch, coars
         return
     shared = client.scatter(list(examples), broadcast=True)
     limit = IN_FLIGHT_PER_WORKER * n_workers
+    # Task names for the dashboard; unique per run, so a cancelled run's
+    # tasks still being dropped never stand for this run's on a shared client.
+    run_id = secrets.token_hex(4)
     pending: dict[str, object] = {}  # future key -> (future, tile)
 
     def submit_ready() -> None:
@@ -368,7 +372,7 @@ def _run_tiles(client, store: TileStore, plan: TilePlan, examples, sketch, coars
             if all(n in done for n in t.needs):
                 waiting.remove(t)
                 job = _job(t, plan, store, sketch, coarse, params)
-                future = client.submit(synthesize_tile, job, shared, key=f"tile-{t.row}-{t.col}-{store.digest[:12]}",
+                future = client.submit(synthesize_tile, job, shared, key=f"tile-{t.row}-{t.col}-{run_id}",
                                        retries=1, pure=False)
                 pending[future.key] = (future, t)
 
