@@ -31,6 +31,7 @@ import tempfile
 import threading
 from pathlib import Path
 
+import numpy as np
 import psutil
 
 from terrasynth_core.tiled.measure import border_ratio
@@ -42,6 +43,24 @@ def _inputs():
     from terrasynth_core.features import read_sketch
 
     return builtin_example(DEFAULT_EXAMPLE).load(), read_sketch(resource_path("sketches", DEFAULT_SKETCH))
+
+
+def _library(n: int) -> list:
+    """``n`` example DEMs, a stand-in for a large library of real ones: the
+    two large built-ins (White Mountains, Gabon plateau) in their eight
+    rotations and mirror images, then their central 1000 x 1000 crops so
+    turned.  (The other built-ins, at the common cell size, are too small
+    for the landform pass, which would then be left out for all.)"""
+    from terrasynth_core.examples import builtin_example
+
+    fields = [builtin_example(key).load() for key in ("white-mountains", "gabon-plateau")]
+    turns = [lambda h, k=k, m=m: np.rot90(h[:, ::-1] if m else h, k) for m in (False, True) for k in range(4)]
+    variants = [(f, t, None) for t in turns for f in fields] + [(f, t, 100) for t in turns for f in fields]
+    out = []
+    for field, turn, margin in variants[:n]:
+        heights = field.heights if margin is None else field.heights[margin:-margin, margin:-margin]
+        out.append(field.with_heights(np.ascontiguousarray(turn(heights))))
+    return out
 
 
 def _baseline(size: int, tile: int, patch: int, seed: int) -> float:
@@ -60,8 +79,11 @@ def _child(args) -> int:
     from terrasynth_core.tiled import run_tiled
 
     example, sketch = _inputs()
-    params = SynthesisParams(patch_size=args.patch, seed=args.seed)
-    result = run_tiled([example], sketch, shape=(args.size, args.size), tile=args.tile, out=args.out,
+    examples = [example] if args.library == 1 else _library(args.library)
+    # Examples are resampled to one cell size: the Gabon plateau's, so a
+    # library's examples are not enlarged.
+    params = SynthesisParams(patch_size=args.patch, seed=args.seed, cell_size=None if args.library == 1 else 92.66)
+    result = run_tiled(examples, sketch, shape=(args.size, args.size), tile=args.tile, out=args.out,
                        params=params, workers=args.n)
     print(json.dumps({"seconds": result.seconds, "timings": result.timings, "workers": result.workers}))
     return 0
@@ -100,12 +122,12 @@ class _TreeMemory:
         self._thread.join()
 
 
-def _run(size: int, tile: int, n: int, patch: int, seed: int, folder: Path) -> dict:
+def _run(size: int, tile: int, n: int, patch: int, seed: int, folder: Path, library: int = 1) -> dict:
     import rasterio
 
     out = folder / f"tiled_{size}_{n}.tif"
     cmd = [sys.executable, __file__, "--child", "--size", str(size), "--tile", str(tile), "--n", str(n),
-           "--patch", str(patch), "--seed", str(seed), "--out", str(out)]
+           "--patch", str(patch), "--seed", str(seed), "--out", str(out), "--library", str(library)]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
     memory = _TreeMemory(proc.pid)
     stdout, _ = proc.communicate()
@@ -120,7 +142,7 @@ def _run(size: int, tile: int, n: int, patch: int, seed: int, folder: Path) -> d
     # workers (nannies are small).
     others = sorted((v for pid, v in memory.peak_each.items() if pid != proc.pid), reverse=True)
     out.unlink()
-    return dict(size=size, tile=tile, workers=n, seconds=figures["seconds"], timings=figures["timings"],
+    return dict(size=size, tile=tile, workers=n, library=library, seconds=figures["seconds"], timings=figures["timings"],
                 peak_tree_mb=memory.peak_tree / 2**20, peak_worker_mb=(others[0] if others else 0) / 2**20,
                 peak_coordinator_mb=memory.peak_each.get(proc.pid, 0) / 2**20,
                 border_ratio=border_ratio(heights, plan))
@@ -136,6 +158,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", metavar="OUT", help="also write the rows as JSON")
     ap.add_argument("--baseline", action="store_true",
                     help="also measure the borders of a whole-map run of each size (slow: one process)")
+    ap.add_argument("--library", type=int, default=1,
+                    help="example DEMs: 1 (White Mountains) or N (two built-ins rotated and mirrored, then their "
+                         "crops; cells of 92.66 m)")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--size", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
@@ -152,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
         for size in sizes:
             first = None
             for n in counts:
-                row = _run(size, args.tile, n, args.patch, args.seed, Path(tmp))
+                row = _run(size, args.tile, n, args.patch, args.seed, Path(tmp), args.library)
                 first = first or (row["seconds"] if n == 1 else None)
                 row["speed_up"] = None if first is None else first / row["seconds"]
                 rows.append(row)
