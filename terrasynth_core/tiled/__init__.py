@@ -4,7 +4,8 @@ deterministic, resumable, streamed to a tiled GeoTIFF.
 Modules: :mod:`.plan` (the tile grid, its checkerboard phases and seeds),
 :mod:`.inputs` (a tile's sketch and landform windows), :mod:`.tile` (one
 tile's synthesis, on a worker), :mod:`.store` (finished tiles on disk),
-:mod:`.output` (the streamed GeoTIFF), :mod:`.run` (the Dask run).
+:mod:`.output` (the streamed GeoTIFF), :mod:`.run` (the Dask run),
+:mod:`.measure` (whether tile borders show).
 """
 
 from typing import TYPE_CHECKING
