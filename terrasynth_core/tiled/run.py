@@ -263,12 +263,17 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, sketch, params, out:
         client, own = _client(workers, scheduler)
     try:
         n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
+        # The examples go to every worker once, as data rather than inside
+        # each task (the scheduler warns of, and slows on, large tasks).
+        # Keys unique to this run (hash=False): a finished run's data being
+        # released on a shared client never takes this run's with it.
+        shared = client.scatter(list(examples), broadcast=True, hash=False)
         t = time.perf_counter()
-        coarse, coarse_notes = _landform(client, store, examples, sketch, plan.shape, params)
+        coarse, coarse_notes = _landform(client, store, shared, sketch, plan.shape, params)
         notes.extend(coarse_notes)
         timings["landform"] = time.perf_counter() - t
         t = time.perf_counter()
-        _run_tiles(client, store, plan, examples, sketch, coarse, params, n_workers, progress, cancel)
+        _run_tiles(client, store, plan, shared, sketch, coarse, params, n_workers, progress, cancel)
         timings["tiles"] = time.perf_counter() - t
     finally:
         if own is not None:
@@ -326,7 +331,7 @@ def _close(client, own) -> None:
 # -- the landform pass -------------------------------------------------------------------------
 def _landform(client, store: TileStore, examples, sketch, shape, params) -> tuple[CoarseLevel | None, list[str]]:
     """The landform pass over the whole map, on a worker; kept in the store
-    (a resumed run does not make it again)."""
+    (a resumed run does not make it again).  ``examples``: their futures."""
     kept = store.load_coarse()
     if kept is None:
         coarse, notes = client.submit(coarse_level, examples, sketch, shape, params, pure=False).result()
@@ -341,9 +346,10 @@ def _landform(client, store: TileStore, examples, sketch, shape, params) -> tupl
 
 
 # -- the tiles ---------------------------------------------------------------------------------
-def _run_tiles(client, store: TileStore, plan: TilePlan, examples, sketch, coarse, params, n_workers: int,
+def _run_tiles(client, store: TileStore, plan: TilePlan, shared, sketch, coarse, params, n_workers: int,
                progress, cancel) -> None:
-    """Submit each tile when its needs are finished; keep each result."""
+    """Submit each tile when its needs are finished; keep each result.
+    ``shared``: the examples' futures."""
     from distributed import wait
 
     tiles = plan.by_key()
@@ -358,12 +364,11 @@ def _run_tiles(client, store: TileStore, plan: TilePlan, examples, sketch, coars
     waiting = [t for t in plan.tiles if t.key not in done]  # in plan order: phase, row, col
     if not waiting:
         return
-    shared = client.scatter(list(examples), broadcast=True)
     limit = IN_FLIGHT_PER_WORKER * n_workers
     # Task names for the dashboard; unique per run, so a cancelled run's
     # tasks still being dropped never stand for this run's on a shared client.
     run_id = secrets.token_hex(4)
-    pending: dict[str, object] = {}  # future key -> (future, tile)
+    pending: dict[str, tuple] = {}  # future key -> (future, tile, job future)
 
     def submit_ready() -> None:
         for t in list(waiting):
@@ -371,22 +376,25 @@ def _run_tiles(client, store: TileStore, plan: TilePlan, examples, sketch, coars
                 return
             if all(n in done for n in t.needs):
                 waiting.remove(t)
-                job = _job(t, plan, store, sketch, coarse, params)
+                # The job (its border strips: megabytes) is sent as data too.
+                job = client.scatter(_job(t, plan, store, sketch, coarse, params), hash=False)
                 future = client.submit(synthesize_tile, job, shared, key=f"tile-{t.row}-{t.col}-{run_id}",
                                        retries=1, pure=False)
-                pending[future.key] = (future, t)
+                pending[future.key] = (future, t, job)  # the job's data lives while the task does
 
     try:
         submit_ready()
         while pending:
             try:
-                finished, _ = wait([f for f, _ in pending.values()], timeout=CANCEL_POLL, return_when="FIRST_COMPLETED")
+                finished, _ = wait([f for f, _, _ in pending.values()], timeout=CANCEL_POLL,
+                                   return_when="FIRST_COMPLETED")
             except TimeoutError:
                 finished = set()
             for future in sorted(finished, key=lambda f: pending[f.key][1].key):
-                tile = pending.pop(future.key)[1]
+                _, tile, job = pending.pop(future.key)
                 heights = future.result()
                 future.release()
+                job.release()
                 store.save(tile.key, heights)
                 done.add(tile.key)
                 count += 1
@@ -398,8 +406,9 @@ def _run_tiles(client, store: TileStore, plan: TilePlan, examples, sketch, coars
     finally:
         # On an error or a cancel, tasks not finished are dropped (their
         # tiles are made again by the next run).
-        for future, _ in pending.values():
+        for future, _, job in pending.values():
             future.cancel()
+            job.release()
 
 
 def _job(tile: Tile, plan: TilePlan, store: TileStore, sketch, coarse, params) -> TileJob:
