@@ -5,13 +5,15 @@ model's event generators on a latest-request-wins worker;
 :class:`FilesController` reads and writes projects, sketches, imports and
 exports; :class:`AutosaveController` autosaves and recovers;
 :class:`FeatureGraphController` keeps a derived feature graph up to date;
-:class:`LiveController` re-makes the terrain near each finished stroke.
+:class:`LiveController` re-makes the terrain near each finished stroke;
+:class:`LargeRenderController` renders the document at a world size, tiled.
 Views import only the names listed here.
 """
 
 from .autosave import AUTOSAVE_MS, AutosaveController
 from .feature_graphs import FeatureGraphController
 from .files import FilesController
+from .large_render import LargeRenderController
 from .live import LIVE_DELAY_MS, LiveController
 from .synthesis import SynthesisController, VariationsController, new_seeds
 
@@ -20,6 +22,7 @@ __all__ = [
     "AutosaveController",
     "FeatureGraphController",
     "FilesController",
+    "LargeRenderController",
     "LIVE_DELAY_MS",
     "LiveController",
     "SynthesisController",

@@ -50,6 +50,9 @@ class MainActions:
                                        tip="Synthesize several terrains with different seeds and pick one")
         self.export = self._action("Export terrain…", window.export_terrain, shortcut=QKeySequence("Ctrl+E"),
                                    tip="Write the terrain as a DEM or a mesh")
+        self.render_large = self._action("Render large…", window.render_large,
+                                         tip="Render the sketch at a world size (8k, 16k…) as tiles on Dask, in the "
+                                             "background, to a GeoTIFF")
         self.export_for = {
             key: self._action(f"{title}…", lambda _=False, key=key: files.export_for(key),
                               tip="Heightmaps sized and scaled for this tool, with its import settings"
@@ -89,6 +92,7 @@ class MainActions:
         file_menu.addSeparator()
         file_menu.addAction(self.export)
         file_menu.addMenu("Export for…").addActions(list(self.export_for.values()))
+        file_menu.addAction(self.render_large)
         file_menu.addSeparator()
         file_menu.addAction(quit_action)
 

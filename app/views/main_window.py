@@ -14,6 +14,7 @@ they were.
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 
 import numpy as np
 from PySide6.QtCore import QSettings, Qt, QTimer, Signal
@@ -21,7 +22,7 @@ from PySide6.QtWidgets import (QDockWidget, QFileDialog, QFrame, QInputDialog, Q
                                QSplitter, QTabWidget)
 
 from ..controllers import (AUTOSAVE_MS, AutosaveController, FeatureGraphController, FilesController,
-                           LiveController, SynthesisController, VariationsController)
+                           LargeRenderController, LiveController, SynthesisController, VariationsController)
 from ..model import Document, RecoveryStore, SketchGraph, TerrainGraph
 from ..model.readout import cell_readout
 from ..model.water_check import document_drowning
@@ -37,6 +38,7 @@ from .run_status import ElidingStatusBar, RunStatus
 from .sketch_canvas import GRAPH_DELAY_MS, SketchCanvas
 from .style_panel import StylePanel
 from .terrain_view_3d import TerrainView3D
+from .large_render_dialog import LargeRenderDialog
 from .variations_dialog import VariationsDialog
 
 log = logging.getLogger(__name__)
@@ -89,6 +91,9 @@ class MainWindow(QMainWindow):
         sketch_graph = FeatureGraphController(SketchGraph(doc.sketch), delay_ms=GRAPH_DELAY_MS, parent=self)
         terrain_graph = FeatureGraphController(TerrainGraph(doc), parent=self)
         self.variations_dialog: VariationsDialog | None = None
+        #: File > Render large...: the document tiled on Dask (its dialog made on first use).
+        self.large_render = LargeRenderController(doc, self)
+        self.large_render_dialog: LargeRenderDialog | None = None
         self.resize(1500, 900)
 
         self.canvas = SketchCanvas(doc.sketch, document=doc, graphs=sketch_graph)
@@ -148,7 +153,7 @@ class MainWindow(QMainWindow):
 
     def _connect(self) -> None:
         for source in (self.synthesis, self.variations, self.live, self.file_controller, self.autosave,
-                       self.pin_stamp_requests):
+                       self.pin_stamp_requests, self.large_render):
             source.status.connect(self.show_status)
             source.error.connect(self.report_error)
         for message in (self.examples.load_failed, self.styles.style_load_failed,
@@ -247,6 +252,15 @@ class MainWindow(QMainWindow):
         self.variations_dialog.follow(self.variations)
         self.variations_dialog.show()
 
+    def render_large(self) -> LargeRenderDialog:
+        """Show the *Render large* dialog (one per window)."""
+        if self.large_render_dialog is None:
+            self.large_render_dialog = LargeRenderDialog(self.large_render, str(Path.home() / "terrain_large.tif"),
+                                                         self)
+        self.large_render_dialog.show()
+        self.large_render_dialog.raise_()
+        return self.large_render_dialog
+
     # -- export and screenshots -----------------------------------------------------------------
     def export_terrain(self) -> None:
         self.files.export_terrain(screenshot=self.save_screenshot)
@@ -304,6 +318,7 @@ class MainWindow(QMainWindow):
         self.synthesis.wait()
         self.live.wait()
         self.variations.wait()
+        self.large_render.wait()
         self.autosave.discard()
         if self.view3d.plotter is not None:
             self.view3d.plotter.close()

@@ -235,6 +235,8 @@ def cmd_synth(args: argparse.Namespace) -> int:
 
     from .controls import controls_from_args
 
+    if args.tile is not None or args.scheduler is not None:
+        return _synth_tiled(args)
     if args.project:
         return _synth_project(args)
     _fill_run_defaults(args)
@@ -274,6 +276,107 @@ def _fill_run_defaults(args: argparse.Namespace) -> None:
     args.no_landform = bool(args.no_landform)
     if args.seed is None:
         args.seed = 0
+
+
+#: ``synth`` options a tiled run does not take (a tiled run streams one
+#: GeoTIFF and applies no whole-map control), with why.
+_NOT_TILED = {"variations": "run the command once per seed", "report": None, "debug_dir": None, "cog": None,
+              "styles": None, "style": None, "water": None, "stamp": None, "pin": None, "height_range": None}
+
+
+def _synth_tiled(args: argparse.Namespace) -> int:
+    """``synth --tile N [--size RxC] [--workers N | --scheduler ADDR]``: the
+    output synthesized as tiles on Dask (:mod:`terrasynth_core.tiled`)."""
+    from tqdm import tqdm
+
+    from ..tiled import TileFinished, check_scheduler, run_tiled, tiled_inputs
+    from ..tiled.run import check_tiled_output
+
+    if args.tile is None:
+        raise TerraSynthError("--scheduler runs a tiled synthesis: give the tile size too (--tile 1024)")
+    tile = _tile_size(args.tile)
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
+        if args.workers is not None:
+            raise TerraSynthError("--workers starts a local cluster; with --scheduler the cluster's workers are used")
+    for name, how in _NOT_TILED.items():
+        value = getattr(args, name, None)
+        if value not in (None, [], False) and not (name == "variations" and value == 1):
+            option = "--" + name.replace("_", "-")
+            raise TerraSynthError(f"{option} is not available with --tile" + (f": {how}" if how else ""))
+    if args.workers is not None and args.workers < 1:
+        raise TerraSynthError(f"--workers must be at least 1, got {args.workers}")
+    out = check_tiled_output(Path(args.out))
+    if args.project:
+        import dataclasses
+
+        from ..project import read_project
+
+        given = [name for name in _RUN_OPTIONS if getattr(args, name) not in (None, [])]
+        if given:
+            raise TerraSynthError(f"--{given[0].replace('_', '-')} cannot be combined with --project {args.project}: "
+                                  "the project holds the examples, sketch and parameters")
+        project = read_project(args.project)
+        examples, sketch, params = tiled_inputs(project.run_spec())
+        if args.seed is not None:
+            params = dataclasses.replace(params, seed=args.seed)
+        size = tuple(args.size) if args.size else project.shape
+    else:
+        examples, sketch, params, size = _tiled_run_options(args)
+    bar = tqdm(total=0, desc="tiles", unit="tile", file=sys.stderr, disable=None, leave=False)
+
+    def progress(event) -> None:
+        if isinstance(event, TileFinished):
+            bar.total = event.total
+            bar.update(event.done - bar.n)
+            if event.reused and event.done == event.total:
+                bar.set_postfix_str("all kept from the last run")
+
+    try:
+        result = run_tiled(examples, sketch, shape=size, tile=tile, out=out, params=params, workers=args.workers,
+                           scheduler=args.scheduler, keep_tiles=args.keep_tiles, progress=progress)
+    finally:
+        bar.close()
+    for note in result.notes:
+        print(f"terrasynth-cli: note: {note}", file=sys.stderr)
+    rows, cols = result.shape
+    grid = "x".join(str(v) for v in result.plan.grid)
+    kept = f", {result.reused} kept from an interrupted run" if result.reused else ""
+    print(f"wrote {out}: {rows}x{cols} in {grid} tiles of {tile} on {result.workers} worker(s) in "
+          f"{result.seconds:.1f} s{kept}; heights {result.lowest:.1f} .. {result.highest:.1f} m", file=sys.stderr)
+    return EXIT_OK
+
+
+def _tiled_run_options(args: argparse.Namespace):
+    """The examples, sketch, parameters and size of ``synth --tile`` without a project."""
+    from ..examples import resolve_dem
+    from ..features import read_sketch
+    from ..synthesis import SynthesisParams
+
+    _fill_run_defaults(args)
+    if not args.example:
+        raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY)")
+    sketch = read_sketch(args.sketch) if args.sketch else None
+    size = tuple(args.size) if args.size else (None if sketch is None else sketch.shape)
+    if size is None:
+        raise TerraSynthError("give the output --size (ROWSxCOLS) or a --sketch")
+    examples = [resolve_dem(e, band=args.band) for e in args.example]
+    params = SynthesisParams(
+        patch_size=args.patch_size, seed=args.seed, order=args.order, seam=args.seam, blend=args.blend,
+        cell_size=args.cell_size, drainage=not args.no_drainage, landform=not args.no_landform,
+        **({"overlap": args.overlap} if args.overlap is not None else {}),
+    )
+    return examples, sketch, params, size
+
+
+def _tile_size(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise TerraSynthError(f"--tile {text!r}: expected a tile side in cells, a whole number such as 1024")
+    return value
 
 
 def _synth_project(args: argparse.Namespace) -> int:
@@ -608,7 +711,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="parameters, patch counts, timings, the source reuse and every patch as JSON")
     p.add_argument("--debug-dir", metavar="DIR", help="write patch ids, seams and features there")
     p.add_argument("--workers", type=int, metavar="N",
-                   help="processes that fill windows (default: one per core; the terrain is the same)")
+                   help="processes that fill windows (default: one per core; the terrain is the same); with --tile, "
+                        "the Dask workers of the local cluster")
+    p.add_argument("--tile", metavar="N",
+                   help="synthesize the output as N x N tiles on Dask (world-size terrains; GeoTIFF output, "
+                        "resumable: finished tiles are kept in OUT.tiles until the output is written)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="with --tile: run on the Dask cluster of this scheduler (tcp://host:8786) instead of "
+                        "local worker processes")
+    p.add_argument("--keep-tiles", action="store_true", help="with --tile: keep OUT.tiles after the output is written")
     add_control_arguments(p)
     p.set_defaults(func=cmd_synth)
 

@@ -155,9 +155,13 @@ def _executor(processes: int):
     from loky import get_reusable_executor
 
     # One BLAS thread per worker: the processes themselves use the cores
-    # (see pipeline.run_pipeline for what BLAS threads on top cost).
+    # (see pipeline.run_pipeline for what BLAS threads on top cost).  A
+    # worker keeps its run's kit (searches, indexes) by design: loky, where
+    # psutil is installed (Dask brings it), would take that growth for a
+    # leak and restart the worker mid-run, with a warning.
     return get_reusable_executor(max_workers=processes, timeout=IDLE_SECONDS,
-                                 env={name: "1" for name in _THREAD_VARIABLES})
+                                 env={**{name: "1" for name in _THREAD_VARIABLES},
+                                      "LOKY_MAX_MEMORY_LEAK_SIZE": str(2**62)})
 
 
 #: Environment variables that hold native libraries to one thread.

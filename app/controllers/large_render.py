@@ -1,0 +1,70 @@
+"""*Render large...*: the document rendered as tiles on Dask, in the
+background, with progress and cancel (:mod:`terrasynth_app.model.large_render`)."""
+
+from __future__ import annotations
+
+from PySide6.QtCore import QObject, Signal
+
+from terrasynth_core.errors import TerraSynthError
+from terrasynth_core.tiled import TileFinished
+
+from ..model import Document
+from ..model.large_render import LargeRender, large_render_events
+from .synthesis import _RunController
+
+
+class LargeRenderController(_RunController):
+    """Renders the document tiled, one render at a time.
+
+    Signals
+    -------
+    started()
+    tile_finished(int, int)
+        Tiles finished (kept ones included) and tiles in all.
+    finished(object)
+        The core's ``TiledResult``: the GeoTIFF is written.
+    failed(str)
+        One-line message.
+    cancelled()
+        Stopped on request; the finished tiles stay beside the output.
+    running_changed(bool)
+    status(str, int)
+    error(str, str)
+        As the other run controllers'.
+    """
+
+    started = Signal()
+    tile_finished = Signal(int, int)
+    finished = Signal(object)
+    failed = Signal(str)
+    cancelled = Signal()
+
+    def __init__(self, document: Document, parent: QObject | None = None) -> None:
+        # Cancelling closes the Dask cluster: its worker processes take a moment.
+        super().__init__(document, parent, wait_ms=60_000)
+
+    def render(self, size: tuple[int, int], tile: int, workers: int, out) -> None:
+        """Start rendering the document at ``size`` in tiles of ``tile`` cells to ``out``."""
+        try:
+            request = self.document.synthesis_request()
+        except TerraSynthError as exc:
+            self.failed.emit(str(exc))
+            return
+        self.started.emit()
+        self.runner.start(large_render_events(request, LargeRender(tuple(size), int(tile), int(workers), out)))
+        self.status.emit(f"Rendering {size[0]}x{size[1]} in tiles of {tile}…", 0)
+
+    def _event(self, event) -> None:
+        if isinstance(event, TileFinished):
+            self.tile_finished.emit(event.done, event.total)
+
+    def _returned(self, result) -> None:
+        self.finished.emit(result)
+        self.status.emit(f"Wrote {result.path} ({result.shape[0]}x{result.shape[1]})", 10_000)
+
+    def _failed(self, message: str) -> None:
+        self.failed.emit(message)
+
+    def _cancelled(self) -> None:
+        self.cancelled.emit()
+        self.status.emit("Large render cancelled; its finished tiles are kept for the next", 10_000)

@@ -1,0 +1,51 @@
+"""Whether tile borders show: the seam measure of a tiled run's output."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from .plan import TilePlan
+
+__all__ = ["BORDER_BAND", "border_ratio"]
+
+#: Width of the band measured along each inner tile border, cells.
+BORDER_BAND = 8
+
+#: The percentile compared: the sharpest creases, where a seam would show.
+PERCENTILE = 99.9
+
+
+def border_ratio(heights: np.ndarray, plan: TilePlan, *, band: int = BORDER_BAND) -> float:
+    """|Laplacian| at the :data:`PERCENTILE` in ``band``-cell bands centred
+    on the inner tile borders, over the same in the tiles' interiors.
+
+    A step or a crease where two tiles meet raises the curvature along the
+    border; about 1 means the borders are as smooth or as rough as the
+    terrain elsewhere.
+
+    Parameters
+    ----------
+    heights : ndarray of float, shape ``plan.shape``
+        Metres.
+    plan : TilePlan
+    band : int, default :data:`BORDER_BAND`
+
+    Returns
+    -------
+    float
+        NaN for a single tile (no inner border).
+    """
+    heights = np.asarray(heights, np.float64)
+    if heights.shape != tuple(plan.shape):
+        raise ValueError(f"heights are {heights.shape}, the plan {plan.shape}")
+    lap = np.abs(ndimage.laplace(heights))
+    near = np.zeros(heights.shape, bool)
+    half = band // 2
+    for e in plan.row_edges[1:-1]:
+        near[max(e - half, 0):e + band - half, :] = True
+    for e in plan.col_edges[1:-1]:
+        near[:, max(e - half, 0):e + band - half] = True
+    if not near.any():
+        return float("nan")
+    return float(np.percentile(lap[near], PERCENTILE) / np.percentile(lap[~near], PERCENTILE))

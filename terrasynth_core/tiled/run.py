@@ -1,0 +1,418 @@
+"""A tiled run on Dask: the landform pass once, then every tile as a task
+as soon as the neighbours it is constrained by are finished, then the
+GeoTIFF from the tiles on disk.
+
+Dask does the distribution: a :class:`distributed.LocalCluster` of worker
+processes on this machine, or the cluster of an existing scheduler
+(``scheduler="tcp://host:8786"``; its workers need the same TerraSynth
+installed).  Tasks carry their inputs (a few megabytes: the tile's sketch,
+its window of the landform pass, its neighbours' border strips); the
+examples are sent once to every worker.  Finished tiles come back to this
+process, which keeps them on disk (:mod:`.store`) and cuts the next tiles'
+border strips from there, so nothing needs a shared file system and no
+process holds the whole terrain.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import os
+import re
+import secrets
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ..errors import ParamsError, SynthesisCancelled
+from ..features.sketch import SketchMap
+from ..heightfield import HeightField
+from ..io.resample import output_georeference
+from ..synthesis.params import SynthesisParams
+from ..synthesis.session import Session
+from .inputs import CoarseLevel, coarse_level, sketch_window
+from .output import write_geotiff_from_tiles
+from .plan import Tile, TilePlan, plan_tiles
+from .store import TileStore, compose, run_digest, store_path
+from .tile import TileJob, synthesize_tile, tile_params
+
+__all__ = ["TileFinished", "TiledResult", "check_scheduler", "run_tiled", "tiled_inputs"]
+
+#: Extensions a tiled run writes (the GeoTIFF is streamed; other formats
+#: would need the whole terrain in memory).
+TILED_EXTENSIONS = (".tif", ".tiff")
+
+#: Largest output side, cells.
+MAX_SIDE = 131_072
+
+#: Tasks in flight per worker: one running, one waiting, so a worker never
+#: idles while this process prepares the next job, and jobs (with their
+#: border strips) do not pile up on the workers.
+IN_FLIGHT_PER_WORKER = 2
+
+#: Seconds between two looks at ``cancel`` while tiles run.
+CANCEL_POLL = 0.25
+
+#: A scheduler address: ``tcp://host:port`` (or tls, ws, wss, ucx), or ``host:port``.
+_ADDRESS = re.compile(r"^((tcp|tls|ws|wss|ucx)://)?(\[[0-9a-fA-F:]+\]|[A-Za-z0-9_.-]+):\d{1,5}$")
+
+
+@dataclass(frozen=True)
+class TileFinished:
+    """Progress of a tiled run: a tile is finished (or was found on disk).
+
+    Parameters
+    ----------
+    row, col : int
+        The tile.
+    done, total : int
+        Tiles finished so far (reused ones included), and all.
+    reused : bool
+        Taken from an earlier run's store.
+    """
+
+    row: int
+    col: int
+    done: int
+    total: int
+    reused: bool
+
+
+@dataclass(frozen=True)
+class TiledResult:
+    """What :func:`run_tiled` made.
+
+    Parameters
+    ----------
+    path : Path
+        The GeoTIFF.
+    shape : (rows, cols)
+    plan : TilePlan
+    reused : int
+        Tiles taken from an earlier run.
+    workers : int
+        Dask workers used.
+    seconds : float
+        Wall time.
+    timings : dict of str to float
+        ``"landform"``, ``"tiles"``, ``"write"``, seconds.
+    notes : tuple of str
+        Warnings for the user.
+    lowest, highest : float
+        The heights' range, metres.
+    cell_size : float or None
+        Metres.
+    """
+
+    path: Path
+    shape: tuple[int, int]
+    plan: TilePlan
+    reused: int
+    workers: int
+    seconds: float
+    timings: dict
+    notes: tuple[str, ...]
+    lowest: float
+    highest: float
+    cell_size: float | None
+
+
+def check_scheduler(address: str) -> str:
+    """A Dask scheduler address, checked for form (not reached).
+
+    Raises
+    ------
+    ParamsError
+        Naming the address and the expected form.
+    """
+    if not isinstance(address, str) or not _ADDRESS.match(address.strip()):
+        raise ParamsError(f"scheduler address {address!r}: expected tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786, "
+                          "the address a dask scheduler prints)")
+    return address.strip()
+
+
+def tiled_inputs(spec) -> tuple[list[HeightField], SketchMap | None, SynthesisParams]:
+    """The examples, sketch and parameters of a project's run
+    (:class:`~terrasynth_core.project.RunSpec`) for a tiled run.
+
+    Raises
+    ------
+    ParamsError
+        Naming the first control a tiled run does not take (styles, water,
+        stamps, pins, a height range, a re-synthesis).
+    """
+    unsupported = [("style regions", bool(spec.styles)), ("water", spec.water is not None and bool(spec.water.any())),
+                   ("stamps", bool(spec.stamps)), ("pins", bool(spec.pins)),
+                   ("a height range", spec.height_range is not None), ("a re-synthesis", spec.selection is not None)]
+    for what, used in unsupported:
+        if used:
+            raise ParamsError(f"the project uses {what}, which a tiled run does not take yet: render it without tiles, "
+                              f"or remove {what} from a copy of the project")
+    return list(spec.example_fields()), spec.sketch_map, spec.params
+
+
+def check_tiled_output(out: Path) -> Path:
+    """The output of a tiled run: a GeoTIFF in an existing folder."""
+    out = Path(out)
+    if out.suffix.lower() not in TILED_EXTENSIONS:
+        raise ParamsError(f"a tiled run writes a GeoTIFF (streamed tile by tile): {out} is not a .tif/.tiff file")
+    if not out.parent.is_dir():
+        raise ParamsError(f"cannot write {out}: folder {out.parent} does not exist")
+    return out
+
+
+def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | None, *, shape: tuple[int, int],
+              tile: int, out: str | os.PathLike, params: SynthesisParams = SynthesisParams(),
+              workers: int | None = None, scheduler: str | None = None, client=None,
+              keep_tiles: bool = False, progress: Callable[[object], None] | None = None,
+              cancel: Callable[[], bool] | None = None) -> TiledResult:
+    """Synthesize a terrain of ``shape`` as tiles on Dask and write it as a GeoTIFF.
+
+    Parameters
+    ----------
+    examples : sequence of HeightField or ndarray
+        Example DEMs (metres).
+    sketch : SketchMap or None
+        Ridges and valleys as painted, any size (scaled to ``shape``).
+    shape : (rows, cols)
+        Output cells.
+    tile : int
+        Tile side, cells (at least two patches).
+    out : path
+        The ``.tif``/``.tiff`` to write; its tile store is ``OUT.tiles``.
+    params : SynthesisParams
+        As for a whole-map run; ``workers`` is ignored (one process per
+        Dask worker) and drainage is not applied (it needs the whole map).
+    workers : int, optional
+        Worker processes of the local cluster (default: one per core).
+        Not used with ``scheduler`` or ``client``.
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:8786``).
+    client : distributed.Client, optional
+        A client to use as it is (tests, notebooks); not closed.
+    keep_tiles : bool, default False
+        Keep ``OUT.tiles`` after the output is written.
+    progress : callable, optional
+        Called with a :class:`TileFinished` per tile.
+    cancel : callable, optional
+        Polled after every tile; True stops the run (finished tiles stay
+        on disk for the next run) and raises ``SynthesisCancelled``.
+
+    Returns
+    -------
+    TiledResult
+
+    Raises
+    ------
+    ParamsError
+        Bad sizes, tile, output path, scheduler address, or an unreachable
+        scheduler; anything a session refuses.
+    SynthesisCancelled
+        When ``cancel`` returned True.
+
+    Notes
+    -----
+    The same inputs give the same bytes with any number of workers and
+    after any interruption: each tile is seeded by its place and sees only
+    the tiles of earlier phases (:mod:`.plan`).
+    """
+    t_start = time.perf_counter()
+    if not isinstance(params, SynthesisParams):
+        raise ParamsError(f"params must be SynthesisParams, got {type(params).__name__}")
+    rows, cols = _checked_shape(shape)
+    out = check_tiled_output(Path(out))
+    if scheduler is not None:
+        scheduler = check_scheduler(scheduler)
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise ParamsError(f"workers {workers!r}: expected a whole number of at least 1")
+    examples = list(examples or ())
+    if not examples:
+        raise ParamsError("no example DEM given: synthesis needs at least one")
+    plan = plan_tiles((rows, cols), tile, patch_size=params.patch_size, seed=params.seed)
+    # Checks the examples (and the parameters against them) before any
+    # worker starts; its layout gives the run's cell size.
+    probe = Session(examples, None, shape=(2 * params.patch_size,) * 2,
+                    params=_quiet(params))
+    notes = [w for w in probe.warnings if "no strokes" not in w]
+    if params.drainage:
+        notes.append("drainage is not applied to a tiled run (it needs the whole map's streams): the heights are "
+                     "as synthesized")
+    store = TileStore(store_path(out), run_digest(examples, sketch, params, plan))
+    try:
+        timings, n_workers, written = _run_stored(store, plan, examples, sketch, params, out, probe.cell_size, workers,
+                                                  scheduler, client, progress, cancel, notes)
+        reused = store.reused
+        if not keep_tiles:
+            store.remove()
+    finally:
+        store.close()  # a failed or cancelled run leaves its tiles for the next
+    cell = probe.cell_size
+    return TiledResult(out, (rows, cols), plan, reused, n_workers, time.perf_counter() - t_start, timings,
+                       tuple(notes), written.lowest, written.highest, cell)
+
+
+def _run_stored(store: TileStore, plan: TilePlan, examples, sketch, params, out: Path, cell: float | None,
+                workers, scheduler, client, progress, cancel, notes: list[str]):
+    """The landform pass, the tiles and the GeoTIFF, with ``store``."""
+    timings: dict[str, float] = {}
+    own = None
+    if client is None:
+        client, own = _client(workers, scheduler)
+    try:
+        n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
+        # The examples go to every worker once, as data rather than inside
+        # each task (the scheduler warns of, and slows on, large tasks).
+        # Keys unique to this run (hash=False): a finished run's data being
+        # released on a shared client never takes this run's with it.
+        shared = client.scatter(list(examples), broadcast=True, hash=False)
+        t = time.perf_counter()
+        coarse, coarse_notes = _landform(client, store, shared, sketch, plan.shape, params)
+        notes.extend(coarse_notes)
+        timings["landform"] = time.perf_counter() - t
+        t = time.perf_counter()
+        _run_tiles(client, store, plan, shared, sketch, coarse, params, n_workers, progress, cancel)
+        timings["tiles"] = time.perf_counter() - t
+    finally:
+        if own is not None:
+            _close(client, own)
+    t = time.perf_counter()
+    georef = None if cell is None else output_georeference(examples, plan.shape, cell)
+    written = write_geotiff_from_tiles(store, plan, out, cell_size=cell, georef=georef)
+    timings["write"] = time.perf_counter() - t
+    return timings, n_workers, written
+
+
+def _quiet(params: SynthesisParams) -> SynthesisParams:
+    return dataclasses.replace(params, landform=False, drainage=False, workers=1)
+
+
+def _checked_shape(shape) -> tuple[int, int]:
+    try:
+        rows, cols = (int(v) for v in shape)
+    except (TypeError, ValueError):
+        raise ParamsError(f"output size {shape!r}: expected (rows, cols)") from None
+    if not (1 <= rows <= MAX_SIDE and 1 <= cols <= MAX_SIDE):
+        raise ParamsError(f"output size {rows}x{cols}: each side must be 1 to {MAX_SIDE} cells")
+    return rows, cols
+
+
+# -- the cluster -----------------------------------------------------------------------------
+def _client(workers: int | None, scheduler: str | None):
+    """A client of the given scheduler, or of a new local cluster; and what
+    to close afterwards."""
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout="15s")
+        except (OSError, TimeoutError) as exc:
+            raise ParamsError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+        return client, (client, None)
+    n = workers or os.cpu_count() or 1
+    # One thread per worker: a worker is one core (the engine runs in one
+    # process there).  The scheduler's web server (the dashboard when bokeh
+    # is installed) on a free port: a fixed one may be taken.
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                           silence_logs=logging.ERROR)
+    client = Client(cluster)
+    return client, (client, cluster)
+
+
+def _close(client, own) -> None:
+    c, cluster = own
+    c.close()
+    if cluster is not None:
+        cluster.close()
+
+
+# -- the landform pass -------------------------------------------------------------------------
+def _landform(client, store: TileStore, examples, sketch, shape, params) -> tuple[CoarseLevel | None, list[str]]:
+    """The landform pass over the whole map, on a worker; kept in the store
+    (a resumed run does not make it again).  ``examples``: their futures."""
+    kept = store.load_coarse()
+    if kept is None:
+        coarse, notes = client.submit(coarse_level, examples, sketch, shape, params, pure=False).result()
+        info = dict(notes=notes)
+        if coarse is not None:
+            info.update(sigma=coarse.sigma, factor=coarse.factor)
+        store.save_coarse(None if coarse is None else coarse.heights, info)
+        return coarse, notes
+    heights, info = kept
+    coarse = None if heights is None else CoarseLevel(heights, tuple(shape), float(info["sigma"]), int(info["factor"]))
+    return coarse, list(info.get("notes", []))
+
+
+# -- the tiles ---------------------------------------------------------------------------------
+def _run_tiles(client, store: TileStore, plan: TilePlan, shared, sketch, coarse, params, n_workers: int,
+               progress, cancel) -> None:
+    """Submit each tile when its needs are finished; keep each result.
+    ``shared``: the examples' futures."""
+    from distributed import wait
+
+    tiles = plan.by_key()
+    done = {key for key in tiles if store.has(key)}
+    total = len(tiles)
+    count = 0
+    for tile in plan.tiles:
+        if tile.key in done:
+            count += 1
+            if progress is not None:
+                progress(TileFinished(tile.row, tile.col, count, total, True))
+    waiting = [t for t in plan.tiles if t.key not in done]  # in plan order: phase, row, col
+    if not waiting:
+        return
+    limit = IN_FLIGHT_PER_WORKER * n_workers
+    # Task names for the dashboard; unique per run, so a cancelled run's
+    # tasks still being dropped never stand for this run's on a shared client.
+    run_id = secrets.token_hex(4)
+    pending: dict[str, tuple] = {}  # future key -> (future, tile, job future)
+
+    def submit_ready() -> None:
+        for t in list(waiting):
+            if len(pending) >= limit:
+                return
+            if all(n in done for n in t.needs):
+                waiting.remove(t)
+                # The job (its border strips: megabytes) is sent as data too.
+                job = client.scatter(_job(t, plan, store, sketch, coarse, params), hash=False)
+                future = client.submit(synthesize_tile, job, shared, key=f"tile-{t.row}-{t.col}-{run_id}",
+                                       retries=1, pure=False)
+                pending[future.key] = (future, t, job)  # the job's data lives while the task does
+
+    try:
+        submit_ready()
+        while pending:
+            try:
+                finished, _ = wait([f for f, _, _ in pending.values()], timeout=CANCEL_POLL,
+                                   return_when="FIRST_COMPLETED")
+            except TimeoutError:
+                finished = set()
+            for future in sorted(finished, key=lambda f: pending[f.key][1].key):
+                _, tile, job = pending.pop(future.key)
+                heights = future.result()
+                future.release()
+                job.release()
+                store.save(tile.key, heights)
+                done.add(tile.key)
+                count += 1
+                if progress is not None:
+                    progress(TileFinished(tile.row, tile.col, count, total, False))
+            if cancel is not None and cancel():
+                raise SynthesisCancelled("tiled synthesis cancelled")
+            submit_ready()
+    finally:
+        # On an error or a cancel, tasks not finished are dropped (their
+        # tiles are made again by the next run).
+        for future, _, job in pending.values():
+            future.cancel()
+            job.release()
+
+
+def _job(tile: Tile, plan: TilePlan, store: TileStore, sketch, coarse, params) -> TileJob:
+    """A tile's job: its sketch, its landform window and its neighbours' strips."""
+    context = None if not tile.needs else compose(store, plan, tile.crop, set(tile.needs))
+    return TileJob(tile, tile_params(params, tile), sketch_window(sketch, plan.shape, tile.crop),
+                   None if coarse is None else coarse.window(tile.crop), context)

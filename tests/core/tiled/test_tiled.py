@@ -1,0 +1,250 @@
+"""Tiled synthesis on Dask (terrasynth_core/tiled): the plan, a real local
+cluster against one worker, the border measure, resume and stale tiles."""
+
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+import rasterio
+from distributed import Client, LocalCluster
+
+from terrasynth_core.cli.main import EXIT_BAD_INPUT
+from terrasynth_core.cli.main import main as cli_main
+from terrasynth_core.errors import ParamsError, SynthesisCancelled
+from terrasynth_core.features.sketch import read_sketch
+from terrasynth_core.synthesis import SynthesisParams
+from terrasynth_core.tiled import TileFinished, check_scheduler, plan_tiles, run_tiled
+from terrasynth_core.tiled.inputs import CoarseLevel, sketch_window
+from terrasynth_core.tiled.measure import border_ratio
+from terrasynth_core.tiled.store import store_path
+
+P = SynthesisParams(patch_size=32, k=2, seed=7)
+SHAPE = (384, 384)
+TILE = 128
+
+
+@pytest.fixture(scope="module")
+def sketch(sketch_dir):
+    return read_sketch(sketch_dir / "y_junction_512.png")
+
+
+@pytest.fixture(scope="module")
+def one_worker():
+    """One worker, in this process (threads): the reference."""
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0",
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        yield client
+
+
+@pytest.fixture(scope="module")
+def reference(one_worker, white_mountains, sketch, tmp_path_factory):
+    out = tmp_path_factory.mktemp("reference") / "one.tif"
+    result = run_tiled([white_mountains], sketch, shape=SHAPE, tile=TILE, out=out, params=P, client=one_worker)
+    with rasterio.open(out) as ds:
+        return result, ds.read(1)
+
+
+def _read(path):
+    with rasterio.open(path) as ds:
+        return ds.read(1)
+
+
+# -- the plan -------------------------------------------------------------------------------
+def test_plan_phases_needs_and_regions():
+    plan = plan_tiles((1000, 700), 256, patch_size=32, seed=3)
+    assert plan.row_edges == (0, 256, 512, 768, 1000) and plan.col_edges == (0, 256, 512, 700)
+    tiles = plan.by_key()
+    assert [t.phase for t in plan.tiles] == sorted(t.phase for t in plan.tiles)
+    # A phase-0 tile stands alone; a phase-3 tile sees all eight neighbours.
+    assert tiles[0, 0].needs == () and tiles[0, 0].crop == tiles[0, 0].box == tiles[0, 0].region
+    assert set(tiles[1, 1].needs) == {(a, b) for a in range(3) for b in range(3)} - {(1, 1)}
+    assert tiles[1, 1].crop == (256 - 32, 512 + 32, 256 - 32, 512 + 32)
+    assert tiles[1, 1].region == (256 - 16, 512 + 16, 256 - 16, 512 + 16)
+    # Phase 2 sees above and below, and the diagonal bands of phase 1 reaching into its crop.
+    assert set(tiles[1, 0].needs) == {(0, 0), (2, 0), (0, 1), (2, 1)}
+    for t in plan.tiles:
+        assert all(tiles[n].phase < t.phase for n in t.needs)
+    # Same-phase regions never overlap, so no tile's cells depend on timing.
+    for a in plan.tiles:
+        for b in plan.tiles:
+            if a.key < b.key and a.phase == b.phase:
+                (r0, r1, c0, c1), (q0, q1, p0, p1) = a.region, b.region
+                assert r1 <= q0 or q1 <= r0 or c1 <= p0 or p1 <= c0
+    assert len({t.seed for t in plan.tiles}) == len(plan.tiles)
+    # A thin last tile is merged into the one before.
+    assert plan_tiles((1100, 300), 256, patch_size=32).row_edges == (0, 256, 512, 768, 1100)
+
+
+@pytest.mark.parametrize("tile, match", [(64, "at least 96 cells"), (1000, "larger than the output"),
+                                         ("128", "whole number")])
+def test_bad_tiles_are_refused(tile, match):
+    with pytest.raises(ParamsError, match=match):
+        plan_tiles(SHAPE, tile, patch_size=32)
+
+
+def test_scheduler_addresses():
+    assert check_scheduler("tcp://10.0.0.5:8786") == "tcp://10.0.0.5:8786"
+    assert check_scheduler("scheduler-host:8786") == "scheduler-host:8786"
+    for bad in ("tcp://host", "http//x:1", "host:port", ""):
+        with pytest.raises(ParamsError, match="expected tcp://HOST:PORT"):
+            check_scheduler(bad)
+
+
+# -- the inputs -------------------------------------------------------------------------------
+def test_sketch_windows_cut_one_scaled_sketch(sketch):
+    whole = sketch_window(sketch, (700, 900), (0, 700, 0, 900))
+    part = sketch_window(sketch, (700, 900), (100, 350, 640, 900))
+    assert np.array_equal(part.ridge_mask, whole.ridge_mask[100:350, 640:900])
+    assert np.array_equal(part.valley_mask, whole.valley_mask[100:350, 640:900])
+    # Downscaled, as SketchMap.resized: a cell is a stroke where its footprint holds one.
+    small = sketch_window(sketch, (128, 128), (0, 128, 0, 128))
+    resized = sketch.resized((128, 128))
+    assert (small.ridge_mask != resized.ridge_mask).mean() < 0.002
+
+
+def test_level_windows_agree_where_they_overlap():
+    rng = np.random.default_rng(0)
+    coarse = CoarseLevel(rng.normal(500, 80, (64, 64)).astype(np.float32), (512, 512), sigma=6.4, factor=8)
+    a, b = (0, 200, 100, 300), (150, 400, 250, 512)
+    la = coarse.window(a).level(a)
+    lb = coarse.window(b).level(b)
+    assert la.shape == (200, 200) and lb.shape == (250, 262)
+    np.testing.assert_allclose(la[150:, 150:], lb[:50, :50], atol=1e-3)
+
+
+# -- runs -------------------------------------------------------------------------------------
+def test_two_worker_processes_give_the_same_bytes_and_no_seams(reference, white_mountains, sketch, tmp_path):
+    result, heights = reference
+    assert result.plan.grid == (3, 3) and result.workers == 1
+    out = tmp_path / "two.tif"
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        two = run_tiled([white_mountains], sketch, shape=SHAPE, tile=TILE, out=out, params=P, client=client)
+    assert two.workers == 2
+    assert np.array_equal(_read(out), heights)
+    assert not store_path(out).exists()  # the store goes once the output is written
+    assert np.isfinite(heights).all() and heights.std() > 10
+    # No seam at the tile borders: their sharpest curvature as the interiors'.
+    assert border_ratio(heights, result.plan) <= 1.15
+
+
+def test_resume_reuses_tiles_and_changed_params_do_not(reference, one_worker, white_mountains, sketch, tmp_path):
+    _, heights = reference
+    out = tmp_path / "resumed.tif"
+    seen = []
+
+    def stop_after_three(event):
+        seen.append(event)
+
+    with pytest.raises(SynthesisCancelled):
+        run_tiled([white_mountains], sketch, shape=SHAPE, tile=TILE, out=out, params=P, client=one_worker,
+                  progress=stop_after_three, cancel=lambda: len(seen) >= 3)
+    assert not out.exists() and len(list(store_path(out).glob("tile_*.npy"))) == 3
+    events = []
+    again = run_tiled([white_mountains], sketch, shape=SHAPE, tile=TILE, out=out, params=P, client=one_worker,
+                      progress=events.append)
+    assert again.reused == 3 and sum(e.reused for e in events if isinstance(e, TileFinished)) == 3
+    assert np.array_equal(_read(out), heights)
+
+    # Another seed: the kept tiles are another run's, never reused.
+    seen.clear()
+    with pytest.raises(SynthesisCancelled):
+        run_tiled([white_mountains], sketch, shape=SHAPE, tile=TILE, out=out, params=P, client=one_worker,
+                  progress=seen.append, cancel=lambda: len(seen) >= 2)
+    seen.clear()
+    with pytest.raises(SynthesisCancelled):
+        run_tiled([white_mountains], sketch, shape=SHAPE, tile=TILE, out=out, client=one_worker,
+                  params=SynthesisParams(patch_size=32, k=2, seed=8), progress=seen.append, cancel=lambda: bool(seen))
+    assert seen and not any(e.reused for e in seen)
+    assert len(list(store_path(out).glob("tile_*.npy"))) == len(seen)
+
+
+def test_kill_minus_nine_then_rerun_gives_the_same_bytes(reference, one_worker, white_mountains, sketch, tmp_path,
+                                                          dems_dir, sketch_dir):
+    _, heights = reference
+    out = tmp_path / "killed.tif"
+    script = textwrap.dedent(f"""
+        import logging
+        from distributed import Client, LocalCluster
+        from terrasynth_core.features.sketch import read_sketch
+        from terrasynth_core.io import load_dem
+        from terrasynth_core.synthesis import SynthesisParams
+        from terrasynth_core.tiled import run_tiled
+        if __name__ == "__main__":
+            field = load_dem({str(dems_dir / "N44W072.hgt")!r})
+            example = field.with_heights(field.heights[300:700, 300:700].copy())
+            with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0",
+                              silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+                run_tiled([example], read_sketch({str(sketch_dir / "y_junction_512.png")!r}), shape={SHAPE},
+                          tile={TILE}, out={str(out)!r}, params=SynthesisParams(patch_size=32, k=2, seed=7),
+                          client=client, progress=lambda e: print("tile", e.done, flush=True),
+                          cancel=lambda: False)
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True,
+                            start_new_session=True, env=dict(os.environ))
+    try:
+        # Waits on the child's own word that two tiles are on disk.
+        for line in proc.stdout:
+            if line.startswith("tile 2"):
+                break
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+        proc.stdout.close()
+    assert proc.returncode == -signal.SIGKILL and not out.exists()
+    kept = len(list(store_path(out).glob("tile_*.npy")))
+    assert kept >= 2
+    again = run_tiled([white_mountains], sketch, shape=SHAPE, tile=TILE, out=out, params=P, client=one_worker)
+    assert again.reused == kept
+    assert np.array_equal(_read(out), heights)
+
+
+def test_a_folder_that_is_not_a_store_is_left_alone(one_worker, white_mountains, tmp_path):
+    out = tmp_path / "mine.tif"
+    store_path(out).mkdir()
+    (store_path(out) / "notes.txt").write_text("mine")
+    with pytest.raises(ParamsError, match="not a TerraSynth tile store"):
+        run_tiled([white_mountains], None, shape=SHAPE, tile=TILE, out=out, params=P, client=one_worker)
+    assert (store_path(out) / "notes.txt").read_text() == "mine"
+
+
+# -- the command line ---------------------------------------------------------------------------
+@pytest.mark.parametrize("extra, message", [
+    (["--tile", "abc"], "--tile 'abc': expected a tile side in cells"),
+    (["--tile", "40"], "tile size 40: expected a whole number of at least 96 cells"),
+    (["--tile", "128", "--scheduler", "nowhere"], "scheduler address 'nowhere': expected tcp://HOST:PORT"),
+    (["--scheduler", "tcp://h:8786"], "--scheduler runs a tiled synthesis: give the tile size too"),
+    (["--tile", "128", "--pin", "5,5,100"], "--pin is not available with --tile"),
+    (["--tile", "128", "--size", "100000000x5"], "output size 100000000x5: each side must be 1 to"),
+])
+def test_cli_bad_tiled_options_give_one_line(extra, message, tmp_path, capsys, dems_dir):
+    code = cli_main(["synth", "--example", str(dems_dir / "N44W072.hgt"), "--size", "384x384",
+                          "--patch-size", "32", "--out", str(tmp_path / "o.tif"), *extra])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == EXIT_BAD_INPUT
+    assert len(err) == 1 and err[0].startswith("terrasynth-cli: error: ") and message in err[0], err
+
+
+def test_cli_tiled_output_must_be_a_geotiff(tmp_path, capsys, dems_dir):
+    code = cli_main(["synth", "--example", str(dems_dir / "N44W072.hgt"), "--size", "384x384",
+                          "--patch-size", "32", "--tile", "128", "--out", str(tmp_path / "o.png")])
+    assert code == EXIT_BAD_INPUT
+    assert "a tiled run writes a GeoTIFF" in capsys.readouterr().err
+
+
+def test_one_run_at_a_time_per_output(tmp_path):
+    from terrasynth_core.tiled.store import TileStore
+
+    folder = store_path(tmp_path / "busy.tif")
+    first = TileStore(folder, "a" * 64)
+    with pytest.raises(ParamsError, match="another run is writing"):
+        TileStore(folder, "a" * 64)
+    first.close()
+    TileStore(folder, "b" * 64).close()  # free again (and another run's digest empties it)
