@@ -1,0 +1,20 @@
+"""The largest valid rectangle: where an example with nodata is cropped."""
+
+import numpy as np
+
+from terrasynth_core.heightfield import largest_valid_rectangle
+
+
+def test_largest_valid_rectangle_is_the_largest_all_valid_one():
+    rng = np.random.default_rng(4)
+    for _ in range(30):
+        valid = rng.random((7, 9)) < 0.75
+        if not valid.any():
+            continue
+        r0, r1, c0, c1 = largest_valid_rectangle(valid)
+        assert valid[r0:r1, c0:c1].all()
+        best = max((b - a) * (d - c) for a in range(7) for b in range(a + 1, 8) for c in range(9)
+                   for d in range(c + 1, 10) if valid[a:b, c:d].all())
+        assert (r1 - r0) * (c1 - c0) == best
+    # A grid without nodata is its own rectangle (at once: no scan).
+    assert largest_valid_rectangle(np.ones((1201, 1201), bool)) == (0, 1201, 0, 1201)
