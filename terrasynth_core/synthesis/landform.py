@@ -133,7 +133,7 @@ def coarse_session(session: Session) -> tuple[Session | None, int, str | None]:
     ----------
     session : Session
         The full-resolution session (its examples already at the run's
-        cell size).
+        cell size); :func:`coarse_session_for` takes its parts one by one.
 
     Returns
     -------
@@ -146,8 +146,33 @@ def coarse_session(session: Session) -> tuple[Session | None, int, str | None]:
     note : str or None
         Why the pass was skipped, for the run's warnings.
     """
-    p, lay = session.params, session.layout
-    rows, cols = session.shape
+    return coarse_session_for(session.params, session.layout, session.shape, session.controls, session.n_plain,
+                              session.sketch, session.sketch_maps)
+
+
+def coarse_session_for(params, layout, shape: tuple[int, int], controls: Controls, n_plain: int, sketch,
+                       sketch_maps) -> tuple[Session | None, int, str | None]:
+    """:func:`coarse_session` from the parts of a session: for a map no
+    session is made for (a tiled run's whole map).
+
+    Parameters
+    ----------
+    params : SynthesisParams
+    layout : StyleLayout
+        The examples' layout at the run's cell size.
+    shape : (rows, cols)
+        The output's size.
+    controls : Controls
+    n_plain : int
+        How many of ``layout.examples`` are plain examples (the rest are
+        the styles' own).
+    sketch : SketchMap or None
+        The painted sketch, any size (scaled to the coarse grid).
+    sketch_maps : FeatureMaps
+        Its ridge and valley graphs (which feature kinds the pass needs).
+    """
+    p, lay, c = params, layout, controls
+    rows, cols = shape
     if len(lay.members) > 1:
         # Measured on the Middle-earth map, a coarse pass over several
         # styles let regions stray from their own heights (its height
@@ -162,26 +187,25 @@ def coarse_session(session: Session) -> tuple[Session | None, int, str | None]:
                          f"{_cells(lay.cell_size)}; structure larger than a patch needs {need}: a larger example, "
                          "a coarser --cell-size or a smaller patch would help")
     pc = coarse_patch(p.patch_size, f)
-    shape = (-(-rows // f), -(-cols // f))
-    if min(shape) < pc:
+    grid = (-(-rows // f), -(-cols // f))
+    if min(grid) < pc:
         return None, 0, None  # the whole output is about one landform: nothing to structure
     cell = None if lay.cell_size is None else lay.cell_size * f
     fields = [_coarsened(ex.heights, f, cell) for ex in lay.examples]
-    c = session.controls
-    n_plain = session.n_plain
     styles = tuple(replace(s, example=fields[n_plain + i]) for i, s in enumerate(c.styles))
     style_map = None if c.style_map is None else c.style_map[::f, ::f]
-    controls = Controls(styles=styles, style_map=style_map, height_range=c.height_range)
+    coarse_controls = Controls(styles=styles, style_map=style_map, height_range=c.height_range)
     # One process: the coarse fill is short, and the full pass's workers
     # are still starting meanwhile (the result does not depend on it).
-    params = replace(p, patch_size=pc, overlap=None, cell_size=cell, drainage=False, landform=False, workers=1)
-    sketch = None if session.sketch is None else session.sketch.resized(shape)
+    coarse_params = replace(p, patch_size=pc, overlap=None, cell_size=cell, drainage=False, landform=False,
+                            workers=1)
+    coarse_sketch = None if sketch is None else sketch.resized(grid)
     from .session import Session  # the pass is a session of its own
     try:
-        coarse = Session(fields[:n_plain], sketch, shape=shape, params=params, controls=controls)
+        coarse = Session(fields[:n_plain], coarse_sketch, shape=grid, params=coarse_params, controls=coarse_controls)
     except ParamsError as exc:
         return None, 0, f"landform pass skipped: {exc}"
-    for graph in (session.sketch_maps.ridges, session.sketch_maps.valleys):
+    for graph in (sketch_maps.ridges, sketch_maps.valleys):
         have = sum(len(ex.samples[graph.kind]) for ex in coarse.examples)
         if graph.paths and have < MIN_COARSE_SAMPLES:
             # Every stroke would be built from the same one or two
@@ -208,8 +232,7 @@ def landform_from(session: Session, coarse, f: int) -> Landform:
     p, lay, c = session.params, session.layout, session.controls
     heights = coarse.heights
     if c.height_range is None:  # (a height range maps the result onto itself at the end)
-        heights = within_range(heights, float(lay.level.min()) + min(float(d.min()) for d in lay.detail),
-                               float(lay.level.max()) + max(float(d.max()) for d in lay.detail))
+        heights = within_examples(heights, lay)
     sigma = split_sigma(p.patch_size)
     up = _upsampled(heights, session.shape)
     level = landform_lowpass(up, sigma)
@@ -253,6 +276,24 @@ def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray
         weight = 1.0 - smoothstep(ndimage.distance_transform_edt(~core) / max(patch_size / 2, 1.0))
         level = (level + weight * (float(level[core].mean()) - level)).astype(np.float32)
     return level
+
+
+def within_examples(heights: np.ndarray, layout) -> np.ndarray:
+    """:func:`within_range` of the examples' heights as ``layout`` places
+    them (its level plus each example's detail).
+
+    Parameters
+    ----------
+    heights : ndarray of float32, shape (h, w)
+        The coarse terrain, metres.
+    layout : StyleLayout
+
+    Returns
+    -------
+    ndarray of float32, shape (h, w)
+    """
+    return within_range(heights, float(layout.level.min()) + min(float(d.min()) for d in layout.detail),
+                        float(layout.level.max()) + max(float(d.max()) for d in layout.detail))
 
 
 #: Share of the coarse terrain's cells allowed outside the examples' heights

@@ -18,7 +18,6 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from types import SimpleNamespace
 from typing import Sequence
 
 import numpy as np
@@ -26,7 +25,7 @@ from scipy import ndimage
 
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
-from ..synthesis.landform import coarse_session, landform_lowpass, split_sigma, within_range
+from ..synthesis.landform import coarse_session_for, landform_lowpass, split_sigma, within_examples
 from ..synthesis.params import SynthesisParams
 from ..synthesis.session import Session
 
@@ -188,8 +187,8 @@ def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap
     """Run the landform pass once over the whole map.
 
     The pass's session is made by
-    :func:`~terrasynth_core.synthesis.landform.coarse_session` from a stand-in
-    for the whole map's session: the examples' layout of a small session
+    :func:`~terrasynth_core.synthesis.landform.coarse_session_for` from the
+    parts of the whole map's session: the examples' layout of a small session
     (which does not depend on the output's size for plain examples), the
     output's size and the painted sketch (scaled by the pass to its coarse
     grid).  No array of the output's size is made.
@@ -217,16 +216,13 @@ def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap
     probe = Session(examples, None, shape=(side, side),
                     params=dataclasses.replace(params, landform=False, drainage=False, workers=1))
     maps = probe.sketch_maps if sketch is None or not sketch.has_strokes else sketch_features(sketch)
-    whole = SimpleNamespace(params=params, layout=probe.layout, shape=tuple(shape), controls=probe.controls,
-                            n_plain=probe.n_plain, sketch=sketch, sketch_maps=maps)
-    coarse, factor, note = coarse_session(whole)
+    coarse, factor, note = coarse_session_for(params, probe.layout, tuple(shape), probe.controls, probe.n_plain,
+                                              sketch, maps)
     notes = [note] if note else []
     if coarse is None:
         return None, notes
     result = coarse.run()
-    lay = probe.layout
     # As the whole-map pass (landform.landform_from): chained patches may
     # carry the coarse terrain out of the examples' heights.
-    heights = within_range(result.heights, float(lay.level.min()) + min(float(d.min()) for d in lay.detail),
-                           float(lay.level.max()) + max(float(d.max()) for d in lay.detail))
+    heights = within_examples(result.heights, probe.layout)
     return CoarseLevel(np.asarray(heights, np.float32), tuple(shape), split_sigma(params.patch_size), factor), notes
