@@ -9,15 +9,13 @@ second, its finished tiles kept beside the output for the next run.
 
 from __future__ import annotations
 
-import queue
-import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
 from terrasynth_core.tiled import TileFinished, TiledResult, run_tiled, tiled_inputs
 
-from .run_request import SynthesisRequest
+from .run_request import SynthesisRequest, reported_events
 
 __all__ = ["LargeRender", "large_render_events"]
 
@@ -64,37 +62,8 @@ def large_render_events(request: SynthesisRequest, render: LargeRender, *,
         or tile (before any work).
     """
     examples, sketch, params = tiled_inputs(request)
-    events: queue.SimpleQueue = queue.SimpleQueue()
-    stop = threading.Event()
-    outcome: dict = {}
-    done = object()
-
-    def render_all() -> None:
-        try:
-            outcome["result"] = run_tiled(examples, sketch, shape=render.size, tile=render.tile, out=render.out,
-                                          params=params, workers=render.workers, progress=events.put,
-                                          cancel=stop.is_set)
-        except BaseException as exc:  # handed to the consumer below
-            outcome["error"] = exc
-        finally:
-            events.put(done)
-
-    thread = threading.Thread(target=render_all, name="render-large", daemon=True)
-    thread.start()
-    try:
-        while True:
-            try:
-                item = events.get(timeout=poll_seconds)
-            except queue.Empty:
-                yield None
-                continue
-            if item is done:
-                break
-            yield item
-    finally:
-        stop.set()
-        thread.join()
-    if "error" in outcome:
-        raise outcome["error"]
-    result: TiledResult = outcome["result"]
+    result: TiledResult = yield from reported_events(
+        lambda report, cancel: run_tiled(examples, sketch, shape=render.size, tile=render.tile, out=render.out,
+                                         params=params, workers=render.workers, progress=report, cancel=cancel),
+        name="render-large", poll_seconds=poll_seconds)
     return result

@@ -149,26 +149,55 @@ def variation_events(request: SynthesisRequest, seeds: Sequence[int], *,
     list of TerrainResult
         In the order of ``seeds`` (the generator's return value).
     """
-    made: queue.SimpleQueue = queue.SimpleQueue()
+    return (yield from reported_events(
+        lambda report, cancel: request.make_variations(
+            seeds, progress=lambda index, terrain: report(VariationMade(index, terrain)), cancel=cancel),
+        name="variations", poll_seconds=poll_seconds))
+
+
+def reported_events(call, *, name: str, poll_seconds: float = 0.1) -> Iterator:
+    """Run ``call(report, cancel)`` on a helper thread and yield what it
+    reports, as it reports it.
+
+    For core calls that report by callback instead of yielding (variations
+    in worker processes, tiled runs on Dask).  While waiting this yields
+    None every ``poll_seconds``: a cancel checkpoint for the consumer.
+    Closing the generator sets ``cancel()`` and waits for the call to end.
+
+    Parameters
+    ----------
+    call : callable ``(report, cancel) -> result``
+        ``report(event)`` hands an event over; ``cancel()`` turns True
+        once the consumer stops.
+    name : str
+        The helper thread's name.
+    poll_seconds : float, default 0.1
+
+    Returns
+    -------
+    object
+        What ``call`` returned (the generator's return value); what it
+        raised is raised here.
+    """
+    events: queue.SimpleQueue = queue.SimpleQueue()
     stop = threading.Event()
     outcome: dict = {}
     done = object()
 
-    def batch() -> None:
+    def work() -> None:
         try:
-            outcome["terrains"] = request.make_variations(
-                seeds, progress=lambda index, terrain: made.put(VariationMade(index, terrain)), cancel=stop.is_set)
+            outcome["result"] = call(events.put, stop.is_set)
         except BaseException as exc:  # handed to the consumer below
             outcome["error"] = exc
         finally:
-            made.put(done)
+            events.put(done)
 
-    thread = threading.Thread(target=batch, name="variations", daemon=True)
+    thread = threading.Thread(target=work, name=name, daemon=True)
     thread.start()
     try:
         while True:
             try:
-                item = made.get(timeout=poll_seconds)
+                item = events.get(timeout=poll_seconds)
             except queue.Empty:
                 yield None
                 continue
@@ -180,4 +209,4 @@ def variation_events(request: SynthesisRequest, seeds: Sequence[int], *,
         thread.join()
     if "error" in outcome:
         raise outcome["error"]
-    return outcome["terrains"]
+    return outcome["result"]
