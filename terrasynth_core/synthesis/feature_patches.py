@@ -102,8 +102,9 @@ def sample_prominence(standing: np.ndarray | None, samples: list[FeatureSample],
     ridges, down for valleys) all along its line inside the patch.
 
     Read at the centre and at :data:`PROMINENCE_STATIONS` on the chords
-    from the centre to each crossing, each the most prominent :func:`standing_map` value within
-    :data:`PROMINENCE_REACH` cells, and averaged.  Read at the centre
+    from the centre to each crossing, each the most prominent
+    :func:`standing_map` value within :data:`PROMINENCE_REACH` cells, and
+    averaged.  Read at the centre
     alone, the most prominent samples were peaks and pits: a valley deep at
     the patch's centre and shallow 20 cells along, so that a painted valley
     came out as a chain of basins with sills between them.
@@ -194,7 +195,7 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
     bbox = patch_window(sample.center, patch_size, shape)
     r0, r1, c0, c1 = bbox
     if r1 - r0 < 4 or c1 - c0 < 4:
-        return bbox, []
+        return bbox, [], False
     exclude = usage.exclusion(bbox, sample.center, cap)
     window = (r1 - r0, c1 - c0)
     warped, distorted = [], []

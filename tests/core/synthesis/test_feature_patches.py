@@ -76,3 +76,11 @@ def test_folding_candidates_are_never_warped_while_a_fitting_one_exists():
     r0, r1, c0, c1 = bbox
     bent = ThinPlateSpline.fit(*framed(hairpin.target, hairpin.control, reflect=False), regularization=1e-3)
     assert warp_distortion(bent, (r0, c0), (r1 - r0, c1 - c0)) > MAX_STRETCH
+
+
+def test_a_window_too_thin_for_a_patch_prepares_nothing():
+    example = np.zeros((300, 300), np.float32)
+    sample = _path_sample(1.0, 100.0, "ridge")
+    prepared = prepare_feature(sample, _Pool([]), [example], shape=(3, 240), patch_size=80, count=2,
+                               rng=np.random.default_rng(0), usage=UsageRegistry(80), cap=5)
+    assert prepared[1:] == ([], False)
