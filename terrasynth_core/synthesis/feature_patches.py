@@ -46,9 +46,13 @@ def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
     """
     pools = {}
     everyone = list(range(len(layout.examples)))
-    # One map per example serves both kinds.
-    maps = [standing_map(ex.heights, 2 * radius) if any(ex.samples[k] for k in ("ridge", "valley")) else None
-            for ex in layout.examples]
+    # One map per example serves both kinds.  It is read on what a patch
+    # copies, the example's detail: above the landform split that is the
+    # band the patch adds to the level (a valley deep in it stays deep in
+    # the output, one deep only at the landform scale is the landform
+    # pass's to place); without a split, the example's heights.
+    maps = [standing_map(detail, 2 * radius) if any(ex.samples[k] for k in ("ridge", "valley")) else None
+            for ex, detail in zip(layout.examples, layout.detail)]
     for kind in ("ridge", "valley"):
         standing = [sample_prominence(m, ex.samples[kind], kind) for m, ex in zip(maps, layout.examples)]
         for g, members in enumerate(layout.members + [everyone]):
@@ -70,7 +74,7 @@ def standing_map(heights: np.ndarray, size: float) -> np.ndarray:
     Parameters
     ----------
     heights : ndarray of float32, shape (H, W)
-        The example, metres.
+        The example's heights or its detail band, metres.
     size : float
         Neighbourhood side, cells (a patch).
 

@@ -78,8 +78,8 @@ CASES = {
 #: indexed fill search and the narrower last drainage pass, and with the
 #: framed feature warps and prominence read along the feature line.
 GOLDEN = {
-    "y_junction": "ac4b82154154c15fbf6965a6d8cfaed9bec7c648f584d688b91e282182fa498c",
-    "ring_cross_raster": "0fa1fae80887acd0e502bf2e96fd0e84047e205e363b30b3585a1f50d6e0d0bb",
+    "y_junction": "cbd3ed449e58df8d213a8484b89df841a8465132a5f2b7fd6810968ab61eb5a2",
+    "ring_cross_raster": "4d66ce264bca5f126a22205430bc52887e7c822cf7a917fc32381058d973419e",
     "styles_stamp_water_pin": "947806070207149ee269d5f33ef2d1ce528e4c3878a8f762c5195b48a113e107",
 }
 
