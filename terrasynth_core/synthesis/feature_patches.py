@@ -13,7 +13,9 @@ import numpy as np
 from scipy import ndimage
 
 from ..controls.layout import StyleLayout
+from ..features.graph import FeatureMaps
 from ..features.samples import FeatureSample
+from ..features.stations import LineStations
 from ..matching.candidates import Candidate, FeaturePool
 from ..matching.costs import match_cost, overlap_ssd, settle
 from ..matching.usage import UsageRegistry
@@ -158,9 +160,60 @@ def pool_for(pools: dict, layout: StyleLayout, sample: FeatureSample, warnings: 
     return pool
 
 
+class Stations:
+    """The stations (:mod:`~terrasynth_core.features.stations`) of the
+    sketch's and the examples' feature lines, each network's made when
+    first asked for.
+
+    Parameters
+    ----------
+    sketch : FeatureMaps
+        The sketch's networks, on the output's grid.
+    examples : list
+        The layout's examples (their ``features``, the networks their
+        samples were taken on).
+    radius : float
+        The patch's inscribed radius, cells.
+    """
+
+    def __init__(self, sketch: FeatureMaps, examples: list, radius: float):
+        self._graphs = {("sketch", kind): getattr(sketch, kind + "s") for kind in ("ridge", "valley")}
+        self._graphs.update({(i, kind): getattr(ex.features, kind + "s")
+                             for i, ex in enumerate(examples) for kind in ("ridge", "valley")})
+        self._radius = radius
+        self._made: dict = {}
+
+    def _of(self, key) -> LineStations:
+        if key not in self._made:
+            self._made[key] = LineStations(self._graphs[key], self._radius)
+        return self._made[key]
+
+    def pairs(self, sample: FeatureSample, cand: Candidate) -> tuple[np.ndarray, np.ndarray] | None:
+        """The stations both the stroke and the candidate's line have
+        cleanly, paired in the order of ``cand.target`` and
+        ``cand.control``: shapes (m, 2) and (m, 2); None when m is 0."""
+        if sample.degree != len(cand.control) - 1:
+            return None  # a stand-in degree: its crossings do not pair
+        drawn = self._of(("sketch", sample.kind)).inner(sample.center, cand.target[1:])
+        found = self._of((cand.example, sample.kind)).inner(cand.center, cand.control[1:])
+        both = ~(np.isnan(drawn).any(axis=1) | np.isnan(found).any(axis=1))
+        return (drawn[both], found[both]) if both.any() else None
+
+
+def _fits(sample: FeatureSample, cand: Candidate, stations: Stations | None) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Control sets to fit the candidate's spline on, most faithful first:
+    with the feature lines' stations, then without them."""
+    src, dst = framed(cand.target, cand.control, reflect=cand.mirrored)
+    pairs = None if stations is None else stations.pairs(sample, cand)
+    if pairs is None:
+        return [(src, dst)]
+    return [(np.vstack([src, pairs[0]]), np.vstack([dst, pairs[1]])), (src, dst)]
+
+
 def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.ndarray], *,
                     shape: tuple[int, int], patch_size: int, count: int, rng: np.random.Generator,
-                    usage: UsageRegistry, cap: int) -> tuple[tuple, list[tuple[Candidate, np.ndarray]]]:
+                    usage: UsageRegistry, cap: int,
+                    stations: Stations | None = None) -> tuple[tuple, list[tuple[Candidate, np.ndarray]]]:
     """Rank candidates for a sample and warp them onto its window.
 
     Reads only the examples, never the output, so it can run ahead on
@@ -185,6 +238,10 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
         windows over ``cap`` or used by a neighbour are ranked last.
     cap : int
         Most feature patches one example window may supply.
+    stations : Stations, optional
+        The feature lines' stations: a warp that also carries the
+        example's line onto the stroke halfway to each crossing is used
+        where it does not fold or streak.
 
     Returns
     -------
@@ -204,8 +261,11 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
     window = (r1 - r0, c1 - c0)
     warped, distorted = [], []
     for cand in pool.rank(sample, count, rng, exclude=exclude):
-        tps = ThinPlateSpline.fit(*framed(cand.target, cand.control, reflect=cand.mirrored), regularization=1e-3)
-        if warp_distortion(tps, (r0, c0), window) > MAX_STRETCH:
+        for src, dst in _fits(sample, cand, stations):
+            tps = ThinPlateSpline.fit(src, dst, regularization=1e-3)
+            if warp_distortion(tps, (r0, c0), window) <= MAX_STRETCH:
+                break
+        else:
             distorted.append(cand)
             continue
         patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, return_valid=True)

@@ -27,7 +27,7 @@ from ..order.bfs import feature_order
 from ..placing.canvas import Canvas
 from ..placing.windows import WindowQueue, estimate_fill_count, fill_windows, region_seeds
 from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, SynthesisFinished
-from .feature_patches import feature_pools, place_feature, place_stamp, pool_for, prepare_feature
+from .feature_patches import Stations, feature_pools, place_feature, place_stamp, pool_for, prepare_feature
 from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
 from .fill_workers import MIN_PARALLEL_WINDOWS, WAVE, FillKit, FillWorkers, warm_up, window_task
 from .finish import finish_heights
@@ -208,6 +208,7 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
     # feature patches, and neighbours never share one (matching/usage.py).
     usage = UsageRegistry(p.patch_size)
     n_kind = {kind: sum(s.kind == kind for s in samples) for kind in ("ridge", "valley")}
+    stations = Stations(state.session.sketch_maps, lay.examples, state.radius)
     # One helper thread prepares the next patch (ranking and warping, which
     # do not read the output) while this one merges the current patch.  It
     # ranks against a snapshot of the windows used, taken now: what it
@@ -220,7 +221,7 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
             rng = np.random.default_rng([p.seed, 0, i])
             return pool, cap, pre.submit(prepare_feature, samples[i], pool, lay.detail, shape=state.session.shape,
                                          patch_size=p.patch_size, count=3 * p.k, rng=rng, usage=usage.snapshot(),
-                                         cap=cap)
+                                         cap=cap, stations=stations)
 
         pending = prepare(0) if samples else None
         for i, sample in enumerate(samples):

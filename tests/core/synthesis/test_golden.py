@@ -78,8 +78,8 @@ CASES = {
 #: indexed fill search and the narrower last drainage pass, and with the
 #: framed feature warps and prominence read along the feature line.
 GOLDEN = {
-    "y_junction": "cbd3ed449e58df8d213a8484b89df841a8465132a5f2b7fd6810968ab61eb5a2",
-    "ring_cross_raster": "4d66ce264bca5f126a22205430bc52887e7c822cf7a917fc32381058d973419e",
+    "y_junction": "11b542e26025d40492180b9db2f9353df502731a1afa46dc58cd41a9b880755e",
+    "ring_cross_raster": "c5a03803619f8e68a5dbd2597d548ebcd5ecb5b611d4d466a2497a7b3e7abe78",
     "styles_stamp_water_pin": "947806070207149ee269d5f33ef2d1ce528e4c3878a8f762c5195b48a113e107",
 }
 

@@ -1,0 +1,204 @@
+"""Where a sample's feature line runs inside its patch: the points at which
+it crosses a circle of half the patch's inscribed radius.
+
+A feature sample's control points are its centre and the crossings of the
+inscribed circle (:mod:`.samples`), so a warp carries the example's feature
+onto the stroke there and only there: halfway out, the example's line may
+run a few cells off the stroke, and a valley a few cells wide then lies
+beside the line the artist drew.  Matching these inner *stations* of the
+example's line to the stroke's as well pins the feature to the stroke all
+along the patch.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .graph import FeatureGraph
+from .samples import _circle_exit
+
+#: Radius of the station circle, as a share of the patch's inscribed radius.
+STATION_SHARE = 0.5
+
+#: Most a station's direction from the centre may differ from its
+#: crossing's, degrees: beyond it the line turns back or belongs to another
+#: branch, and the pair would fold the warp.
+MAX_TURN = 45.0
+
+
+#: Farthest a route's exit may lie from the crossing it stands for, cells
+#: (the same walk finds both; this only absorbs rounding).
+MATCH_TOLERANCE = 1.0
+
+
+class LineStations:
+    """The stations of one network's samples.
+
+    Parameters
+    ----------
+    graph : FeatureGraph
+        The network the samples were taken on (their centres are its
+        nodes and path points).
+    radius : float
+        The patch's inscribed radius, cells.
+    """
+
+    def __init__(self, graph: FeatureGraph, radius: float):
+        self._graph = graph
+        self._radius = float(radius)
+        self._points = [np.asarray(p.points, dtype=float) for p in graph.paths]
+        self._at_node: list[list[tuple[int, int]]] = [[] for _ in graph.nodes]
+        for i, p in enumerate(graph.paths):
+            self._at_node[p.start].append((i, +1))
+            self._at_node[p.end].append((i, -1))
+        self._at: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._nodes: dict[int, int] = {}
+        # Routes by centre: a sample's candidates share their sketch
+        # centre, and an example centre comes back in many rankings.
+        self._routes: dict[int, list] = {}
+
+    def _where(self, centre: np.ndarray) -> tuple[int, int] | None:
+        """``(-1, node)`` or ``(path, index)`` of a sample centre, or None
+        (a centre on a node is walked from the node)."""
+        if self._at is None:
+            self._index()
+        key = int(_keys(np.asarray(centre, dtype=float)[None])[0])
+        if key in self._nodes:
+            return -1, self._nodes[key]
+        keys, path, index = self._at
+        at = int(np.searchsorted(keys, key))
+        if at < len(keys) and keys[at] == key:
+            return int(path[at]), int(index[at])
+        return None
+
+    def _index(self) -> None:
+        """Every path point's key, sorted, with its path and index."""
+        lengths = [len(p) for p in self._points]
+        pts = np.concatenate(self._points) if self._points else np.zeros((0, 2))
+        keys = _keys(pts)
+        order = np.argsort(keys, kind="stable")
+        path = np.repeat(np.arange(len(lengths)), lengths)
+        index = np.concatenate([np.arange(n) for n in lengths]) if lengths else np.zeros(0, np.int64)
+        self._at = keys[order], path[order], index[order]
+        nodes = np.array([[nd.row, nd.col] for nd in self._graph.nodes], dtype=float).reshape(-1, 2)
+        self._nodes = {int(k): n for n, k in enumerate(_keys(nodes))}
+
+    def routes(self, centre: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Every way out of the patch's disc from a sample centre: where it
+        leaves the disc (a crossing, as :mod:`.samples` finds it) and where
+        it crossed the station circle before.
+
+        Parameters
+        ----------
+        centre : ndarray of float, shape (2,)
+            A sample centre of this network, ``(row, col)`` cells.
+
+        Returns
+        -------
+        list of (crossing, station), each ndarray of float, shape (2,)
+            Empty when the centre is not on the network.
+        """
+        key = int(_keys(np.asarray(centre, dtype=float)[None])[0])
+        if key in self._routes:
+            return self._routes[key]
+        where = self._where(centre)
+        if where is None:
+            return []
+        centre = np.asarray(centre, dtype=float)
+        out: list = []
+        self._routes[key] = out
+        path, index = where
+        if path < 0:
+            for p, d in self._at_node[index]:
+                self._walk(centre, p, 0 if d > 0 else len(self._points[p]) - 1, d, index, None, out, set())
+        else:
+            seen = {path}
+            self._walk(centre, path, index, +1, None, None, out, seen)
+            self._walk(centre, path, index, -1, None, None, out, seen)
+        return out
+
+    def _walk(self, centre, path, index, direction, from_node, station, out, seen):
+        """As :meth:`.samples.NetworkSampler._walk`, carrying the route's
+        station along."""
+        pts = self._points[path]
+        seq = pts[index:] if direction > 0 else pts[index::-1]
+        # Points are about a cell apart: a route leaves the disc within a
+        # few radii of points unless it winds, so look there first.
+        near = seq[:int(4 * self._radius) + 2]
+        dist = np.hypot(near[:, 0] - centre[0], near[:, 1] - centre[1])
+        if dist.max() < self._radius and len(near) < len(seq):
+            near = seq
+            dist = np.hypot(seq[:, 0] - centre[0], seq[:, 1] - centre[1])
+        seq = near
+        if station is None:
+            past = np.flatnonzero(dist >= STATION_SHARE * self._radius)
+            if past.size:
+                j = int(past[0])
+                station = seq[0].copy() if j == 0 else _circle_exit(seq[j - 1], seq[j], centre,
+                                                                    STATION_SHARE * self._radius)
+        outside = np.flatnonzero(dist >= self._radius)
+        if outside.size:
+            j = int(outside[0])
+            exit_ = seq[0].copy() if j == 0 else _circle_exit(seq[j - 1], seq[j], centre, self._radius)
+            if station is not None:
+                out.append((exit_, station))
+            return
+        seen.add(path)
+        p = self._graph.paths[path]
+        node = p.end if direction > 0 else p.start
+        if node == from_node:
+            return
+        for other, d in self._at_node[node]:
+            if other in seen:
+                continue
+            seen.add(other)
+            self._walk(centre, other, 0 if d > 0 else len(self._points[other]) - 1, d, node, station, out, seen)
+
+    def inner(self, centre: np.ndarray, crossings: np.ndarray) -> np.ndarray:
+        """The station on the way to each crossing.
+
+        Parameters
+        ----------
+        centre : ndarray of float, shape (2,)
+            A sample centre of this network, ``(row, col)`` cells.
+        crossings : ndarray of float, shape (d, 2)
+            The sample's crossings, in any order.
+
+        Returns
+        -------
+        ndarray of float, shape (d, 2)
+            Row ``j`` is where the route to ``crossings[j]`` crosses the
+            station circle, NaN where there is no clean one: no route
+            (the centre is not on the network), a station shared with
+            another crossing's route (the two part beyond it), or one
+            turned more than :data:`MAX_TURN` from its crossing's direction
+            (the line doubles back: the pair would fold the warp).
+        """
+        crossings = np.asarray(crossings, dtype=float)
+        found = np.full(crossings.shape, np.nan)
+        routes = self.routes(centre)
+        if not routes:
+            return found
+        # A handful of routes and crossings: plain floats beat array calls.
+        cr, cc = float(centre[0]), float(centre[1])
+        picked = []
+        for r, c in crossings.tolist():
+            gap, station = min(((math.hypot(r - e[0], c - e[1]), s) for e, s in routes), key=lambda t: t[0])
+            picked.append(station if gap <= MATCH_TOLERANCE else None)
+        for j, station in enumerate(picked):
+            if station is None or sum(other is station for other in picked) > 1:
+                continue  # no route, or a station two routes share
+            turn = math.atan2(crossings[j, 0] - cr, crossings[j, 1] - cc) - math.atan2(station[0] - cr,
+                                                                                     station[1] - cc)
+            if abs(math.remainder(turn, math.tau)) <= math.radians(MAX_TURN):
+                found[j] = station
+        return found
+
+
+def _keys(points: np.ndarray) -> np.ndarray:
+    """One integer per point, equal for points within a quarter cell's
+    rounding: shape (n,) of int64."""
+    q = np.rint(np.asarray(points, dtype=float) * 4).astype(np.int64)
+    return q[:, 0] * (1 << 32) + q[:, 1]
