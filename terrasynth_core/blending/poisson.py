@@ -136,13 +136,20 @@ def remove_seam(
     known = fixed & finite
 
     # Free groups with no edge to a known pixel cannot be anchored: drop them.
-    labels, n_groups = ndimage.label(free)
-    anchored = np.zeros(n_groups + 1, bool)
-    anchored[labels[ndimage.binary_dilation(known) & free]] = True
-    anchored[0] = False
-    free = anchored[labels]
-    if not free.any():
-        return result
+    block = _solid_block(free)
+    if block is not None:
+        # One solid rectangle (nearly every window): one group, anchored
+        # when a known pixel lies just outside one of its sides.
+        if not _block_anchored(block, known):
+            return result
+    else:
+        labels, n_groups = ndimage.label(free)
+        anchored = np.zeros(n_groups + 1, bool)
+        anchored[labels[ndimage.binary_dilation(known) & free]] = True
+        anchored[0] = False
+        free = anchored[labels]
+        if not free.any():
+            return result
     take = free | known
     values = np.where(take, values, 0.0)
     composite = np.where(take, h0, 0.0).astype(np.float64)
@@ -178,6 +185,27 @@ def remove_seam(
     )
     result[free] = (values[free] + _solve(free, known, p_idx, q_idx, rhs)).astype(np.float32)
     return result
+
+
+def _solid_block(free: np.ndarray) -> tuple[int, int, int, int] | None:
+    """``(r0, r1, c0, c1)`` when the free pixels are exactly that solid
+    rectangle, else None (also when there are none)."""
+    rows = np.flatnonzero(free.any(axis=1))
+    if rows.size == 0:
+        return None
+    cols = np.flatnonzero(free.any(axis=0))
+    r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    if np.count_nonzero(free) != (r1 - r0) * (c1 - c0):
+        return None
+    return r0, r1, c0, c1
+
+
+def _block_anchored(block: tuple[int, int, int, int], known: np.ndarray) -> bool:
+    """Whether a known pixel is 4-adjacent to the solid block."""
+    r0, r1, c0, c1 = block
+    rows, cols = known.shape
+    return bool((r0 > 0 and known[r0 - 1, c0:c1].any()) or (r1 < rows and known[r1, c0:c1].any())
+                or (c0 > 0 and known[r0:r1, c0 - 1].any()) or (c1 < cols and known[r0:r1, c1].any()))
 
 
 def _solve(free: np.ndarray, known: np.ndarray, p_idx: np.ndarray, q_idx: np.ndarray, rhs: np.ndarray) -> np.ndarray:

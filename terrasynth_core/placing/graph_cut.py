@@ -63,18 +63,24 @@ def _bool_grid(mask, shape: tuple[int, int], name: str) -> np.ndarray:
 def _edge_weights(mismatch: np.ndarray, filled: np.ndarray, axis: int) -> np.ndarray:
     """Weights ``M(s) + M(t)`` of the edges s -> s + 1 along ``axis``.
 
-    Returned with the window's shape (last row/column unused).  An edge
-    between a filled and an unfilled pixel cannot compare heights at the
-    unfilled end; it counts the filled end twice, so cutting along the rim of
-    the overlap costs as much as cutting through it.
+    Returned with the window's shape; the last row/column holds the edge
+    that wraps round to the first (unused by the cut, but part of the
+    hard-constraint weight's sum).  An edge between a filled and an
+    unfilled pixel cannot compare heights at the unfilled end; it counts
+    the filled end twice, so cutting along the rim of the overlap costs as
+    much as cutting through it.  ``mismatch`` is 0 at unfilled pixels, so
+    that is the sum of both ends, doubled (exactly, in floating point).
     """
-    ms = mismatch
-    mt = np.roll(mismatch, -1, axis=axis)
-    fs = filled
-    ft = np.roll(filled, -1, axis=axis)
-    ms_eff = np.where(fs, ms, mt)
-    mt_eff = np.where(ft, mt, ms)
-    return ms_eff + mt_eff
+    m = np.moveaxis(mismatch, axis, 0)
+    f = np.moveaxis(filled, axis, 0)
+    out = np.empty_like(m)
+    np.add(m[:-1], m[1:], out=out[:-1])
+    np.add(m[-1], m[0], out=out[-1])
+    one_sided = np.empty(f.shape, dtype=bool)
+    np.not_equal(f[:-1], f[1:], out=one_sided[:-1])
+    np.not_equal(f[-1], f[0], out=one_sided[-1])
+    out[one_sided] *= 2.0
+    return np.moveaxis(out, 0, axis)
 
 
 def _cut_cost(take_new: np.ndarray, w_down: np.ndarray, w_right: np.ndarray) -> float:

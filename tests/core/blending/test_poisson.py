@@ -97,6 +97,22 @@ def test_unanchored_region_is_returned_unchanged(grid, take_new):
     assert _jump(out[5:15]) < 0.01 * STEP
 
 
+def test_a_solid_block_is_anchored_only_by_a_side_neighbour(grid, take_new):
+    _, cc = grid
+    composite = (cc + STEP * take_new).astype(np.float32)
+    region = np.zeros(SHAPE, bool)
+    region[10:30, 10:40] = True
+    corners = np.zeros(SHAPE, bool)
+    corners[[9, 9, 30, 30], [9, 40, 9, 40]] = True  # diagonal neighbours only
+    out = remove_seam(composite, take_new, region, fixed=corners)
+    np.testing.assert_array_equal(out, composite)
+    for r, c in ((9, 20), (30, 20), (20, 9), (20, 40)):  # one beside each side in turn
+        fixed = corners.copy()
+        fixed[r, c] = True
+        out = remove_seam(composite, take_new, region, fixed=fixed)
+        assert _jump(out[10:30]) < 0.01 * STEP
+
+
 def test_pixels_outside_region_and_fixed_are_a_neumann_border(grid, take_new):
     rr, cc = grid
     composite = (0.5 * rr + STEP * take_new).astype(np.float32)
