@@ -28,13 +28,6 @@ from .result import PatchRecord
 #: Share of a warped patch's cells that must come from inside its example.
 MIN_VALID_SHARE = 0.98
 
-#: Spline order of the feature warps' resampling.  Linear interpolation
-#: averages neighbouring cells wherever the warp lands between them, a
-#: low-pass that took the sharpest crests and gullies of the strokes'
-#: features down (p99.9 |Laplacian| 0.88 of the example's on Big Tujunga,
-#: 0.77 on the Himalaya); cubic splines keep them (0.96, 0.87).
-WARP_ORDER = 3
-
 #: Most a feature warp may stretch the example one way against the other
 #: (:func:`~terrasynth_core.warping.thin_plate.warp_distortion`) inside its
 #: patch's disc: beyond it ridges turn into streaks.
@@ -275,7 +268,7 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
         else:
             distorted.append(cand)
             continue
-        patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, order=WARP_ORDER, return_valid=True)
+        patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, return_valid=True)
         if valid >= MIN_VALID_SHARE:
             warped.append((cand, patch))
     rigid = not warped and bool(distorted)
@@ -285,7 +278,7 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
         # the ground keeps its shape).
         for cand in distorted:
             tps = ThinPlateSpline.similarity(cand.target, cand.control, reflect=cand.mirrored)
-            patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, order=WARP_ORDER, return_valid=True)
+            patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, return_valid=True)
             if valid >= MIN_VALID_SHARE:
                 warped.append((cand, patch))
     return bbox, warped, rigid

@@ -78,8 +78,8 @@ CASES = {
 #: indexed fill search and the narrower last drainage pass, and with the
 #: framed feature warps and prominence read along the feature line.
 GOLDEN = {
-    "y_junction": "5b7659e602201113c8c223821b79e22827865597a86fef7bf8573eb1bbc9ac61",
-    "ring_cross_raster": "49ac9ce64d238c5076ebeed39c1a6e5f1261cf644c16b0a859c404860b85cb4a",
+    "y_junction": "11b542e26025d40492180b9db2f9353df502731a1afa46dc58cd41a9b880755e",
+    "ring_cross_raster": "c5a03803619f8e68a5dbd2597d548ebcd5ecb5b611d4d466a2497a7b3e7abe78",
     "styles_stamp_water_pin": "947806070207149ee269d5f33ef2d1ce528e4c3878a8f762c5195b48a113e107",
 }
 
