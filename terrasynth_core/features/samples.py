@@ -64,6 +64,9 @@ class NetworkSampler:
     graph : FeatureGraph
     radius : float
         Inscribed-circle radius in cells (half the patch).
+    station_radius : float, optional
+        Also note where each route out crosses this smaller circle first
+        (:mod:`.stations`).
 
     Attributes
     ----------
@@ -72,9 +75,10 @@ class NetworkSampler:
         from the node, +1 from the path's start, -1 from its end).
     """
 
-    def __init__(self, graph: FeatureGraph, radius: float):
+    def __init__(self, graph: FeatureGraph, radius: float, *, station_radius: float | None = None):
         self.graph = graph
         self.radius = float(radius)
+        self.station_radius = station_radius
         self.points = [np.asarray(p.points, dtype=float) for p in graph.paths]
         self.at_node: list[list[tuple[int, int]]] = [[] for _ in graph.nodes]
         for i, p in enumerate(graph.paths):
@@ -101,29 +105,51 @@ class NetworkSampler:
         return out
 
     def crossings_from_node(self, center: np.ndarray, node: int) -> list[np.ndarray]:
-        out: list[np.ndarray] = []
-        for path, direction in self.at_node[node]:
-            self._walk(center, path, 0 if direction > 0 else len(self.points[path]) - 1, direction, node, out, set())
-        return out
+        return [exit_ for exit_, _ in self.routes_from_node(center, node)]
 
     def crossings_from_path(self, center: np.ndarray, path: int, index: int) -> list[np.ndarray]:
-        out: list[np.ndarray] = []
-        seen = {path}
-        self._walk(center, path, index, +1, None, out, seen)
-        self._walk(center, path, index, -1, None, out, seen)
+        return [exit_ for exit_, _ in self.routes_from_path(center, path, index)]
+
+    def routes_from_node(self, center: np.ndarray, node: int) -> list[tuple[np.ndarray, np.ndarray | None]]:
+        """Each way out of the disc from node ``node``: ``(crossing, station)``
+        (the station None without ``station_radius``)."""
+        out: list = []
+        for path, direction in self.at_node[node]:
+            self._walk(center, path, 0 if direction > 0 else len(self.points[path]) - 1, direction, node, None,
+                       out, set())
         return out
 
-    def _walk(self, center, path, index, direction, from_node, out, seen):
+    def routes_from_path(self, center: np.ndarray, path: int, index: int) -> list[tuple[np.ndarray, np.ndarray | None]]:
+        """As :meth:`routes_from_node`, from point ``index`` of path ``path``."""
+        out: list = []
+        seen = {path}
+        self._walk(center, path, index, +1, None, None, out, seen)
+        self._walk(center, path, index, -1, None, None, out, seen)
+        return out
+
+    def _walk(self, center, path, index, direction, from_node, station, out, seen):
         pts = self.points[path]
         seq = pts[index:] if direction > 0 else pts[index::-1]
-        dist = np.hypot(seq[:, 0] - center[0], seq[:, 1] - center[1])
+        # Points are about a cell apart: a route leaves the disc within a
+        # few radii of points unless it winds, so look there first.
+        near = seq[:int(4 * self.radius) + 2]
+        dist = np.hypot(near[:, 0] - center[0], near[:, 1] - center[1])
+        if len(near) < len(seq) and dist.max() < self.radius:
+            near = seq
+            dist = np.hypot(seq[:, 0] - center[0], seq[:, 1] - center[1])
+        seq = near
+        if station is None and self.station_radius is not None:
+            past = np.flatnonzero(dist >= self.station_radius)
+            if past.size:
+                j = int(past[0])
+                station = seq[0].copy() if j == 0 else _circle_exit(seq[j - 1], seq[j], center, self.station_radius)
         outside = np.flatnonzero(dist >= self.radius)
         if outside.size:
             j = int(outside[0])
             if j == 0:
-                out.append(seq[0].copy())
+                out.append((seq[0].copy(), station))
                 return
-            out.append(_circle_exit(seq[j - 1], seq[j], center, self.radius))
+            out.append((_circle_exit(seq[j - 1], seq[j], center, self.radius), station))
             return
         # The whole rest of the path lies inside the disc: go on past its node.
         seen.add(path)
@@ -136,7 +162,7 @@ class NetworkSampler:
                 continue
             seen.add(other)
             start = 0 if d > 0 else len(self.points[other]) - 1
-            self._walk(center, other, start, d, node, out, seen)
+            self._walk(center, other, start, d, node, station, out, seen)
 
 
 def _circle_exit(a: np.ndarray, b: np.ndarray, c: np.ndarray, r: float) -> np.ndarray:

@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from .graph import FeatureGraph
-from .samples import _circle_exit
+from .samples import NetworkSampler
 
 #: Radius of the station circle, as a share of the patch's inscribed radius.
 STATION_SHARE = 0.5
@@ -47,12 +47,7 @@ class LineStations:
 
     def __init__(self, graph: FeatureGraph, radius: float):
         self._graph = graph
-        self._radius = float(radius)
-        self._points = [np.asarray(p.points, dtype=float) for p in graph.paths]
-        self._at_node: list[list[tuple[int, int]]] = [[] for _ in graph.nodes]
-        for i, p in enumerate(graph.paths):
-            self._at_node[p.start].append((i, +1))
-            self._at_node[p.end].append((i, -1))
+        self._walker = NetworkSampler(graph, radius, station_radius=STATION_SHARE * float(radius))
         self._at: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._nodes: dict[int, int] = {}
         # Routes by centre: a sample's candidates share their sketch
@@ -75,8 +70,9 @@ class LineStations:
 
     def _index(self) -> None:
         """Every path point's key, sorted, with its path and index."""
-        lengths = [len(p) for p in self._points]
-        pts = np.concatenate(self._points) if self._points else np.zeros((0, 2))
+        points = self._walker.points
+        lengths = [len(p) for p in points]
+        pts = np.concatenate(points) if points else np.zeros((0, 2))
         keys = _keys(pts)
         order = np.argsort(keys, kind="stable")
         path = np.repeat(np.arange(len(lengths)), lengths)
@@ -107,54 +103,11 @@ class LineStations:
         if where is None:
             return []
         centre = np.asarray(centre, dtype=float)
-        out: list = []
-        self._routes[key] = out
         path, index = where
-        if path < 0:
-            for p, d in self._at_node[index]:
-                self._walk(centre, p, 0 if d > 0 else len(self._points[p]) - 1, d, index, None, out, set())
-        else:
-            seen = {path}
-            self._walk(centre, path, index, +1, None, None, out, seen)
-            self._walk(centre, path, index, -1, None, None, out, seen)
+        out = (self._walker.routes_from_node(centre, index) if path < 0
+               else self._walker.routes_from_path(centre, path, index))
+        self._routes[key] = out
         return out
-
-    def _walk(self, centre, path, index, direction, from_node, station, out, seen):
-        """As :meth:`.samples.NetworkSampler._walk`, carrying the route's
-        station along."""
-        pts = self._points[path]
-        seq = pts[index:] if direction > 0 else pts[index::-1]
-        # Points are about a cell apart: a route leaves the disc within a
-        # few radii of points unless it winds, so look there first.
-        near = seq[:int(4 * self._radius) + 2]
-        dist = np.hypot(near[:, 0] - centre[0], near[:, 1] - centre[1])
-        if dist.max() < self._radius and len(near) < len(seq):
-            near = seq
-            dist = np.hypot(seq[:, 0] - centre[0], seq[:, 1] - centre[1])
-        seq = near
-        if station is None:
-            past = np.flatnonzero(dist >= STATION_SHARE * self._radius)
-            if past.size:
-                j = int(past[0])
-                station = seq[0].copy() if j == 0 else _circle_exit(seq[j - 1], seq[j], centre,
-                                                                    STATION_SHARE * self._radius)
-        outside = np.flatnonzero(dist >= self._radius)
-        if outside.size:
-            j = int(outside[0])
-            exit_ = seq[0].copy() if j == 0 else _circle_exit(seq[j - 1], seq[j], centre, self._radius)
-            if station is not None:
-                out.append((exit_, station))
-            return
-        seen.add(path)
-        p = self._graph.paths[path]
-        node = p.end if direction > 0 else p.start
-        if node == from_node:
-            return
-        for other, d in self._at_node[node]:
-            if other in seen:
-                continue
-            seen.add(other)
-            self._walk(centre, other, 0 if d > 0 else len(self._points[other]) - 1, d, node, station, out, seen)
 
     def inner(self, centre: np.ndarray, crossings: np.ndarray) -> np.ndarray:
         """The station on the way to each crossing.
