@@ -24,6 +24,7 @@ import numpy as np
 from ..controls.layout import anchors, build_layout
 from ..controls.options import Controls, check_heights
 from ..errors import ParamsError
+from ..exemplars import cache
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
@@ -191,11 +192,21 @@ def _memo_detail_above(detail: np.ndarray, sigma: float) -> np.ndarray:
     examples' detail band is a Gaussian filter over each whole example
     (about 0.3 s for a 1201x1201 DEM) that no edit of the sketch changes.
     Keyed by the detail's bytes, so an edited example is never served a
-    stale band.
+    stale band.  Kept in the example-analysis disk cache too, and read back
+    from there mapped (:mod:`terrasynth_core.exemplars.cache`): a library
+    of many examples is then not held in each process's memory.
     """
+    key = (array_key(detail), float(sigma))
+
     def make() -> np.ndarray:
-        band = detail_above(detail, sigma)
+        stored_key = f"detail-{key[0][0].hex()}-{detail.shape[0]}x{detail.shape[1]}-s{float(sigma)!r}"
+        band = cache.load_array(stored_key)
+        if band is None or band.shape != detail.shape:
+            band = detail_above(detail, sigma)
+            cache.save_array(stored_key, band)
+            stored = cache.load_array(stored_key)  # the same bytes, mapped
+            band = band if stored is None else stored
         band.flags.writeable = False  # shared by every session that asks
         return band
 
-    return _DETAIL_BANDS.get((array_key(detail), float(sigma)), make)
+    return _DETAIL_BANDS.get(key, make)

@@ -34,6 +34,7 @@ from ..io.resample import output_georeference
 from ..synthesis.params import SynthesisParams
 from ..synthesis.session import Session
 from .inputs import CoarseLevel, coarse_level, sketch_window
+from .library import library_examples
 from .output import write_geotiff_from_tiles
 from .plan import Tile, TilePlan, plan_tiles
 from .store import TileStore, compose, run_digest, store_path
@@ -264,10 +265,11 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, sketch, params, out:
     try:
         n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
         # The examples go to every worker once, as data rather than inside
-        # each task (the scheduler warns of, and slows on, large tasks).
+        # each task (the scheduler warns of, and slows on, large tasks); each
+        # worker stores them on its disk and maps them (:mod:`.library`).
         # Keys unique to this run (hash=False): a finished run's data being
         # released on a shared client never takes this run's with it.
-        shared = client.scatter(list(examples), broadcast=True, hash=False)
+        shared = client.scatter(library_examples(examples), broadcast=True, hash=False)
         t = time.perf_counter()
         coarse, coarse_notes = _landform(client, store, shared, sketch, plan.shape, params)
         notes.extend(coarse_notes)
