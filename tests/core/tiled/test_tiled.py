@@ -248,3 +248,37 @@ def test_one_run_at_a_time_per_output(tmp_path):
         TileStore(folder, "a" * 64)
     first.close()
     TileStore(folder, "b" * 64).close()  # free again (and another run's digest empties it)
+
+
+# -- controls in tiled runs ----------------------------------------------------------------------
+def test_styles_and_a_pin_give_the_same_bytes_on_one_and_two_workers(one_worker, white_mountains, lowland,
+                                                                      tmp_path, monkeypatch):
+    """Two style regions (painted at a quarter of the output's resolution)
+    and a pin on a 2x2-tile run: one worker in this process with the
+    example cache off (everything in memory) and two worker processes
+    mapping the stored library give the same bytes, and the pin is met."""
+    from terrasynth_core.controls.pins import Pin
+    from terrasynth_core.synthesis import Controls, Style
+
+    painted = np.full((64, 64), -1, np.int16)
+    painted[:, 34:] = 0  # the east: the lowland style; the west: the plain example
+    pin = Pin(150, 40, 1500.0)
+    controls = Controls(styles=(Style(lowland, relief_scale=1.5, base=900.0, name="low"),), style_map=painted,
+                        pins=(pin,))
+    params = SynthesisParams(patch_size=32, k=2, seed=3)
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", "")
+    one = run_tiled([white_mountains], None, shape=(256, 256), tile=128, out=tmp_path / "one.tif", params=params,
+                    client=one_worker, controls=controls)
+    assert one.plan.grid == (2, 2)
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path / "library"))
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        run_tiled([white_mountains], None, shape=(256, 256), tile=128, out=tmp_path / "two.tif", params=params,
+                  client=client, controls=controls)
+    assert any(p.suffix == ".bin" for p in (tmp_path / "library").iterdir())  # fill indexes stored as files
+    heights = _read(tmp_path / "one.tif")
+    assert np.array_equal(_read(tmp_path / "two.tif"), heights)
+    assert heights[pin.row, pin.col] == pytest.approx(pin.height, abs=1e-3)
+    # Each region at its own level: the lowland style's base (900 m) in the east.
+    assert abs(float(np.median(heights[:, 160:])) - 900.0) < 150.0
+    assert abs(float(np.median(heights[:, 160:])) - float(np.median(heights[:, :100]))) > 100.0
