@@ -221,7 +221,7 @@ def test_a_folder_that_is_not_a_store_is_left_alone(one_worker, white_mountains,
     (["--tile", "40"], "tile size 40: expected a whole number of at least 96 cells"),
     (["--tile", "128", "--scheduler", "nowhere"], "scheduler address 'nowhere': expected tcp://HOST:PORT"),
     (["--scheduler", "tcp://h:8786"], "--scheduler runs a tiled synthesis: give the tile size too"),
-    (["--tile", "128", "--pin", "5,5,100"], "--pin is not available with --tile"),
+    (["--tile", "128", "--height-range", "0,100"], "--height-range is not available with --tile"),
     (["--tile", "128", "--size", "100000000x5"], "output size 100000000x5: each side must be 1 to"),
 ])
 def test_cli_bad_tiled_options_give_one_line(extra, message, tmp_path, capsys, dems_dir):
