@@ -282,3 +282,22 @@ def test_styles_and_a_pin_give_the_same_bytes_on_one_and_two_workers(one_worker,
     # Each region at its own level: the lowland style's base (900 m) in the east.
     assert abs(float(np.median(heights[:, 160:])) - 900.0) < 150.0
     assert abs(float(np.median(heights[:, 160:])) - float(np.median(heights[:, :100]))) > 100.0
+
+
+def test_controls_a_tiled_run_cannot_take_are_refused_in_one_line(white_mountains, tmp_path):
+    from terrasynth_core.controls.options import Stamp
+    from terrasynth_core.synthesis import Controls, Style
+
+    def run(controls):
+        with pytest.raises(ParamsError) as info:
+            run_tiled([white_mountains], None, shape=(256, 256), tile=128, out=tmp_path / "o.tif", params=P,
+                      controls=controls, workers=1)
+        assert "\n" not in str(info.value)
+        return str(info.value)
+
+    crossing = Stamp(white_mountains.heights[:60, :60], center=(128.0, 60.0))
+    assert "stamp 1 covers rows" in run(Controls(stamps=(crossing,)))
+    assert "height range" in run(Controls(height_range=(0.0, 100.0)))
+    wide = np.zeros((10, 40), np.int16)
+    assert "another aspect ratio" in run(Controls(styles=(Style(white_mountains),), style_map=wide))
+    assert not store_path(tmp_path / "o.tif").exists()  # refused before anything was made
