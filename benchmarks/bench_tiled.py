@@ -190,7 +190,8 @@ def main(argv: list[str] | None = None) -> int:
                 rows.append(row)
                 speed = "-" if row["speed_up"] is None else f"{row['speed_up']:.2f}x"
                 print(f"{size:>6} {args.tile:>5} {n:>7} {row['seconds']:>8.1f} {speed:>8} "
-                      f"{row['peak_worker_mb']:>9.0f} {row['peak_worker_private_mb']:>8.0f} {row['peak_tree_mb']:>8.0f} {row['border_ratio']:>7.3f}",
+                      f"{row['peak_worker_mb']:>9.0f} {row['peak_worker_private_mb']:>8.0f} "
+                      f"{row['peak_tree_mb']:>8.0f} {row['border_ratio']:>7.3f}",
                       flush=True)
     by_size = {}
     for r in rows:

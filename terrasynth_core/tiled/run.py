@@ -261,6 +261,8 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
         scheduler = check_scheduler(scheduler)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ParamsError(f"workers {workers!r}: expected a whole number of at least 1")
+    if controls is not None and not isinstance(controls, Controls):
+        raise ParamsError(f"controls must be Controls, got {type(controls).__name__}")
     examples = list(examples or ())
     if not examples and not (controls is not None and controls.styles):
         raise ParamsError("no example DEM given: synthesis needs at least one")
@@ -281,7 +283,8 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
                      "level")
         params = dataclasses.replace(params, landform=False)
     # Sent to the workers once: the plain examples, the styles', the stamps'.
-    fields = [*examples, *(s.example for s in styles), *(() if controls is None else (st.field for st in controls.stamps))]
+    stamps = () if controls is None else controls.stamps
+    fields = [*examples, *(s.example for s in styles), *(st.field for st in stamps)]
     store = TileStore(store_path(out), run_digest(fields, sketch, params, plan,
                                                   None if controls is None else mapped.description()))
     try:
@@ -325,7 +328,8 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, mapped: MapControls,
         if own is not None:
             _close(client, own)
     t = time.perf_counter()
-    georef = None if cell is None else output_georeference(examples[:mapped.n_plain + len(mapped.styles)], plan.shape, cell)
+    placed = examples[:mapped.n_plain + len(mapped.styles)]  # the stamps do not place the output
+    georef = None if cell is None else output_georeference(placed, plan.shape, cell)
     written = write_geotiff_from_tiles(store, plan, out, cell_size=cell, georef=georef)
     timings["write"] = time.perf_counter() - t
     return timings, n_workers, written
