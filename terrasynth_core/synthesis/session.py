@@ -18,9 +18,11 @@ Bookstein, "Principal Warps", IEEE PAMI 11(6), 1989.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 from typing import Callable, Iterator, Sequence
 
 import numpy as np
+import scipy
 
 from ..controls.layout import anchors, build_layout
 from ..controls.options import Controls, check_heights
@@ -41,6 +43,11 @@ __all__ = ["Session"]
 
 #: Detail bands kept between sessions (:func:`_memo_detail_above`).
 _DETAIL_BANDS = Memo(4)
+
+#: What the stored detail bands are made by: the filter's code and scipy's version.
+_BAND_CODE = hashlib.blake2b(repr((detail_above.__code__.co_code, detail_above.__code__.co_consts,
+                                   detail_above.__code__.co_names, scipy.__version__)).encode(),
+                             digest_size=8).hexdigest()
 
 
 class Session:
@@ -239,12 +246,15 @@ def _memo_detail_above(detail: np.ndarray, sigma: float) -> np.ndarray:
     Keyed by the detail's bytes, so an edited example is never served a
     stale band.  Kept in the example-analysis disk cache too, and read back
     from there mapped (:mod:`terrasynth_core.exemplars.cache`): a library
-    of many examples is then not held in each process's memory.
+    of many examples is then not held in each process's memory.  The stored
+    band's key holds the filter's own code and scipy's version, so a
+    changed filter never reads an old band.
     """
     key = (array_key(detail), float(sigma))
 
     def make() -> np.ndarray:
-        stored_key = f"detail-{key[0][0].hex()}-{detail.shape[0]}x{detail.shape[1]}-s{float(sigma)!r}"
+        stored_key = (f"detail-{key[0][0].hex()}-{detail.shape[0]}x{detail.shape[1]}-s{float(sigma)!r}-"
+                      f"{_BAND_CODE}")
         band = cache.load_array(stored_key)
         if band is None or band.shape != detail.shape:
             band = detail_above(detail, sigma)
