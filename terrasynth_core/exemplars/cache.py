@@ -289,7 +289,9 @@ def _graph_from(z, kind: str, shape) -> FeatureGraph:
         for i, ((r, c), b, d) in enumerate(zip(z[f"{kind}_nodes"], z[f"{kind}_node_branch"], z[f"{kind}_node_degree"]))
     )
     splits = np.cumsum(z[f"{kind}_counts"])[:-1]
-    points = np.split(z[f"{kind}_points"], splits) if len(z[f"{kind}_counts"]) else []
+    # Plain views of the (possibly mapped) points: a memmap view per path
+    # would carry its own mapping attributes, ten thousand of them a DEM.
+    points = np.split(np.asarray(z[f"{kind}_points"]), splits) if len(z[f"{kind}_counts"]) else []
     paths = tuple(FeaturePath(int(a), int(b), p) for (a, b), p in zip(z[f"{kind}_ends"], points))
     return FeatureGraph(kind, shape, nodes, paths)
 
@@ -305,5 +307,5 @@ def _sample_arrays(kind: str, samples: list[FeatureSample]) -> dict:
 
 def _samples_from(z, kind: str) -> list[FeatureSample]:
     degrees = z[f"{kind}_s_degree"]
-    crossings = np.split(z[f"{kind}_s_crossings"], np.cumsum(degrees)[:-1]) if len(degrees) else []
+    crossings = np.split(np.asarray(z[f"{kind}_s_crossings"]), np.cumsum(degrees)[:-1]) if len(degrees) else []
     return [FeatureSample(c.copy(), kind, x) for c, x in zip(z[f"{kind}_s_centers"], crossings)]
