@@ -156,11 +156,6 @@ class TileControls:
     bases: np.ndarray
     steering: tuple
 
-    @property
-    def steers(self) -> bool:
-        """Whether the level changes under the window: pins, or more than one base."""
-        return bool(self.steering) or (self.groups is not None and float(np.ptp(self.bases)) > 0)
-
     def controls(self, examples: Sequence[HeightField], *, previous=None, selection=None) -> Controls:
         """The tile session's :class:`Controls` (``examples``: the run's, as sent)."""
         styles = tuple(Style(examples[self.n_plain + i], relief, base, name)
