@@ -242,14 +242,16 @@ class ZoneIndex:
         ``z["index"]`` may be the serialised index (bytes or an array of
         uint8: read into memory) or the path of a file holding it, as the
         disk cache gives it: then the index is memory-mapped
-        (``faiss.IO_FLAG_MMAP``), its vectors read from the page cache as
-        the queries visit their lists, never copied into this process.
+        (``faiss.IO_FLAG_MMAP_IFC``), its vectors read from the page cache
+        as the queries visit their lists, never copied into this process.
         """
         import faiss
 
         stored = z["index"]
         if isinstance(stored, (str, os.PathLike)):
-            index = faiss.read_index(os.fspath(stored), faiss.IO_FLAG_MMAP)
+            # Zero-copy mapping of the lists' arrays (IO_FLAG_MMAP_IFC): as
+            # fast as in memory; IO_FLAG_MMAP's on-disk lists searched 15x slower.
+            index = faiss.read_index(os.fspath(stored), faiss.IO_FLAG_MMAP_IFC)
         else:
             index = faiss.deserialize_index(np.frombuffer(stored, np.uint8) if isinstance(stored, bytes)
                                             else np.asarray(stored))
