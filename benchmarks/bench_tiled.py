@@ -96,6 +96,9 @@ class _TreeMemory:
         self.root = psutil.Process(pid)
         self.peak_tree = 0
         self.peak_each: dict[int, int] = {}
+        #: Peak resident memory less its file-backed part (mapped files the
+        #: kernel can drop and read again: the memory-mapped example library).
+        self.peak_private: dict[int, int] = {}
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._watch, args=(every,), daemon=True)
         self._thread.start()
@@ -109,11 +112,13 @@ class _TreeMemory:
             total = 0
             for p in procs:
                 try:
-                    rss = p.memory_info().rss
+                    info = p.memory_info()
                 except psutil.NoSuchProcess:
                     continue
-                total += rss
-                self.peak_each[p.pid] = max(self.peak_each.get(p.pid, 0), rss)
+                total += info.rss
+                self.peak_each[p.pid] = max(self.peak_each.get(p.pid, 0), info.rss)
+                private = info.rss - getattr(info, "shared", 0)
+                self.peak_private[p.pid] = max(self.peak_private.get(p.pid, 0), private)
             self.peak_tree = max(self.peak_tree, total)
             self._stop.wait(every)
 
@@ -141,9 +146,11 @@ def _run(size: int, tile: int, n: int, patch: int, seed: int, folder: Path, libr
     # The largest processes but the coordinator (the child itself) are the
     # workers (nannies are small).
     others = sorted((v for pid, v in memory.peak_each.items() if pid != proc.pid), reverse=True)
+    private = sorted((v for pid, v in memory.peak_private.items() if pid != proc.pid), reverse=True)
     out.unlink()
     return dict(size=size, tile=tile, workers=n, library=library, seconds=figures["seconds"], timings=figures["timings"],
                 peak_tree_mb=memory.peak_tree / 2**20, peak_worker_mb=(others[0] if others else 0) / 2**20,
+                peak_worker_private_mb=(private[0] if private else 0) / 2**20,
                 peak_coordinator_mb=memory.peak_each.get(proc.pid, 0) / 2**20,
                 border_ratio=border_ratio(heights, plan))
 
@@ -172,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
     counts = [int(n) for n in args.workers.split(",")]
     rows = []
     print(f"{'size':>6} {'tile':>5} {'workers':>7} {'time s':>8} {'speed-up':>8} {'worker MB':>9} "
-          f"{'tree MB':>8} {'border':>7}", flush=True)
+          f"{'private':>8} {'tree MB':>8} {'border':>7}", flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         for size in sizes:
             first = None
@@ -183,7 +190,8 @@ def main(argv: list[str] | None = None) -> int:
                 rows.append(row)
                 speed = "-" if row["speed_up"] is None else f"{row['speed_up']:.2f}x"
                 print(f"{size:>6} {args.tile:>5} {n:>7} {row['seconds']:>8.1f} {speed:>8} "
-                      f"{row['peak_worker_mb']:>9.0f} {row['peak_tree_mb']:>8.0f} {row['border_ratio']:>7.3f}",
+                      f"{row['peak_worker_mb']:>9.0f} {row['peak_worker_private_mb']:>8.0f} "
+                      f"{row['peak_tree_mb']:>8.0f} {row['border_ratio']:>7.3f}",
                       flush=True)
     by_size = {}
     for r in rows:

@@ -279,9 +279,9 @@ def _fill_run_defaults(args: argparse.Namespace) -> None:
 
 
 #: ``synth`` options a tiled run does not take (a tiled run streams one
-#: GeoTIFF and applies no whole-map control), with why.
+#: GeoTIFF and never holds the whole terrain), with why.
 _NOT_TILED = {"variations": "run the command once per seed", "report": None, "debug_dir": None, "cog": None,
-              "styles": None, "style": None, "water": None, "stamp": None, "pin": None, "height_range": None}
+              "height_range": "it maps the whole terrain's lowest and highest cells; map the GeoTIFF afterwards"}
 
 
 def _synth_tiled(args: argparse.Namespace) -> int:
@@ -289,7 +289,7 @@ def _synth_tiled(args: argparse.Namespace) -> int:
     output synthesized as tiles on Dask (:mod:`terrasynth_core.tiled`)."""
     from tqdm import tqdm
 
-    from ..tiled import TileFinished, check_scheduler, run_tiled, tiled_inputs
+    from ..tiled import TileFinished, check_scheduler, run_tiled, tiled_project_inputs
     from ..tiled.run import check_tiled_output
 
     if args.tile is None:
@@ -317,12 +317,12 @@ def _synth_tiled(args: argparse.Namespace) -> int:
             raise TerraSynthError(f"--{given[0].replace('_', '-')} cannot be combined with --project {args.project}: "
                                   "the project holds the examples, sketch and parameters")
         project = read_project(args.project)
-        examples, sketch, params = tiled_inputs(project.run_spec())
+        examples, sketch, params, controls = tiled_project_inputs(project.run_spec())
         if args.seed is not None:
             params = dataclasses.replace(params, seed=args.seed)
         size = tuple(args.size) if args.size else project.shape
     else:
-        examples, sketch, params, size = _tiled_run_options(args)
+        examples, sketch, params, size, controls = _tiled_run_options(args)
     bar = tqdm(total=0, desc="tiles", unit="tile", file=sys.stderr, disable=None, leave=False)
 
     def progress(event) -> None:
@@ -334,7 +334,8 @@ def _synth_tiled(args: argparse.Namespace) -> int:
 
     try:
         result = run_tiled(examples, sketch, shape=size, tile=tile, out=out, params=params, workers=args.workers,
-                           scheduler=args.scheduler, keep_tiles=args.keep_tiles, progress=progress)
+                           scheduler=args.scheduler, keep_tiles=args.keep_tiles, progress=progress,
+                           controls=controls)
     finally:
         bar.close()
     for note in result.notes:
@@ -348,14 +349,16 @@ def _synth_tiled(args: argparse.Namespace) -> int:
 
 
 def _tiled_run_options(args: argparse.Namespace):
-    """The examples, sketch, parameters and size of ``synth --tile`` without a project."""
+    """The examples, sketch, parameters, size and controls of ``synth --tile`` without a project."""
     from ..examples import resolve_dem
     from ..features import read_sketch
     from ..synthesis import SynthesisParams
 
+    from .controls import controls_from_args
+
     _fill_run_defaults(args)
-    if not args.example:
-        raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY)")
+    if not args.example and not args.styles:
+        raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY), or --styles with --style")
     sketch = read_sketch(args.sketch) if args.sketch else None
     size = tuple(args.size) if args.size else (None if sketch is None else sketch.shape)
     if size is None:
@@ -366,7 +369,9 @@ def _tiled_run_options(args: argparse.Namespace):
         cell_size=args.cell_size, drainage=not args.no_drainage, landform=not args.no_landform,
         **({"overlap": args.overlap} if args.overlap is not None else {}),
     )
-    return examples, sketch, params, size
+    # The style map and water mask as painted: each tile scales its window of them.
+    controls = controls_from_args(args, have_examples=bool(examples))
+    return examples, sketch, params, size, controls
 
 
 def _tile_size(text: str) -> int:

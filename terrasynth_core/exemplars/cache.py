@@ -12,10 +12,24 @@ patch size), checked on load, so a file of another example under this
 one's name is never used; an unreadable, stale or foreign file is ignored
 and rewritten, never an error.  Set ``TERRASYNTH_CACHE_DIR`` to an empty string to turn the
 cache off.
+
+Large members are not inside the ``.npz`` but beside it, so a run maps them
+instead of reading them (a library of examples larger than memory, each
+worker of a tiled run touching only the windows its searches read): an
+array of :data:`SIDE_BYTES` or more as a ``.npy`` loaded with
+``mmap_mode="r"``, and raw bytes (a faiss index) as a ``.bin`` handed back
+as its path, for the reader to map.  The ``.npz``, written last, names each
+side file with its size and BLAKE2b digest; a side file is checked against
+them once per process before it is first used (a damaged one makes the
+entry unreadable: it is rebuilt, never trusted).  Mapped pages are the
+page cache's: resident while used, dropped by the kernel under pressure,
+shared by every process on the machine that maps the same file.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import threading
 from collections import OrderedDict
@@ -33,6 +47,13 @@ from ..features.samples import FeatureSample
 CACHE_VERSION = 1
 _KINDS = ("ridge", "valley")
 
+#: Arrays of at least this many bytes are kept beside the ``.npz`` and mapped.
+SIDE_BYTES = 256 * 1024
+
+#: Side files checked in this process: (path, size, mtime, digest) of each.
+_CHECKED: set = set()
+_CHECKED_LOCK = threading.Lock()
+
 
 def cache_dir() -> Path | None:
     """Folder of the cache, or None when it is turned off."""
@@ -48,12 +69,19 @@ def _path(key: str) -> Path | None:
     return None if folder is None else folder / f"example-v{CACHE_VERSION}-{key}.npz"
 
 
+def _side_path(entry: Path, member: str, suffix: str) -> Path:
+    """A member kept beside the entry ``entry`` (named for the entry and the member)."""
+    return entry.with_name(f"{entry.stem}.{member}{suffix}")
+
+
 class Memo(OrderedDict):
     """The last ``size`` values in memory, backed by this disk cache.
 
     ``get(key, compute)`` looks in memory, then on disk (``load``), and
     only then computes (and saves) the value; thread-safe for lookups
-    (two threads may compute the same value once each).
+    (two threads may compute the same value once each).  A value just
+    computed and saved is kept as read back from disk when that works: its
+    large arrays then are mapped files, not this process's memory.
     """
 
     def __init__(self, size: int, load: Callable[[str], object], save: Callable[[str, object], None]):
@@ -69,6 +97,9 @@ class Memo(OrderedDict):
             if value is None:
                 value = compute()
                 self._save(key, value)
+                # The same bytes, mapped (None when the cache is off or the write failed).
+                stored = self._load(key)
+                value = value if stored is None else stored
             with self._lock:
                 self[key] = value
                 while len(self) > self.size:
@@ -83,7 +114,12 @@ def load(key: str):
         shape = tuple(int(v) for v in z["shape"])
         graphs = [_graph_from(z, kind, shape) for kind in _KINDS]
         samples = {kind: _samples_from(z, kind) for kind in _KINDS}
-        strong = np.unpackbits(z["strong"], count=shape[0] * shape[1]).reshape(shape).astype(bool)
+        if "strong_mask" in z.files:
+            strong = z["strong_mask"]
+            if strong.shape != shape or strong.dtype != bool:
+                return None
+        else:  # an entry written before the mask was kept unpacked
+            strong = np.unpackbits(z["strong"], count=shape[0] * shape[1]).reshape(shape).astype(bool)
         return FeatureMaps(*graphs), samples, strong, float(z["relief"])
 
     return _read(key, read)
@@ -101,9 +137,49 @@ def _read(key: str, read):
         with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as z:
             if not _same_key(z, key):
                 return None  # another grid's file under this name (or one from before keys)
-            return read(z)
-    except Exception:  # a damaged or foreign file: recompute
+            return read(_Entry(z, path))
+    except Exception:  # a damaged or foreign file (or a side file missing or changed): recompute
         return None
+
+
+class _Entry:
+    """An opened ``.npz`` entry whose members may be side files: ``entry[name]``
+    is the array (mapped for a ``.npy`` side file) or the path of a raw one."""
+
+    def __init__(self, z, path: Path):
+        self._z, self._folder = z, path.parent
+        self._side = json.loads(str(z["sides"])) if "sides" in z.files else {}
+        self.files = [n for n in z.files if n != "sides"] + list(self._side)
+
+    def __getitem__(self, name: str):
+        if name not in self._side:
+            return self._z[name]
+        filename, size, digest = self._side[name]
+        side = self._folder / filename
+        _check_side(side, int(size), digest)
+        if side.suffix == ".npy":
+            return np.load(side, mmap_mode="r", allow_pickle=False)
+        return side
+
+
+def _check_side(path: Path, size: int, digest: str) -> None:
+    """Raise ValueError unless ``path`` has ``size`` bytes and the BLAKE2b
+    ``digest`` (read through once per process and file version)."""
+    st = path.stat()
+    if st.st_size != size:
+        raise ValueError(f"{path} has {st.st_size} bytes, its entry says {size}")
+    seen = (str(path), st.st_size, st.st_mtime_ns, digest)
+    with _CHECKED_LOCK:
+        if seen in _CHECKED:
+            return
+    h = hashlib.blake2b(digest_size=20)
+    with open(path, "rb") as fh:
+        while chunk := fh.read(1 << 22):
+            h.update(chunk)
+    if h.hexdigest() != digest:
+        raise ValueError(f"{path} is not the file its entry names (damaged or replaced)")
+    with _CHECKED_LOCK:
+        _CHECKED.add(seen)
 
 
 def _same_key(z, key: str) -> bool:
@@ -118,7 +194,8 @@ def save(key: str, features: FeatureMaps, samples: dict, strong: np.ndarray, rel
     path = _path(key)
     if path is None:
         return
-    arrays = {"key": np.array(key), "shape": np.array(strong.shape), "strong": np.packbits(strong),
+    # The mask unpacked: a large one is then mapped, not unpacked into memory.
+    arrays = {"key": np.array(key), "shape": np.array(strong.shape), "strong_mask": np.asarray(strong, bool),
               "relief": np.array(relief)}
     for graph in (features.ridges, features.valleys):
         arrays.update(_graph_arrays(graph))
@@ -128,16 +205,45 @@ def save(key: str, features: FeatureMaps, samples: dict, strong: np.ndarray, rel
 
 
 def _write(path: Path, arrays: dict) -> None:
+    """Save ``arrays`` (with their ``"key"``) as the entry ``path``: large
+    arrays and raw bytes as side files first, each atomically, then the
+    ``.npz`` naming them, so an entry is whole or absent."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
+        inside, sides = {}, {}
+        for name, value in arrays.items():
+            if isinstance(value, (bytes, bytearray, memoryview)):
+                sides[name] = _write_side(_side_path(path, name, ".bin"), bytes(value))
+            elif isinstance(value, np.ndarray) and value.nbytes >= SIDE_BYTES and name != "key":
+                sides[name] = _write_side(_side_path(path, name, ".npy"), _npy_bytes(value))
+            else:
+                inside[name] = value
+        if sides:
+            inside["sides"] = np.array(json.dumps(sides))
         with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
-            np.savez(f, **arrays)
+            np.savez(f, **inside)
     except OSError:
         pass
 
 
+def _npy_bytes(array: np.ndarray) -> bytes:
+    import io
+
+    buffer = io.BytesIO()
+    np.save(buffer, np.ascontiguousarray(array), allow_pickle=False)
+    return buffer.getvalue()
+
+
+def _write_side(path: Path, data: bytes) -> list:
+    """Write a side file atomically; its (name, size, digest) for the entry."""
+    with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
+        f.write(data)
+    return [path.name, len(data), hashlib.blake2b(data, digest_size=20).hexdigest()]
+
+
 def load_array(key: str) -> np.ndarray | None:
-    """A cached float32 grid (an example resampled to a cell size) or None."""
+    """A cached float32 grid (an example resampled to a cell size, a detail
+    band) or None; mapped read-only from its file when it is large."""
     heights = _read(key, lambda z: z["heights"])
     return heights if heights is not None and heights.ndim == 2 and heights.dtype == np.float32 else None
 
@@ -151,13 +257,14 @@ def save_array(key: str, heights: np.ndarray) -> None:
 
 def load_arrays(key: str) -> dict | None:
     """Every array of the file saved under ``key`` (by :func:`save_arrays`),
-    or None."""
+    or None; large ones mapped, raw bytes given as the path of their file."""
     return _read(key, lambda z: {name: z[name] for name in z.files if name != "key"})
 
 
 def save_arrays(key: str, arrays: dict) -> None:
-    """Store named arrays (a fill-search index); failures are ignored, as
-    for analyses."""
+    """Store named arrays (a fill-search index) and raw bytes (``bytes``
+    values: its faiss index, kept as a file of its own); failures are
+    ignored, as for analyses."""
     path = _path(key)
     if path is not None:
         _write(path, {**arrays, "key": np.array(key)})
@@ -182,7 +289,9 @@ def _graph_from(z, kind: str, shape) -> FeatureGraph:
         for i, ((r, c), b, d) in enumerate(zip(z[f"{kind}_nodes"], z[f"{kind}_node_branch"], z[f"{kind}_node_degree"]))
     )
     splits = np.cumsum(z[f"{kind}_counts"])[:-1]
-    points = np.split(z[f"{kind}_points"], splits) if len(z[f"{kind}_counts"]) else []
+    # Plain views of the (possibly mapped) points: a memmap view per path
+    # would carry its own mapping attributes, ten thousand of them a DEM.
+    points = np.split(np.asarray(z[f"{kind}_points"]), splits) if len(z[f"{kind}_counts"]) else []
     paths = tuple(FeaturePath(int(a), int(b), p) for (a, b), p in zip(z[f"{kind}_ends"], points))
     return FeatureGraph(kind, shape, nodes, paths)
 
@@ -198,5 +307,5 @@ def _sample_arrays(kind: str, samples: list[FeatureSample]) -> dict:
 
 def _samples_from(z, kind: str) -> list[FeatureSample]:
     degrees = z[f"{kind}_s_degree"]
-    crossings = np.split(z[f"{kind}_s_crossings"], np.cumsum(degrees)[:-1]) if len(degrees) else []
+    crossings = np.split(np.asarray(z[f"{kind}_s_crossings"]), np.cumsum(degrees)[:-1]) if len(degrees) else []
     return [FeatureSample(c.copy(), kind, x) for c, x in zip(z[f"{kind}_s_centers"], crossings)]

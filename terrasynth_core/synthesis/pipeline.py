@@ -64,6 +64,8 @@ class RunState:
         p, c = session.params, session.controls
         canvas = Canvas(session.shape, float(np.mean(session.layout.relief)), patch_size=p.patch_size, seam=p.seam,
                         blend=p.blend, previous=c.previous, selection=c.selection)
+        if session.band is not None:  # previous terrain the graph cuts may replace
+            canvas.filled |= session.band
         return cls(session, p, c, session.layout, canvas, list(session.warnings))
 
     @property

@@ -17,13 +17,17 @@ Bookstein, "Principal Warps", IEEE PAMI 11(6), 1989.
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 from typing import Callable, Iterator, Sequence
 
 import numpy as np
+import scipy
 
 from ..controls.layout import anchors, build_layout
 from ..controls.options import Controls, check_heights
 from ..errors import ParamsError
+from ..exemplars import cache
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
@@ -39,6 +43,11 @@ __all__ = ["Session"]
 
 #: Detail bands kept between sessions (:func:`_memo_detail_above`).
 _DETAIL_BANDS = Memo(4)
+
+#: What the stored detail bands are made by: the filter's code and scipy's version.
+_BAND_CODE = hashlib.blake2b(repr((detail_above.__code__.co_code, detail_above.__code__.co_consts,
+                                   detail_above.__code__.co_names, scipy.__version__)).encode(),
+                             digest_size=8).hexdigest()
 
 
 class Session:
@@ -65,11 +74,28 @@ class Session:
     params : SynthesisParams
     controls : Controls, optional
         See :class:`~.controls.Controls`.
+    level : ndarray of float, shape ``shape``, optional
+        A level field made elsewhere, metres: the large-scale elevation the
+        detail sits on, instead of the session's own (its style bases, pins
+        and landform pass).  A tiled run gives each tile its window of the
+        whole map's.  Needs ``params.landform`` False (the level replaces
+        the pass).
+    level_split : float, optional
+        With ``level``: the standard deviation (cells) of the
+        landform/detail split it was made with; the examples then give only
+        their detail above it (as after the session's own landform pass).
+        None: their whole detail.
+    band : ndarray of bool, shape ``shape``, optional
+        With a re-synthesis: selected cells whose ``previous`` heights count
+        as terrain already there (patches are matched to them and the graph
+        cuts weigh them as any filled cell) but may be replaced, so seams can
+        run through them (a tile's band along its finished neighbours).
     """
 
     def __init__(self, examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | None = None, *,
                  shape: tuple[int, int] | None = None, params: SynthesisParams = SynthesisParams(),
-                 controls: Controls | None = None):
+                 controls: Controls | None = None, level: np.ndarray | None = None,
+                 level_split: float | None = None, band: np.ndarray | None = None):
         if not isinstance(params, SynthesisParams):
             raise ParamsError(f"params must be SynthesisParams, got {type(params).__name__}")
         controls = Controls() if controls is None else controls
@@ -116,6 +142,33 @@ class Session:
         self.warnings: list[str] = list(self.layout.notes)
         self.sketch_maps = self._sketch_maps()
         self._check_features()
+        #: Cells of the selection kept as terrain that may be replaced (see ``band``).
+        self.band = self._given_level_and_band(level, level_split, band)
+
+    def _given_level_and_band(self, level, level_split, band) -> np.ndarray | None:
+        """Take a given level field into the layout; the band, checked."""
+        if level is not None:
+            level = np.asarray(level, dtype=np.float32)
+            if level.shape != self.shape or not np.isfinite(level).all():
+                raise ParamsError(f"the given level field is {level.shape}, expected finite heights of the "
+                                  f"output's {self.shape[0]}x{self.shape[1]}")
+            if self.params.landform:
+                raise ParamsError("a given level field replaces the landform pass: set landform=False")
+            detail, anchor = self.layout.detail, self.layout.anchor
+            if level_split is not None:
+                detail, anchor = self.detail_above(float(level_split))
+            self.layout = dataclasses.replace(self.layout, level=level, detail=detail, anchor=anchor)
+        elif level_split is not None:
+            raise ParamsError("level_split is the split of a given level field: give the level too")
+        if band is None:
+            return None
+        band = np.asarray(band, dtype=bool)
+        if band.shape != self.shape:
+            raise ParamsError(f"the band is {band.shape}, the output {self.shape[0]}x{self.shape[1]}")
+        if self.controls.selection is None or (band & ~self.controls.selection).any():
+            raise ParamsError("the band must lie in the selection of a re-synthesis (previous terrain that may "
+                              "be replaced)")
+        return band
 
     # -- validation -----------------------------------------------------------
     def _sketch_maps(self) -> FeatureMaps:
@@ -191,11 +244,24 @@ def _memo_detail_above(detail: np.ndarray, sigma: float) -> np.ndarray:
     examples' detail band is a Gaussian filter over each whole example
     (about 0.3 s for a 1201x1201 DEM) that no edit of the sketch changes.
     Keyed by the detail's bytes, so an edited example is never served a
-    stale band.
+    stale band.  Kept in the example-analysis disk cache too, and read back
+    from there mapped (:mod:`terrasynth_core.exemplars.cache`): a library
+    of many examples is then not held in each process's memory.  The stored
+    band's key holds the filter's own code and scipy's version, so a
+    changed filter never reads an old band.
     """
+    key = (array_key(detail), float(sigma))
+
     def make() -> np.ndarray:
-        band = detail_above(detail, sigma)
+        stored_key = (f"detail-{key[0][0].hex()}-{detail.shape[0]}x{detail.shape[1]}-s{float(sigma)!r}-"
+                      f"{_BAND_CODE}")
+        band = cache.load_array(stored_key)
+        if band is None or band.shape != detail.shape:
+            band = detail_above(detail, sigma)
+            cache.save_array(stored_key, band)
+            stored = cache.load_array(stored_key)  # the same bytes, mapped
+            band = band if stored is None else stored
         band.flags.writeable = False  # shared by every session that asks
         return band
 
-    return _DETAIL_BANDS.get((array_key(detail), float(sigma)), make)
+    return _DETAIL_BANDS.get(key, make)

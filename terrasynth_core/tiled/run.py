@@ -27,19 +27,22 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ..controls.options import Controls
 from ..errors import ParamsError, SynthesisCancelled
 from ..features.sketch import SketchMap
 from ..heightfield import HeightField
 from ..io.resample import output_georeference
 from ..synthesis.params import SynthesisParams
 from ..synthesis.session import Session
+from .controls import MapControls, TileControls, map_controls
 from .inputs import CoarseLevel, coarse_level, sketch_window
+from .library import library_examples
 from .output import write_geotiff_from_tiles
 from .plan import Tile, TilePlan, plan_tiles
 from .store import TileStore, compose, run_digest, store_path
 from .tile import TileJob, synthesize_tile, tile_params
 
-__all__ = ["TileFinished", "TiledResult", "check_scheduler", "run_tiled", "tiled_inputs"]
+__all__ = ["TileFinished", "TiledResult", "check_scheduler", "run_tiled", "tiled_inputs", "tiled_project_inputs"]
 
 #: Extensions a tiled run writes (the GeoTIFF is streamed; other formats
 #: would need the whole terrain in memory).
@@ -136,22 +139,45 @@ def check_scheduler(address: str) -> str:
 
 def tiled_inputs(spec) -> tuple[list[HeightField], SketchMap | None, SynthesisParams]:
     """The examples, sketch and parameters of a project's run
-    (:class:`~terrasynth_core.project.RunSpec`) for a tiled run.
+    (:class:`~terrasynth_core.project.RunSpec`) without controls (see
+    :func:`tiled_project_inputs` for a run with them).
 
     Raises
     ------
     ParamsError
-        Naming the first control a tiled run does not take (styles, water,
-        stamps, pins, a height range, a re-synthesis).
+        Naming the first control the project uses (styles, water, stamps,
+        pins, a height range, a re-synthesis).
     """
     unsupported = [("style regions", bool(spec.styles)), ("water", spec.water is not None and bool(spec.water.any())),
-                   ("stamps", bool(spec.stamps)), ("pins", bool(spec.pins)),
-                   ("a height range", spec.height_range is not None), ("a re-synthesis", spec.selection is not None)]
+                   ("stamps", bool(spec.stamps)), ("pins", bool(spec.pins))]
     for what, used in unsupported:
         if used:
-            raise ParamsError(f"the project uses {what}, which a tiled run does not take yet: render it without tiles, "
+            raise ParamsError(f"the project uses {what}, which this tiled render does not take yet: render it "
+                              f"without tiles, or with terrasynth-cli synth --project ... --tile N")
+    examples, sketch, params, _ = tiled_project_inputs(spec)
+    return examples, sketch, params
+
+
+def tiled_project_inputs(spec) -> tuple[list[HeightField], SketchMap | None, SynthesisParams, Controls | None]:
+    """The examples, sketch, parameters and controls (style regions, water,
+    stamps, pins; None for none) of a project's run
+    (:class:`~terrasynth_core.project.RunSpec`) for :func:`run_tiled`.
+
+    Raises
+    ------
+    ParamsError
+        Naming the first control a tiled run does not take (a height
+        range, a re-synthesis).
+    """
+    unsupported = [("a height range", spec.height_range is not None), ("a re-synthesis", spec.selection is not None)]
+    for what, used in unsupported:
+        if used:
+            raise ParamsError(f"the project uses {what}, which a tiled run does not take: render it without tiles, "
                               f"or remove {what} from a copy of the project")
-    return list(spec.example_fields()), spec.sketch_map, spec.params
+    controls = None
+    if spec.styles or (spec.water is not None and bool(spec.water.any())) or spec.stamps or spec.pins:
+        controls = spec.make_controls()
+    return list(spec.example_fields()), spec.sketch_map, spec.params, controls
 
 
 def check_tiled_output(out: Path) -> Path:
@@ -168,7 +194,7 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
               tile: int, out: str | os.PathLike, params: SynthesisParams = SynthesisParams(),
               workers: int | None = None, scheduler: str | None = None, client=None,
               keep_tiles: bool = False, progress: Callable[[object], None] | None = None,
-              cancel: Callable[[], bool] | None = None) -> TiledResult:
+              cancel: Callable[[], bool] | None = None, controls: Controls | None = None) -> TiledResult:
     """Synthesize a terrain of ``shape`` as tiles on Dask and write it as a GeoTIFF.
 
     Parameters
@@ -200,6 +226,13 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
     cancel : callable, optional
         Polled after every tile; True stops the run (finished tiles stay
         on disk for the next run) and raises ``SynthesisCancelled``.
+    controls : Controls, optional
+        Style regions (their map and the water mask as painted, any size
+        with the output's aspect ratio), water, stamps and pins (output
+        cells), as for a whole-map run (:mod:`.controls`).  Not a height
+        range or a re-synthesis.  With styles the landform pass is not run
+        (each region is built on its own level, as a whole-map run with
+        several regions); each stamp must lie inside one tile.
 
     Returns
     -------
@@ -228,22 +261,35 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
         scheduler = check_scheduler(scheduler)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ParamsError(f"workers {workers!r}: expected a whole number of at least 1")
+    if controls is not None and not isinstance(controls, Controls):
+        raise ParamsError(f"controls must be Controls, got {type(controls).__name__}")
     examples = list(examples or ())
-    if not examples:
+    if not examples and not (controls is not None and controls.styles):
         raise ParamsError("no example DEM given: synthesis needs at least one")
     plan = plan_tiles((rows, cols), tile, patch_size=params.patch_size, seed=params.seed)
     # Checks the examples (and the parameters against them) before any
-    # worker starts; its layout gives the run's cell size.
-    probe = Session(examples, None, shape=(2 * params.patch_size,) * 2,
-                    params=_quiet(params))
+    # worker starts; its layout gives the run's cell size and the styles' bases.
+    styles = () if controls is None else tuple(controls.styles)
+    side = 2 * params.patch_size
+    probe = Session(examples, None, shape=(side, side), params=_quiet(params),
+                    controls=Controls(styles=styles, style_map=np.zeros((side, side), np.int16)) if styles else None)
     notes = [w for w in probe.warnings if "no strokes" not in w]
     if params.drainage:
         notes.append("drainage is not applied to a tiled run (it needs the whole map's streams): the heights are "
                      "as synthesized")
-    store = TileStore(store_path(out), run_digest(examples, sketch, params, plan))
+    mapped = map_controls(controls, examples, (rows, cols), plan, params, probe.layout)
+    if styles and params.landform:
+        notes.append("landform pass not used with style regions in a tiled run: each region is built on its own "
+                     "level")
+        params = dataclasses.replace(params, landform=False)
+    # Sent to the workers once: the plain examples, the styles', the stamps'.
+    stamps = () if controls is None else controls.stamps
+    fields = [*examples, *(s.example for s in styles), *(st.field for st in stamps)]
+    store = TileStore(store_path(out), run_digest(fields, sketch, params, plan,
+                                                  None if controls is None else mapped.description()))
     try:
-        timings, n_workers, written = _run_stored(store, plan, examples, sketch, params, out, probe.cell_size, workers,
-                                                  scheduler, client, progress, cancel, notes)
+        timings, n_workers, written = _run_stored(store, plan, fields, mapped, sketch, params, out, probe.cell_size,
+                                                  workers, scheduler, client, progress, cancel, notes)
         reused = store.reused
         if not keep_tiles:
             store.remove()
@@ -254,9 +300,10 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
                        tuple(notes), written.lowest, written.highest, cell)
 
 
-def _run_stored(store: TileStore, plan: TilePlan, examples, sketch, params, out: Path, cell: float | None,
-                workers, scheduler, client, progress, cancel, notes: list[str]):
-    """The landform pass, the tiles and the GeoTIFF, with ``store``."""
+def _run_stored(store: TileStore, plan: TilePlan, examples, mapped: MapControls, sketch, params, out: Path,
+                cell: float | None, workers, scheduler, client, progress, cancel, notes: list[str]):
+    """The landform pass, the tiles and the GeoTIFF, with ``store``
+    (``examples``: the plain ones, then the styles' and stamps')."""
     timings: dict[str, float] = {}
     own = None
     if client is None:
@@ -264,22 +311,25 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, sketch, params, out:
     try:
         n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
         # The examples go to every worker once, as data rather than inside
-        # each task (the scheduler warns of, and slows on, large tasks).
+        # each task (the scheduler warns of, and slows on, large tasks); each
+        # worker stores them on its disk and maps them (:mod:`.library`).
         # Keys unique to this run (hash=False): a finished run's data being
         # released on a shared client never takes this run's with it.
-        shared = client.scatter(list(examples), broadcast=True, hash=False)
+        shared = client.scatter(library_examples(examples), broadcast=True, hash=False)
         t = time.perf_counter()
-        coarse, coarse_notes = _landform(client, store, shared, sketch, plan.shape, params)
+        coarse, coarse_notes = _landform(client, store, shared[:mapped.n_plain], sketch, plan.shape, params)
         notes.extend(coarse_notes)
         timings["landform"] = time.perf_counter() - t
         t = time.perf_counter()
-        _run_tiles(client, store, plan, shared, sketch, coarse, params, n_workers, progress, cancel)
+        _run_tiles(client, store, plan, shared, sketch, coarse, params, n_workers, progress, cancel,
+                   lambda t: (mapped.for_tile(t, plan.shape, params.patch_size), cell))
         timings["tiles"] = time.perf_counter() - t
     finally:
         if own is not None:
             _close(client, own)
     t = time.perf_counter()
-    georef = None if cell is None else output_georeference(examples, plan.shape, cell)
+    placed = examples[:mapped.n_plain + len(mapped.styles)]  # the stamps do not place the output
+    georef = None if cell is None else output_georeference(placed, plan.shape, cell)
     written = write_geotiff_from_tiles(store, plan, out, cell_size=cell, georef=georef)
     timings["write"] = time.perf_counter() - t
     return timings, n_workers, written
@@ -347,9 +397,10 @@ def _landform(client, store: TileStore, examples, sketch, shape, params) -> tupl
 
 # -- the tiles ---------------------------------------------------------------------------------
 def _run_tiles(client, store: TileStore, plan: TilePlan, shared, sketch, coarse, params, n_workers: int,
-               progress, cancel) -> None:
+               progress, cancel, controls_of) -> None:
     """Submit each tile when its needs are finished; keep each result.
-    ``shared``: the examples' futures."""
+    ``shared``: the examples' futures; ``controls_of(tile)``: its
+    :class:`~.controls.TileControls` and the run's cell size."""
     from distributed import wait
 
     tiles = plan.by_key()
@@ -377,7 +428,7 @@ def _run_tiles(client, store: TileStore, plan: TilePlan, shared, sketch, coarse,
             if all(n in done for n in t.needs):
                 waiting.remove(t)
                 # The job (its border strips: megabytes) is sent as data too.
-                job = client.scatter(_job(t, plan, store, sketch, coarse, params), hash=False)
+                job = client.scatter(_job(t, plan, store, sketch, coarse, params, *controls_of(t)), hash=False)
                 future = client.submit(synthesize_tile, job, shared, key=f"tile-{t.row}-{t.col}-{run_id}",
                                        retries=1, pure=False)
                 pending[future.key] = (future, t, job)  # the job's data lives while the task does
@@ -411,8 +462,15 @@ def _run_tiles(client, store: TileStore, plan: TilePlan, shared, sketch, coarse,
             job.release()
 
 
-def _job(tile: Tile, plan: TilePlan, store: TileStore, sketch, coarse, params) -> TileJob:
-    """A tile's job: its sketch, its landform window and its neighbours' strips."""
+def _job(tile: Tile, plan: TilePlan, store: TileStore, sketch, coarse, params, controls: TileControls,
+         cell: float | None) -> TileJob:
+    """A tile's job: its sketch, its landform window, its neighbours'
+    strips and its part of the controls."""
     context = None if not tile.needs else compose(store, plan, tile.crop, set(tile.needs))
-    return TileJob(tile, tile_params(params, tile), sketch_window(sketch, plan.shape, tile.crop),
-                   None if coarse is None else coarse.window(tile.crop), context)
+    window = None
+    if coarse is not None:
+        # The level box when pins or stamps bend the level (computed there);
+        # else just the crop's window.
+        window = coarse.window(controls.level_box if controls.steering or controls.stamps else tile.crop)
+    return TileJob(tile, tile_params(params, tile), sketch_window(sketch, plan.shape, tile.crop), window, context,
+                   controls, cell)

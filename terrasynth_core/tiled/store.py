@@ -43,7 +43,7 @@ def store_path(out: Path) -> Path:
 
 
 def run_digest(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | None, params: SynthesisParams,
-               plan: TilePlan) -> str:
+               plan: TilePlan, controls: dict | None = None) -> str:
     """A SHA-256 of everything a tile's heights depend on.
 
     Parameters
@@ -55,6 +55,10 @@ def run_digest(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap |
     params : SynthesisParams
     plan : TilePlan
         The output's size, the tile grid and the context.
+    controls : dict, optional
+        The run's style regions, water, stamps and pins as described by
+        :meth:`~.controls.MapControls.description` (their DEMs are among
+        ``examples``).
 
     Returns
     -------
@@ -72,6 +76,8 @@ def run_digest(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap |
             "shape": list(heights.shape), "dtype": heights.dtype.str,
             "cell_size": None if not isinstance(ex, HeightField) or ex.cell_size is None else list(ex.cell_size),
             "georef": repr(ex.georef) if isinstance(ex, HeightField) else None})
+    if controls is not None:
+        described["controls"] = controls
     if sketch is not None:
         h.update(np.packbits(sketch.ridge_mask).data)
         h.update(np.packbits(sketch.valley_mask).data)

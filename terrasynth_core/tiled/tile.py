@@ -19,13 +19,14 @@ from typing import Sequence
 
 import numpy as np
 
-from ..controls.options import Controls
+from ..controls.stamps import render_stamp
 from ..features.sketch import SketchMap
 from ..heightfield import HeightField
 from ..synthesis.events import drive
+from ..synthesis.landform import level_under_stamps
 from ..synthesis.params import SynthesisParams
-from ..synthesis.pipeline import RunState, run_pipeline
 from ..synthesis.session import Session
+from .controls import TileControls
 from .inputs import CoarseWindow
 from .plan import Tile
 
@@ -45,12 +46,17 @@ class TileJob:
     sketch : SketchMap or None
         The sketch over the tile's crop.
     coarse : CoarseWindow or None
-        The landform pass under the crop (None: flat level).
+        The landform pass under the crop's level box (None: no pass).
     context : ndarray of float32, shape of the crop, or None
         The finished neighbours' heights in the crop (metres; the tile's
         own cells are ignored); None for a tile without finished neighbours.
         Those in the tile's band (``tile.region`` less ``tile.box``) may
         change: the tile's seams run there.
+    controls : TileControls
+        Its part of the run's style regions, water, stamps and pins, and
+        what its level field is made of.
+    cell_size : float or None
+        The run's, metres (where stamps land).
     """
 
     tile: Tile
@@ -58,6 +64,8 @@ class TileJob:
     sketch: SketchMap | None
     coarse: CoarseWindow | None
     context: np.ndarray | None
+    controls: TileControls
+    cell_size: float | None = None
 
 
 def tile_params(params: SynthesisParams, tile: Tile) -> SynthesisParams:
@@ -74,38 +82,54 @@ def synthesize_tile(job: TileJob, examples: Sequence[HeightField | np.ndarray]) 
     ----------
     job : TileJob
     examples : sequence of HeightField
-        The run's example DEMs.
+        The run's example DEMs as sent to the workers: the plain ones, then
+        the styles', then the stamps' (see
+        :class:`~terrasynth_core.tiled.controls.MapControls`).
 
     Returns
     -------
     ndarray of float32, shape of ``job.tile.region``
         The heights of the cells the tile makes, metres.
     """
-    tile = job.tile
+    tile, tc = job.tile, job.controls
     r0, r1, c0, c1 = tile.crop
     crop_shape = (r1 - r0, c1 - c0)
-    controls = Controls()
+    previous = selection = band = None
     if job.context is not None:
         selection = np.zeros(crop_shape, bool)
         selection[tile.made] = True
         previous = np.array(job.context, dtype=np.float32)
         previous[tile.inner] = 0.0  # not read: those cells are synthesized
-        controls = Controls(previous=previous, selection=selection)
-    session = Session(examples, job.sketch, shape=crop_shape, params=job.params, controls=controls)
-    state = RunState.start(session)
-    if job.context is not None:
         # The band: terrain that is there (graph cuts weigh it as any
         # filled cell) but may be replaced, so a seam can run through it.
-        band = np.zeros(crop_shape, bool)
-        band[tile.made] = True
+        band = selection.copy()
         band[tile.inner] = False
-        state.canvas.filled |= band
-    if job.coarse is not None:
-        # The pipeline's landform stage, with the whole map's landforms: the
-        # level is the window of the global pass, the examples' detail is
-        # taken above the same split.
-        detail, anchor = session.detail_above(job.coarse.sigma)
-        state.layout = dataclasses.replace(state.layout, level=job.coarse.level(tile.crop), detail=detail,
-                                           anchor=anchor)
-    result = drive(run_pipeline(state), what=f"tile {tile.row},{tile.col}")
+    controls = tc.controls(examples, previous=previous, selection=selection)
+    level, split = _level(job, crop_shape, controls.stamps)
+    session = Session(examples[:tc.n_plain], job.sketch, shape=crop_shape, params=job.params, controls=controls,
+                      level=level, level_split=split, band=band)
+    result = drive(session.iter_run(), what=f"tile {tile.row},{tile.col}")
     return np.ascontiguousarray(result.heights[tile.made], dtype=np.float32)
+
+
+def _level(job: TileJob, crop_shape: tuple[int, int], stamps) -> tuple[np.ndarray, float | None]:
+    """The tile's window of the whole map's level field, and the
+    landform/detail split it was made with (None: no landform pass).
+
+    With the landform pass: its window (:mod:`.inputs`); without: the style
+    groups' bases blurred across their borders.  Then bent through the pins
+    within reach and, under the pass, made flat under the tile's stamps
+    (``stamps``, in crop cells), as a whole-map run's
+    (:func:`~terrasynth_core.synthesis.landform.landform_from`).
+    """
+    tile, tc, patch = job.tile, job.controls, job.params.patch_size
+    r0, r1, c0, c1 = tile.crop
+    if job.coarse is not None and not tc.steering and not stamps:
+        return job.coarse.level(tile.crop), job.coarse.sigma  # nothing bends it: the window itself
+    e0, e1, f0, f1 = box = tc.level_box
+    level = tc.plain_level(patch) if job.coarse is None else job.coarse.level(box)
+    level = tc.steered(level, patch)[r0 - e0:r1 - e0, c0 - f0:c1 - f0]
+    if job.coarse is None:
+        return level, None
+    rendered = [render_stamp(s, crop_shape, patch, cell_size=job.cell_size, notes=[]) for s in stamps]
+    return level_under_stamps(level, rendered, patch), job.coarse.sigma

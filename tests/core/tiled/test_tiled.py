@@ -221,7 +221,7 @@ def test_a_folder_that_is_not_a_store_is_left_alone(one_worker, white_mountains,
     (["--tile", "40"], "tile size 40: expected a whole number of at least 96 cells"),
     (["--tile", "128", "--scheduler", "nowhere"], "scheduler address 'nowhere': expected tcp://HOST:PORT"),
     (["--scheduler", "tcp://h:8786"], "--scheduler runs a tiled synthesis: give the tile size too"),
-    (["--tile", "128", "--pin", "5,5,100"], "--pin is not available with --tile"),
+    (["--tile", "128", "--height-range", "0,100"], "--height-range is not available with --tile"),
     (["--tile", "128", "--size", "100000000x5"], "output size 100000000x5: each side must be 1 to"),
 ])
 def test_cli_bad_tiled_options_give_one_line(extra, message, tmp_path, capsys, dems_dir):
@@ -248,3 +248,56 @@ def test_one_run_at_a_time_per_output(tmp_path):
         TileStore(folder, "a" * 64)
     first.close()
     TileStore(folder, "b" * 64).close()  # free again (and another run's digest empties it)
+
+
+# -- controls in tiled runs ----------------------------------------------------------------------
+def test_styles_and_a_pin_give_the_same_bytes_on_one_and_two_workers(one_worker, white_mountains, lowland,
+                                                                      tmp_path, monkeypatch):
+    """Two style regions (painted at a quarter of the output's resolution)
+    and a pin on a 2x2-tile run: one worker in this process with the
+    example cache off (everything in memory) and two worker processes
+    mapping the stored library give the same bytes, and the pin is met."""
+    from terrasynth_core.controls.pins import Pin
+    from terrasynth_core.synthesis import Controls, Style
+
+    painted = np.full((64, 64), -1, np.int16)
+    painted[:, 34:] = 0  # the east: the lowland style; the west: the plain example
+    pin = Pin(150, 40, 1500.0)
+    controls = Controls(styles=(Style(lowland, relief_scale=1.5, base=900.0, name="low"),), style_map=painted,
+                        pins=(pin,))
+    params = SynthesisParams(patch_size=32, k=2, seed=3)
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", "")
+    one = run_tiled([white_mountains], None, shape=(256, 256), tile=128, out=tmp_path / "one.tif", params=params,
+                    client=one_worker, controls=controls)
+    assert one.plan.grid == (2, 2)
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path / "library"))
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        run_tiled([white_mountains], None, shape=(256, 256), tile=128, out=tmp_path / "two.tif", params=params,
+                  client=client, controls=controls)
+    assert any(p.suffix == ".bin" for p in (tmp_path / "library").iterdir())  # fill indexes stored as files
+    heights = _read(tmp_path / "one.tif")
+    assert np.array_equal(_read(tmp_path / "two.tif"), heights)
+    assert heights[pin.row, pin.col] == pytest.approx(pin.height, abs=1e-3)
+    # Each region at its own level: the lowland style's base (900 m) in the east.
+    assert abs(float(np.median(heights[:, 160:])) - 900.0) < 150.0
+    assert abs(float(np.median(heights[:, 160:])) - float(np.median(heights[:, :100]))) > 100.0
+
+
+def test_controls_a_tiled_run_cannot_take_are_refused_in_one_line(white_mountains, tmp_path):
+    from terrasynth_core.controls.options import Stamp
+    from terrasynth_core.synthesis import Controls, Style
+
+    def run(controls):
+        with pytest.raises(ParamsError) as info:
+            run_tiled([white_mountains], None, shape=(256, 256), tile=128, out=tmp_path / "o.tif", params=P,
+                      controls=controls, workers=1)
+        assert "\n" not in str(info.value)
+        return str(info.value)
+
+    crossing = Stamp(white_mountains.heights[:60, :60], center=(128.0, 60.0))
+    assert "stamp 1 covers rows" in run(Controls(stamps=(crossing,)))
+    assert "height range" in run(Controls(height_range=(0.0, 100.0)))
+    wide = np.zeros((10, 40), np.int16)
+    assert "another aspect ratio" in run(Controls(styles=(Style(white_mountains),), style_map=wide))
+    assert not store_path(tmp_path / "o.tif").exists()  # refused before anything was made
