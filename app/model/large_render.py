@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
-from terrasynth_core.tiled import TileFinished, TiledResult, run_tiled, tiled_inputs
+from terrasynth_core.tiled import TileFinished, TiledResult, run_tiled, tiled_project_inputs
 
 from .run_request import SynthesisRequest, reported_events
 
@@ -58,12 +58,15 @@ def large_render_events(request: SynthesisRequest, render: LargeRender, *,
     Raises
     ------
     ParamsError
-        The document uses controls a tiled run does not take, or a bad size
+        The document uses controls a tiled run does not take (a height
+        range, a re-synthesis), or a bad size
         or tile (before any work).
     """
-    examples, sketch, params = tiled_inputs(request)
+    # Pins and stamps follow the sketch to the render's size.
+    examples, sketch, params, controls = tiled_project_inputs(request.at_size(render.size))
     result: TiledResult = yield from reported_events(
         lambda report, cancel: run_tiled(examples, sketch, shape=render.size, tile=render.tile, out=render.out,
-                                         params=params, workers=render.workers, progress=report, cancel=cancel),
+                                         params=params, workers=render.workers, progress=report, cancel=cancel,
+                                         controls=controls),
         name="render-large", poll_seconds=poll_seconds)
     return result

@@ -317,10 +317,10 @@ def _synth_tiled(args: argparse.Namespace) -> int:
             raise TerraSynthError(f"--{given[0].replace('_', '-')} cannot be combined with --project {args.project}: "
                                   "the project holds the examples, sketch and parameters")
         project = read_project(args.project)
-        examples, sketch, params, controls = tiled_project_inputs(project.run_spec())
+        size = tuple(args.size) if args.size else project.shape
+        examples, sketch, params, controls = tiled_project_inputs(project.run_spec().at_size(size))
         if args.seed is not None:
             params = dataclasses.replace(params, seed=args.seed)
-        size = tuple(args.size) if args.size else project.shape
     else:
         examples, sketch, params, size, controls = _tiled_run_options(args)
     bar = tqdm(total=0, desc="tiles", unit="tile", file=sys.stderr, disable=None, leave=False)
@@ -390,7 +390,7 @@ def _synth_project(args: argparse.Namespace) -> int:
     parameters), optionally at another ``--size`` and ``--seed``."""
     import dataclasses
 
-    from ..project import read_project, resize_pins, resize_stamps
+    from ..project import read_project
 
     given = [name for name in _RUN_OPTIONS if getattr(args, name) not in (None, [])]
     if given:
@@ -408,10 +408,7 @@ def _synth_project(args: argparse.Namespace) -> int:
     if args.seed is not None:
         spec = dataclasses.replace(spec, params=dataclasses.replace(spec.params, seed=args.seed))
     size = tuple(args.size) if args.size else project.shape
-    if size != project.shape:
-        # Pins and stamps follow the sketch to the new size, as in the app.
-        spec = dataclasses.replace(spec, pins=tuple(resize_pins(spec.pins, project.shape, size)),
-                                   stamps=tuple(resize_stamps(spec.stamps, project.shape, size)))
+    spec = spec.at_size(size)  # pins and stamps follow the sketch, as in the app
     return _synthesize(spec.example_fields(), spec.sketch_map, size, spec.params, args, spec.make_controls())
 
 

@@ -10,7 +10,7 @@ styles a run uses and the label map that points at them
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -20,6 +20,7 @@ from ..features import SketchMap
 from ..synthesis import Controls, Pin, Session, SynthesisParams, Water
 from .footprints import check_stamp_footprints
 from .refs import ExampleRef
+from .resize import resize_pins, resize_stamps
 from .specs import StampSpec, StyleSpec
 
 __all__ = ["STROKE_THRESHOLD", "RunSpec", "painted_styles", "run_spec", "stroke_map"]
@@ -117,6 +118,16 @@ class RunSpec:
     stamps: tuple[StampSpec, ...] = ()
     previous: np.ndarray | None = None
     selection: np.ndarray | None = None
+
+    def at_size(self, size: tuple[int, int]) -> "RunSpec":
+        """This run made at ``size`` (rows, cols) instead of :attr:`shape`:
+        pins and stamps follow the sketch, as when the app resizes it (the
+        painted maps are scaled by the run itself)."""
+        size = (int(size[0]), int(size[1]))
+        if size == tuple(self.shape):
+            return self
+        return replace(self, shape=size, pins=tuple(resize_pins(self.pins, self.shape, size)),
+                       stamps=tuple(resize_stamps(self.stamps, self.shape, size)))
 
     def make_controls(self) -> Controls:
         """The core controls, style and stamp DEMs read (slow)."""

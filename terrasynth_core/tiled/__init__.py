@@ -16,9 +16,9 @@ from .._lazy import lazy_exports
 
 if TYPE_CHECKING:
     from .plan import Tile, TilePlan, plan_tiles
-    from .run import TileFinished, TiledResult, check_scheduler, run_tiled, tiled_inputs, tiled_project_inputs
+    from .run import TileFinished, TiledResult, check_scheduler, run_tiled, tiled_project_inputs
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     ".plan": ("Tile", "TilePlan", "plan_tiles"),
-    ".run": ("TileFinished", "TiledResult", "check_scheduler", "run_tiled", "tiled_inputs", "tiled_project_inputs"),
+    ".run": ("TileFinished", "TiledResult", "check_scheduler", "run_tiled", "tiled_project_inputs"),
 })

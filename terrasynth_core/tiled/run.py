@@ -42,7 +42,7 @@ from .plan import Tile, TilePlan, plan_tiles
 from .store import TileStore, compose, run_digest, store_path
 from .tile import TileJob, synthesize_tile, tile_params
 
-__all__ = ["TileFinished", "TiledResult", "check_scheduler", "run_tiled", "tiled_inputs", "tiled_project_inputs"]
+__all__ = ["TileFinished", "TiledResult", "check_scheduler", "run_tiled", "tiled_project_inputs"]
 
 #: Extensions a tiled run writes (the GeoTIFF is streamed; other formats
 #: would need the whole terrain in memory).
@@ -135,27 +135,6 @@ def check_scheduler(address: str) -> str:
         raise ParamsError(f"scheduler address {address!r}: expected tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786, "
                           "the address a dask scheduler prints)")
     return address.strip()
-
-
-def tiled_inputs(spec) -> tuple[list[HeightField], SketchMap | None, SynthesisParams]:
-    """The examples, sketch and parameters of a project's run
-    (:class:`~terrasynth_core.project.RunSpec`) without controls (see
-    :func:`tiled_project_inputs` for a run with them).
-
-    Raises
-    ------
-    ParamsError
-        Naming the first control the project uses (styles, water, stamps,
-        pins, a height range, a re-synthesis).
-    """
-    unsupported = [("style regions", bool(spec.styles)), ("water", spec.water is not None and bool(spec.water.any())),
-                   ("stamps", bool(spec.stamps)), ("pins", bool(spec.pins))]
-    for what, used in unsupported:
-        if used:
-            raise ParamsError(f"the project uses {what}, which this tiled render does not take yet: render it "
-                              f"without tiles, or with terrasynth-cli synth --project ... --tile N")
-    examples, sketch, params, _ = tiled_project_inputs(spec)
-    return examples, sketch, params
 
 
 def tiled_project_inputs(spec) -> tuple[list[HeightField], SketchMap | None, SynthesisParams, Controls | None]:

@@ -1,0 +1,35 @@
+"""Render large (app/model/large_render.py): the document's controls go to
+the tiled run, its pins and stamps following the sketch to the render's
+size."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rasterio
+
+from terrasynth_app.model import Document, ExampleRef, Sketch
+from terrasynth_app.model.large_render import LargeRender, large_render_events
+from terrasynth_core.project.resize import resize_pins
+from terrasynth_core.synthesis import SynthesisParams
+
+
+def test_a_pinned_document_renders_large_with_the_pin_at_its_place(tmp_path):
+    sketch = Sketch.blank((96, 96))
+    sketch.draw_polyline([(20, 48), (76, 48)], "ridge", radius=2, hardness=1.0)
+    doc = Document(sketch, [ExampleRef(builtin="white-mountains", crop=(400, 700, 400, 700))],
+                   params=SynthesisParams(patch_size=32, k=2, seed=4))
+    doc.add_pin(30, 70, 1400.0)
+    request = doc.synthesis_request()
+    render = LargeRender(size=(192, 192), tile=96, workers=1, out=tmp_path / "large.tif")
+    events = large_render_events(request, render)
+    with pytest.raises(StopIteration) as done:
+        while True:
+            next(events)
+    assert done.value.value.shape == (192, 192)
+    with rasterio.open(render.out) as ds:
+        heights = ds.read(1)
+    (pin,) = resize_pins(request.pins, (96, 96), (192, 192))
+    assert (pin.row, pin.col) != (30, 70)  # it followed the sketch
+    assert heights[pin.row, pin.col] == pytest.approx(1400.0, abs=1e-3)
+    assert np.isfinite(heights).all()
