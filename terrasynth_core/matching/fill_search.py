@@ -33,6 +33,8 @@ the sketch did not ask for.
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 from scipy import fft, ndimage
 from skimage.transform import downscale_local_mean
@@ -86,7 +88,11 @@ class _WindowSearch:
             if (~near).sum() >= 16:
                 allowed &= ~near
         self.allowed = allowed
-        self.prior = roughness_prior(example, window, allowed, f)
+        # Float64 grids as large as the example: stored and mapped (a
+        # worker of a tiled run with a large library keeps them as file
+        # pages, which the system can drop, not as its own memory).
+        self._store = _store_key(example, window, allowed, f)
+        self.prior = _stored(f"prior-{self._store}", "prior", lambda: roughness_prior(example, window, allowed, f))
 
     def best(self, target: np.ndarray, filled: np.ndarray, count: int, rng: np.random.Generator
              ) -> list[tuple[tuple[int, int], float, float]]:
@@ -162,7 +168,8 @@ class _WindowSearch:
         """The example minus its mean, float64, flat (made once: moments of
         high terrain lose digits in float32)."""
         if self._flat is None:
-            self._flat = (self.example.astype(np.float64) - float(self.example.mean())).ravel()
+            self._flat = _stored(f"centred-{_store_key(self.example, None, None, 0)}", "centred",
+                                 lambda: (self.example.astype(np.float64) - float(self.example.mean())).ravel())
         return self._flat
 
     def scores(self, target: np.ndarray, filled: np.ndarray, positions: np.ndarray) -> np.ndarray:
@@ -349,6 +356,36 @@ class FillSearch(_WindowSearch):
         score = self.scores(target, filled, positions)
         order = np.argsort(score, kind="stable")
         return self._separated(((int(r) // self.f, int(c) // self.f) for r, c in positions[order]), count)
+
+
+#: Version of the stored search grids (:func:`_stored`): raised when what
+#: they hold changes.
+GRIDS_VERSION = 1
+
+
+def _store_key(example: np.ndarray, window: tuple[int, int] | None, allowed: np.ndarray | None, f: int) -> str:
+    """Digest of what a search's stored grids are made of (the example
+    alone without ``window`` and ``allowed``)."""
+    h = hashlib.sha1(np.ascontiguousarray(example, dtype=np.float32).tobytes())
+    if allowed is not None:
+        h.update(np.ascontiguousarray(allowed, dtype=bool).tobytes())
+    h.update(repr((example.shape, None if window is None else tuple(window), int(f), GRIDS_VERSION)).encode())
+    return h.hexdigest()
+
+
+def _stored(key: str, name: str, make) -> np.ndarray:
+    """The float64 array ``make()`` gives, from the example-analysis disk
+    cache when it holds it (mapped, read-only), else made and stored, then
+    read back mapped; made in memory when the cache is off or fails."""
+    got = cache.load_arrays(key)
+    if got is not None and isinstance(got.get(name), np.ndarray) and got[name].dtype == np.float64:
+        return got[name]
+    made = make()
+    cache.save_arrays(key, {name: made})
+    got = cache.load_arrays(key)
+    if got is not None and isinstance(got.get(name), np.ndarray) and got[name].shape == made.shape:
+        return got[name]
+    return made
 
 
 def _load_index(key: str) -> ZoneIndex | None:

@@ -111,7 +111,7 @@ def test_indexes_are_stored_and_loaded_from_the_disk_cache(white_mountains, monk
     first = FillSearch(example, (32, 32), coarse_factor=1)
     expected = [first.candidates(t, m) for t, m in windows]
     files = sorted(p.name for p in tmp_path.iterdir())
-    assert files and all(name.startswith("example-v") and "-windows-v" in name for name in files)
+    assert any("-windows-v" in name for name in files) and all(name.startswith("example-v") for name in files)
 
     def no_build(*args, **kwargs):
         raise AssertionError("built again instead of loaded")
@@ -120,6 +120,9 @@ def test_indexes_are_stored_and_loaded_from_the_disk_cache(white_mountains, monk
     second = FillSearch(example, (32, 32), coarse_factor=1)
     for (t, m), want in zip(windows, expected):
         np.testing.assert_array_equal(second.candidates(t, m), want)
+    # The roughness prior is stored too, and read back as made.
+    assert any("-prior-" in p.name for p in tmp_path.iterdir())
+    np.testing.assert_array_equal(second.prior, first.prior)
 
 
 def test_a_damaged_index_file_is_rebuilt(white_mountains, monkeypatch, tmp_path):
