@@ -229,12 +229,6 @@ def cmd_features(args: argparse.Namespace) -> int:
 
 # -- synth / demo -------------------------------------------------------------
 def cmd_synth(args: argparse.Namespace) -> int:
-    from ..examples import resolve_dem
-    from ..features import read_sketch
-    from ..synthesis import SynthesisParams
-
-    from .controls import controls_from_args
-
     if args.tile is not None or args.scheduler is not None:
         return _synth_tiled(args)
     if args.project:
@@ -248,6 +242,19 @@ def cmd_synth(args: argparse.Namespace) -> int:
 
     if not 1 <= args.variations <= MAX_VARIATIONS:
         raise TerraSynthError(f"--variations must be 1 to {MAX_VARIATIONS}, got {args.variations}")
+    examples, sketch, params, controls = _run_inputs(args)
+    return _synthesize(examples, sketch, args.size, params, args, controls)
+
+
+def _run_inputs(args: argparse.Namespace):
+    """The examples, sketch, parameters and controls the run options give
+    (after :func:`_fill_run_defaults` and the caller's checks)."""
+    from ..examples import resolve_dem
+    from ..features import read_sketch
+    from ..synthesis import SynthesisParams
+
+    from .controls import controls_from_args
+
     examples = [resolve_dem(e, band=args.band) for e in args.example or ()]
     sketch = read_sketch(args.sketch) if args.sketch else None
     params = SynthesisParams(
@@ -255,8 +262,8 @@ def cmd_synth(args: argparse.Namespace) -> int:
         cell_size=args.cell_size, drainage=not args.no_drainage, landform=not args.no_landform,
         **({"overlap": args.overlap} if args.overlap is not None else {}),
     )
-    controls = controls_from_args(args, have_examples=bool(examples))
-    return _synthesize(examples, sketch, args.size, params, args, controls)
+    # The style map and water mask as painted: a run scales them to its output.
+    return examples, sketch, params, controls_from_args(args, have_examples=bool(examples))
 
 
 #: ``synth`` options that set up a run, and their defaults; given with
@@ -308,19 +315,9 @@ def _synth_tiled(args: argparse.Namespace) -> int:
         raise TerraSynthError(f"--workers must be at least 1, got {args.workers}")
     out = check_tiled_output(Path(args.out))
     if args.project:
-        import dataclasses
-
-        from ..project import read_project
-
-        given = [name for name in _RUN_OPTIONS if getattr(args, name) not in (None, [])]
-        if given:
-            raise TerraSynthError(f"--{given[0].replace('_', '-')} cannot be combined with --project {args.project}: "
-                                  "the project holds the examples, sketch and parameters")
-        project = read_project(args.project)
-        size = tuple(args.size) if args.size else project.shape
-        examples, sketch, params, controls = tiled_project_inputs(project.run_spec().at_size(size))
-        if args.seed is not None:
-            params = dataclasses.replace(params, seed=args.seed)
+        spec = _project_spec(args, "--out, --size, --seed, --tile, --workers, --scheduler, --keep-tiles")
+        examples, sketch, params, controls = tiled_project_inputs(spec)
+        size = spec.shape
     else:
         examples, sketch, params, size, controls = _tiled_run_options(args)
     bar = tqdm(total=0, desc="tiles", unit="tile", file=sys.stderr, disable=None, leave=False)
@@ -350,27 +347,13 @@ def _synth_tiled(args: argparse.Namespace) -> int:
 
 def _tiled_run_options(args: argparse.Namespace):
     """The examples, sketch, parameters, size and controls of ``synth --tile`` without a project."""
-    from ..examples import resolve_dem
-    from ..features import read_sketch
-    from ..synthesis import SynthesisParams
-
-    from .controls import controls_from_args
-
     _fill_run_defaults(args)
     if not args.example and not args.styles:
         raise TerraSynthError("give at least one --example DEM (a file or builtin:KEY), or --styles with --style")
-    sketch = read_sketch(args.sketch) if args.sketch else None
-    size = tuple(args.size) if args.size else (None if sketch is None else sketch.shape)
-    if size is None:
+    if not args.size and not args.sketch:
         raise TerraSynthError("give the output --size (ROWSxCOLS) or a --sketch")
-    examples = [resolve_dem(e, band=args.band) for e in args.example]
-    params = SynthesisParams(
-        patch_size=args.patch_size, seed=args.seed, order=args.order, seam=args.seam, blend=args.blend,
-        cell_size=args.cell_size, drainage=not args.no_drainage, landform=not args.no_landform,
-        **({"overlap": args.overlap} if args.overlap is not None else {}),
-    )
-    # The style map and water mask as painted: each tile scales its window of them.
-    controls = controls_from_args(args, have_examples=bool(examples))
+    examples, sketch, params, controls = _run_inputs(args)
+    size = tuple(args.size) if args.size else sketch.shape
     return examples, sketch, params, size, controls
 
 
@@ -388,6 +371,31 @@ def _synth_project(args: argparse.Namespace) -> int:
     """``synth --project FILE.tsproj``: render a saved project as the app's
     *Synthesize* would (its examples, sketch, styles, water, stamps, pins and
     parameters), optionally at another ``--size`` and ``--seed``."""
+    from ..synthesis.variations import MAX_VARIATIONS
+
+    def check() -> None:
+        if not 1 <= args.variations <= MAX_VARIATIONS:
+            raise TerraSynthError(f"--variations must be 1 to {MAX_VARIATIONS}, got {args.variations}")
+        _check_output(args)
+
+    spec = _project_spec(args, "--out, --size, --seed, --variations, --workers, --cog, --report, --debug-dir",
+                         before_reading=check)
+    return _synthesize(spec.example_fields(), spec.sketch_map, spec.shape, spec.params, args, spec.make_controls())
+
+
+def _project_spec(args: argparse.Namespace, allowed: str, *, before_reading=None):
+    """The run of ``--project FILE``, at ``--size`` and with ``--seed`` when
+    given (pins and stamps follow the sketch, as in the app).
+
+    Parameters
+    ----------
+    allowed : str
+        The options that may come with ``--project``, for the error that
+        names one that may not.
+    before_reading : callable, optional
+        Checks to make once the options are known good, before the file is
+        read.
+    """
     import dataclasses
 
     from ..project import read_project
@@ -396,20 +404,14 @@ def _synth_project(args: argparse.Namespace) -> int:
     if given:
         option = "--" + given[0].replace("_", "-")
         raise TerraSynthError(f"{option} cannot be combined with --project {args.project}: the project holds the "
-                              "examples, sketch, controls and parameters (with it give only --out, --size, --seed, "
-                              "--variations, --workers, --cog, --report, --debug-dir)")
-    from ..synthesis.variations import MAX_VARIATIONS
-
-    if not 1 <= args.variations <= MAX_VARIATIONS:
-        raise TerraSynthError(f"--variations must be 1 to {MAX_VARIATIONS}, got {args.variations}")
-    _check_output(args)
+                              f"examples, sketch, controls and parameters (with it give only {allowed})")
+    if before_reading is not None:
+        before_reading()
     project = read_project(args.project)
     spec = project.run_spec()
     if args.seed is not None:
         spec = dataclasses.replace(spec, params=dataclasses.replace(spec.params, seed=args.seed))
-    size = tuple(args.size) if args.size else project.shape
-    spec = spec.at_size(size)  # pins and stamps follow the sketch, as in the app
-    return _synthesize(spec.example_fields(), spec.sketch_map, size, spec.params, args, spec.make_controls())
+    return spec.at_size(tuple(args.size) if args.size else project.shape)
 
 
 def cmd_demo(args: argparse.Namespace) -> int:

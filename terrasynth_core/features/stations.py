@@ -54,12 +54,12 @@ class LineStations:
         # centre, and an example centre comes back in many rankings.
         self._routes: dict[int, list] = {}
 
-    def _where(self, centre: np.ndarray) -> tuple[int, int] | None:
-        """``(-1, node)`` or ``(path, index)`` of a sample centre, or None
-        (a centre on a node is walked from the node)."""
+    def _where(self, key: int) -> tuple[int, int] | None:
+        """``(-1, node)`` or ``(path, index)`` of the sample centre of key
+        ``key`` (:func:`_keys`), or None (a centre on a node is walked from
+        the node)."""
         if self._at is None:
             self._index()
-        key = int(_keys(np.asarray(centre, dtype=float)[None])[0])
         if key in self._nodes:
             return -1, self._nodes[key]
         keys, path, index = self._at
@@ -96,18 +96,17 @@ class LineStations:
         list of (crossing, station), each ndarray of float, shape (2,)
             Empty when the centre is not on the network.
         """
-        key = int(_keys(np.asarray(centre, dtype=float)[None])[0])
-        if key in self._routes:
-            return self._routes[key]
-        where = self._where(centre)
-        if where is None:
-            return []
         centre = np.asarray(centre, dtype=float)
-        path, index = where
-        out = (self._walker.routes_from_node(centre, index) if path < 0
-               else self._walker.routes_from_path(centre, path, index))
-        self._routes[key] = out
-        return out
+        key = int(_keys(centre[None])[0])
+        if key not in self._routes:
+            where = self._where(key)
+            if where is None:
+                self._routes[key] = []
+            elif where[0] < 0:
+                self._routes[key] = self._walker.routes_from_node(centre, where[1])
+            else:
+                self._routes[key] = self._walker.routes_from_path(centre, *where)
+        return self._routes[key]
 
     def inner(self, centre: np.ndarray, crossings: np.ndarray) -> np.ndarray:
         """The station on the way to each crossing.

@@ -91,8 +91,11 @@ class _WindowSearch:
         # Float64 grids as large as the example: stored and mapped (a
         # worker of a tiled run with a large library keeps them as file
         # pages, which the system can drop, not as its own memory).
-        self._store = _store_key(example, window, allowed, f)
-        self.prior = _stored(f"prior-{self._store}", "prior", lambda: roughness_prior(example, window, allowed, f))
+        # The example is hashed once for both grids' keys.
+        digest = hashlib.sha1(np.ascontiguousarray(example, dtype=np.float32).tobytes()).hexdigest()
+        self._centred_key = f"centred-{_grid_key(digest, example.shape)}"
+        self.prior = _stored(f"prior-{_grid_key(digest, example.shape, window, allowed, f)}", "prior",
+                             lambda: roughness_prior(example, window, allowed, f))
 
     def best(self, target: np.ndarray, filled: np.ndarray, count: int, rng: np.random.Generator
              ) -> list[tuple[tuple[int, int], float, float]]:
@@ -168,7 +171,7 @@ class _WindowSearch:
         """The example minus its mean, float64, flat (made once: moments of
         high terrain lose digits in float32)."""
         if self._flat is None:
-            self._flat = _stored(f"centred-{_store_key(self.example, None, None, 0)}", "centred",
+            self._flat = _stored(self._centred_key, "centred",
                                  lambda: (self.example.astype(np.float64) - float(self.example.mean())).ravel())
         return self._flat
 
@@ -363,13 +366,15 @@ class FillSearch(_WindowSearch):
 GRIDS_VERSION = 1
 
 
-def _store_key(example: np.ndarray, window: tuple[int, int] | None, allowed: np.ndarray | None, f: int) -> str:
-    """Digest of what a search's stored grids are made of (the example
-    alone without ``window`` and ``allowed``)."""
-    h = hashlib.sha1(np.ascontiguousarray(example, dtype=np.float32).tobytes())
+def _grid_key(digest: str, shape: tuple[int, int], window: tuple[int, int] | None = None,
+              allowed: np.ndarray | None = None, f: int = 0) -> str:
+    """Digest of what a search's stored grid is made of: the example (its
+    bytes' SHA-1 ``digest``) and, for the prior, the window, the windows on
+    offer and their spacing."""
+    h = hashlib.sha1(digest.encode())
     if allowed is not None:
         h.update(np.ascontiguousarray(allowed, dtype=bool).tobytes())
-    h.update(repr((example.shape, None if window is None else tuple(window), int(f), GRIDS_VERSION)).encode())
+    h.update(repr((tuple(shape), None if window is None else tuple(window), int(f), GRIDS_VERSION)).encode())
     return h.hexdigest()
 
 

@@ -119,7 +119,7 @@ class RunSpec:
     previous: np.ndarray | None = None
     selection: np.ndarray | None = None
 
-    def at_size(self, size: tuple[int, int]) -> "RunSpec":
+    def at_size(self, size: tuple[int, int]) -> RunSpec:
         """This run made at ``size`` (rows, cols) instead of :attr:`shape`:
         pins and stamps follow the sketch, as when the app resizes it (the
         painted maps are scaled by the run itself)."""
