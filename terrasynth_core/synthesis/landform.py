@@ -25,7 +25,7 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import ndimage
+from scipy import interpolate, ndimage
 
 from ..controls.levels import steer_level
 from ..controls.options import Controls
@@ -231,9 +231,9 @@ def landform_from(session: Session, coarse, f: int) -> Landform:
     """
     p, lay, c = session.params, session.layout, session.controls
     heights = coarse.heights
-    if c.height_range is None:  # (a height range maps the result onto itself at the end)
-        heights = within_examples(heights, lay)
     sigma = split_sigma(p.patch_size)
+    if c.height_range is None:  # (a height range maps the result onto itself at the end)
+        heights = within_examples(heights, lay, f, sigma)
     up = _upsampled(heights, session.shape)
     level = landform_lowpass(up, sigma)
     if c.selection is not None:
@@ -278,69 +278,140 @@ def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray
     return level
 
 
-def within_examples(heights: np.ndarray, layout) -> np.ndarray:
-    """:func:`within_range` of the examples' heights as ``layout`` places
-    them (its level plus each example's detail).
+def within_examples(heights: np.ndarray, layout, f: int, sigma: float) -> np.ndarray:
+    """The coarse terrain with the examples' heights: its regional relief
+    fitted so that, with the examples' detail on it, its heights take the
+    examples' distribution.
+
+    Chained patches carry the coarse terrain up or down a little at each
+    step (a ridge that climbs in its example climbs again in the next
+    patch), and a coarse output smaller than its example holds only part of
+    the example's range of landforms: left alone, the terrain drifted out
+    of the examples' heights (Gabon's plateau sank 230 m, St. Helens rose
+    380 m) and spanned 0.6-0.8 of their relief (p0.5 to p99.5).
+
+    The fit moves only the largest scales: the change a monotone map of
+    heights (:func:`fitted_heights`) asks for is low-passed to wavelengths
+    beyond a few patches (:data:`TREND_SIGMA`), so the landforms' own
+    shapes and the spectrum up to them stay as synthesized; low-passed, the
+    change falls short of the map, so :data:`FIT_ROUNDS` rounds close in.
+    What is fitted is the level (the terrain's :func:`landform_lowpass`)
+    plus a fixed draw of the examples' detail, what the full-resolution
+    pass will add to it, against the examples' heights as ``layout`` places
+    them (its group's base height plus its heights about their median);
+    each style group weighs as the share of the output it covers, its
+    examples alike.
 
     Parameters
     ----------
     heights : ndarray of float32, shape (h, w)
         The coarse terrain, metres.
     layout : StyleLayout
+        Before the split: its detail is each example's heights about its
+        median, its level the groups' base heights.
+    f : int
+        The coarse pass's down-sampling.
+    sigma : float
+        The split's standard deviation (:func:`split_sigma`), output cells.
 
     Returns
     -------
     ndarray of float32, shape (h, w)
     """
-    return within_range(heights, float(layout.level.min()) + min(float(d.min()) for d in layout.detail),
-                        float(layout.level.max()) + max(float(d.max()) for d in layout.detail))
+    sigma = sigma / f
+    groups, cover = np.unique(layout.group_map, return_counts=True)
+    values, details, weights = [], [], []
+    for g, n in zip(groups, cover):
+        base = float(np.median(layout.level[layout.group_map == g]))
+        members = layout.members[int(g)]
+        for i in members:
+            coarse = _coarsened(layout.detail[i], f, None).heights.astype(np.float64)
+            values.append((coarse + base).ravel())
+            details.append((coarse - ndimage.gaussian_filter(coarse, sigma, mode="reflect")).ravel())
+            weights.append(np.full(coarse.size, n / (len(members) * coarse.size)))
+    values, details, weights = np.concatenate(values), np.concatenate(details), np.concatenate(weights)
+    target = _weighted_quantiles(values, weights, FIT_QUANTILES)
+    # The detail each coarse cell will carry: a fixed draw (the same bytes
+    # every run) from the examples' own.
+    draw = np.random.default_rng(0).choice(len(details), size=heights.size, p=weights / weights.sum())
+    detail = details[draw].reshape(heights.shape)
+    h = np.asarray(heights, dtype=np.float64)
+    for _ in range(FIT_ROUNDS):
+        low = landform_lowpass(h, sigma).astype(np.float64)
+        change = fitted_heights(low, np.quantile(low + detail, FIT_QUANTILES), target) - low
+        h = h + FIT_STEP * ndimage.gaussian_filter(change, TREND_SIGMA * sigma, mode="reflect")
+    return h.astype(np.float32)
 
 
-#: Share of the coarse terrain's cells allowed outside the examples' heights
-#: at either end (as a percentile).
-RANGE_TAIL = 0.5
+#: Standard deviation of the low-pass of the fit's change, in split sigmas
+#: (:data:`SPLIT_SIGMA`): 0.6 patch sizes, half amplitude at wavelengths of
+#: about 3.2 patches (256 cells for 80-cell patches), a hundredth of the
+#: power at 1.6 patches.
+TREND_SIGMA = 3.0
+
+#: Rounds of the fit.
+FIT_ROUNDS = 6
+
+#: Share of the change taken per round.
+FIT_STEP = 0.5
+
+#: Quantiles at which heights are fitted: dense in the tails, where relief
+#: is decided.
+FIT_QUANTILES = np.array([0.005, 0.25, 0.5, 0.75, 0.995])
+
+#: Most the fit may stretch or squeeze heights between two quantiles: beyond
+#: it a landform's shape would change, not only its height.
+MAX_GAIN = 2.5
 
 
-def within_range(heights: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """The coarse terrain squeezed about its median into the examples'
-    heights, where it strayed out of them.
+def fitted_heights(heights: np.ndarray, source: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """``heights`` through the monotone, smooth map that carries the
+    quantiles ``source`` onto ``target`` (both at :data:`FIT_QUANTILES`).
 
-    Chained patches can carry the terrain up or down a little at each step
-    (a ridge that climbs in its example climbs again in the next patch);
-    over a long stroke that adds up to heights no example has.  At the
-    landform scale the terrain is smooth, so a uniform squeeze of its
-    spread about the median (after moving a median that lies outside the
-    range to the range's middle) fixes that without bending any feature.
+    Monotone, it keeps every ridge a ridge and every valley a valley, and
+    their order in height.  Between two quantiles the map's slope is held
+    within [1 / :data:`MAX_GAIN`, :data:`MAX_GAIN`], counted out from the
+    median; it is a monotone cubic (C1: no crease along a contour) and
+    straight beyond the outer quantiles.
 
     Parameters
     ----------
-    heights : ndarray of float32, shape (h, w)
-        The coarse terrain, metres.
-    lo, hi : float
-        The examples' lowest and highest heights, metres.
+    heights : ndarray of float, shape (h, w)
+        Metres.
+    source, target : ndarray of float, shape (len(FIT_QUANTILES),)
+        Non-decreasing heights, metres.
 
     Returns
     -------
-    ndarray of float32, shape (h, w)
-        ``heights`` itself when its :data:`RANGE_TAIL` percentiles lie in
-        ``[lo, hi]``.
+    ndarray of float64, shape (h, w)
     """
-    p_lo, med, p_hi = np.percentile(heights, [RANGE_TAIL, 50, 100 - RANGE_TAIL])
-    if lo <= p_lo and p_hi <= hi:
-        return heights
-    out = heights.astype(np.float64)
-    if not lo <= med <= hi:
-        # The whole terrain sank or rose: bring its median to the middle of
-        # the range first (a squeeze about an outside median would flatten it).
-        shift = (lo + hi) / 2.0 - med
-        out, p_lo, med, p_hi = out + shift, p_lo + shift, med + shift, p_hi + shift
-    # Squeeze the spread about the median into the room on either side.
-    scale = 1.0
-    if p_hi > hi:
-        scale = min(scale, (hi - med) / max(float(p_hi - med), 1e-9))
-    if p_lo < lo:
-        scale = min(scale, (med - lo) / max(float(med - p_lo), 1e-9))
-    return (med + scale * (out - med)).astype(np.float32)
+    src = np.maximum.accumulate(np.asarray(source, dtype=np.float64))
+    target = np.maximum.accumulate(np.asarray(target, dtype=np.float64))
+    mid = len(FIT_QUANTILES) // 2
+    step_src, step_dst = np.diff(src), np.diff(target)
+    gain = np.clip(step_dst / np.maximum(step_src, 1e-9), 1.0 / MAX_GAIN, MAX_GAIN)
+    dst = np.empty_like(src)
+    dst[mid] = target[mid]
+    dst[mid + 1:] = target[mid] + np.cumsum(gain[mid:] * step_src[mid:])
+    dst[:mid] = target[mid] - np.cumsum((gain[:mid] * step_src[:mid])[::-1])[::-1]
+    keep = np.concatenate([[True], np.diff(src) > 1e-6 * max(1.0, float(np.ptp(src)))])
+    src, dst = src[keep], dst[keep]
+    h = np.asarray(heights, dtype=np.float64)
+    if len(src) < 2:  # a flat terrain: moved, not shaped
+        return h + (dst[0] - src[0])
+    out = interpolate.PchipInterpolator(src, dst, extrapolate=False)(np.clip(h, src[0], src[-1]))
+    below, above = h < src[0], h > src[-1]
+    out[below] = dst[0] + (h[below] - src[0]) * (dst[1] - dst[0]) / (src[1] - src[0])
+    out[above] = dst[-1] + (h[above] - src[-1]) * (dst[-1] - dst[-2]) / (src[-1] - src[-2])
+    return out
+
+
+def _weighted_quantiles(values: np.ndarray, weights: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Quantiles ``q`` of ``values`` whose cells weigh ``weights``."""
+    order = np.argsort(values, kind="stable")
+    cum = np.cumsum(weights[order])
+    cum = (cum - 0.5 * weights[order]) / cum[-1]
+    return np.interp(q, cum, values[order])
 
 
 def detail_above(heights: np.ndarray, sigma: float) -> np.ndarray:

@@ -224,5 +224,6 @@ def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap
     result = coarse.run()
     # As the whole-map pass (landform.landform_from): chained patches may
     # carry the coarse terrain out of the examples' heights.
-    heights = within_examples(result.heights, probe.layout)
-    return CoarseLevel(np.asarray(heights, np.float32), tuple(shape), split_sigma(params.patch_size), factor), notes
+    sigma = split_sigma(params.patch_size)
+    heights = within_examples(result.heights, probe.layout, factor, sigma)
+    return CoarseLevel(np.asarray(heights, np.float32), tuple(shape), sigma, factor), notes

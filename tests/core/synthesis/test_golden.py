@@ -78,8 +78,8 @@ CASES = {
 #: indexed fill search and the narrower last drainage pass, and with the
 #: framed feature warps and prominence read along the feature line.
 GOLDEN = {
-    "y_junction": "11b542e26025d40492180b9db2f9353df502731a1afa46dc58cd41a9b880755e",
-    "ring_cross_raster": "c5a03803619f8e68a5dbd2597d548ebcd5ecb5b611d4d466a2497a7b3e7abe78",
+    "y_junction": "075679d47092238ad131dca8e8ac26a1b7b8d4ae19b60ae53a62a96a5f48a890",
+    "ring_cross_raster": "c78db6bc2802c31c3b2392b053c24aa5e505029706310cb6576720220885ebb5",
     "styles_stamp_water_pin": "947806070207149ee269d5f33ef2d1ce528e4c3878a8f762c5195b48a113e107",
 }
 

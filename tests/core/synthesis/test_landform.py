@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from terrasynth_core.examples import builtin_example
 from terrasynth_core.features import read_sketch
 from terrasynth_core.synthesis import Session, SynthesisParams
 from terrasynth_core.synthesis.landform import (
@@ -16,8 +17,12 @@ from terrasynth_core.synthesis.landform import (
     detail_above,
     landform_lowpass,
     landform_pass,
+    FIT_QUANTILES,
+    MAX_GAIN,
+    TREND_SIGMA,
+    fitted_heights,
     split_sigma,
-    within_range,
+    within_examples,
 )
 
 P = SynthesisParams(patch_size=32, k=2, seed=1)
@@ -52,25 +57,54 @@ def test_both_bands_are_local_and_exact_on_planes():
     assert np.abs(landform_lowpass(plane, 8.0) - plane)[40:-40, 40:-40].max() < 0.05
 
 
-def test_within_range_squeezes_only_what_strays():
+def test_fitted_heights_is_monotone_smooth_and_holds_its_gain():
     rng = np.random.default_rng(1)
-    inside = rng.uniform(200, 800, (64, 64)).astype(np.float32)
-    assert within_range(inside, 100.0, 900.0) is inside
-    drifted = inside * 3.0 - 900.0  # -300 .. 1500 m, median 600 m
-    fixed = within_range(drifted, 100.0, 900.0)
-    lo, hi = np.percentile(fixed, [0.5, 99.5])
-    assert lo >= 100.0 - 1e-3 and hi <= 900.0 + 1e-3
-    # A uniform squeeze about the median: the order of heights is kept.
-    assert np.array_equal(np.argsort(fixed, axis=None), np.argsort(drifted, axis=None))
-    # Terrain that fits but sits too low or near a limit is shifted, not
-    # flattened: its spread survives.
-    sunk = inside - 2000.0
-    moved = within_range(sunk, 100.0, 900.0)
-    assert moved.std() == pytest.approx(sunk.std(), rel=1e-4)
-    lo, hi = np.percentile(moved, [0.5, 99.5])
-    assert lo >= 100.0 - 1e-3 and hi <= 900.0 + 1e-3
-    high = (rng.normal(900.0, 30.0, (64, 64))).astype(np.float32)
-    assert within_range(high, 0.0, 1000.0).std() == pytest.approx(high.std(), rel=1e-4)
+    heights = rng.uniform(200, 800, 4000)
+    source = np.quantile(heights, FIT_QUANTILES)
+    target = source * 1.5 - 100.0
+    mapped = fitted_heights(heights, source, target)
+    # The quantiles land on the target, and the order of heights is kept.
+    assert np.quantile(mapped, FIT_QUANTILES) == pytest.approx(target, rel=1e-3)
+    assert np.array_equal(np.argsort(mapped), np.argsort(heights))
+    # No step or crease: the map's slope changes smoothly through a knot.
+    knot = source[len(source) // 2]
+    x = np.linspace(knot - 1.0, knot + 1.0, 201)
+    slope = np.diff(fitted_heights(x, source, np.quantile(heights, FIT_QUANTILES) ** 1.05)) / np.diff(x)
+    assert np.abs(np.diff(slope)).max() < 0.01 * slope.mean()
+    # A stretch beyond MAX_GAIN is held to it, counted out from the median.
+    steep = fitted_heights(heights, source, source * 10.0)
+    assert np.ptp(steep) == pytest.approx(MAX_GAIN * np.ptp(heights), rel=0.02)
+    # A flat terrain is moved, not shaped.
+    flat = np.full(50, 300.0)
+    assert np.all(fitted_heights(flat, np.full(len(FIT_QUANTILES), 300.0), target) == target[len(target) // 2])
+
+
+def test_within_examples_fits_regional_relief_and_keeps_landforms(y_sketch):
+    # A coarse terrain that sank and holds half the example's relief: the
+    # fit brings its heights onto the example's, moving only the largest
+    # scales (the landforms' shapes, the level's wavelengths up to a few
+    # patches, stay as they are).
+    example = builtin_example("white-mountains").load()
+    session = Session([example], y_sketch, shape=(256, 256), params=P)
+    layout, f = session.layout, 2
+    sigma = split_sigma(P.patch_size)
+    ex = np.asarray(session.layout.examples[0].heights, np.float64)
+    rng = np.random.default_rng(3)
+    noise = ndimage.gaussian_filter(rng.normal(0, 1, (128, 128)), 3, mode="wrap")
+    sunk = (float(np.median(ex)) - 400.0 + 0.5 * np.ptp(np.percentile(ex, [0.5, 99.5])) * noise / np.ptp(noise))
+    fitted = within_examples(sunk.astype(np.float32), layout, f, sigma).astype(np.float64)
+    want = np.percentile(ex, [0.5, 50, 99.5])
+    got = np.percentile(fitted, [0.5, 50, 99.5])
+    assert abs(got[1] - want[1]) < 0.1 * (want[2] - want[0])
+    assert (got[2] - got[0]) / (want[2] - want[0]) == pytest.approx(1.0, abs=0.2)
+    # The change is regional: at the landforms' own scale (the detail above
+    # the split, on the coarse grid) it is nearly nothing.
+    change = fitted - sunk
+    # (A uniform stretch of the terrain changes it there by a third of the
+    # change's spread: np.std(detail_above(sunk, ...)) / np.std(sunk).)
+    assert np.std(detail_above(change, sigma / f)) < 0.08 * np.std(change)
+    assert np.std(detail_above(sunk, sigma / f)) > 0.25 * np.std(sunk)
+    assert within_examples(sunk.astype(np.float32), layout, f, sigma).tobytes() == fitted.astype(np.float32).tobytes()
 
 
 def test_coarse_factor_is_the_largest_the_examples_allow():
