@@ -225,5 +225,5 @@ def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap
     # As the whole-map pass (landform.landform_from): chained patches may
     # carry the coarse terrain out of the examples' heights.
     sigma = split_sigma(params.patch_size)
-    heights = within_examples(result.heights, probe.layout, factor, sigma)
+    heights = within_examples(result.heights, probe.layout, factor, sigma, result.sketch_features)
     return CoarseLevel(np.asarray(heights, np.float32), tuple(shape), sigma, factor), notes

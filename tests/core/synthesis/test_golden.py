@@ -78,8 +78,8 @@ CASES = {
 #: indexed fill search and the narrower last drainage pass, and with the
 #: framed feature warps and prominence read along the feature line.
 GOLDEN = {
-    "y_junction": "075679d47092238ad131dca8e8ac26a1b7b8d4ae19b60ae53a62a96a5f48a890",
-    "ring_cross_raster": "c78db6bc2802c31c3b2392b053c24aa5e505029706310cb6576720220885ebb5",
+    "y_junction": "1a863f9ffa9daa567d72457305dc69ac326558a4f8c8830cf7b61458c20dfac9",
+    "ring_cross_raster": "34424d027056b386e45df170e423fd3339fdc969eb593a80d36140529a838763",
     "styles_stamp_water_pin": "947806070207149ee269d5f33ef2d1ce528e4c3878a8f762c5195b48a113e107",
 }
 

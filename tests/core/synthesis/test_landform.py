@@ -9,6 +9,8 @@ from scipy import ndimage
 
 from terrasynth_core.examples import builtin_example
 from terrasynth_core.features import read_sketch
+from terrasynth_core.features.network import graph_mask
+from terrasynth_core.features.sketch import sketch_features
 from terrasynth_core.synthesis import Session, SynthesisParams
 from terrasynth_core.synthesis.landform import (
     FACTORS,
@@ -80,23 +82,31 @@ def test_fitted_heights_is_monotone_smooth_and_holds_its_gain():
 
 
 def test_within_examples_fits_regional_relief_and_keeps_landforms(y_sketch):
-    # A coarse terrain that sank and holds half the example's relief: the
-    # fit brings its heights onto the example's, moving only the largest
-    # scales (the landforms' shapes, the level's wavelengths up to a few
-    # patches, stay as they are).
+    # A coarse terrain that sank and holds under half the example's relief,
+    # in regional relief and landforms: the fit brings its heights onto
+    # the example's, moving only the largest scales (the landforms' shapes,
+    # the level's wavelengths up to a few patches, stay as they are).
     example = builtin_example("white-mountains").load()
     session = Session([example], y_sketch, shape=(256, 256), params=P)
     layout, f = session.layout, 2
     sigma = split_sigma(P.patch_size)
     ex = np.asarray(session.layout.examples[0].heights, np.float64)
     rng = np.random.default_rng(3)
-    noise = ndimage.gaussian_filter(rng.normal(0, 1, (128, 128)), 3, mode="wrap")
-    sunk = (float(np.median(ex)) - 400.0 + 0.5 * np.ptp(np.percentile(ex, [0.5, 99.5])) * noise / np.ptp(noise))
+    span = np.ptp(np.percentile(ex, [0.5, 99.5]))
+
+    def field(s):
+        noise = ndimage.gaussian_filter(rng.normal(0, 1, (128, 128)), s, mode="wrap")
+        return noise / np.ptp(noise)
+
+    sunk = float(np.median(ex)) - 400.0 + 0.25 * span * (field(3) + field(20))
     fitted = within_examples(sunk.astype(np.float32), layout, f, sigma).astype(np.float64)
     want = np.percentile(ex, [0.5, 50, 99.5])
     got = np.percentile(fitted, [0.5, 50, 99.5])
     assert abs(got[1] - want[1]) < 0.1 * (want[2] - want[0])
-    assert (got[2] - got[0]) / (want[2] - want[0]) == pytest.approx(1.0, abs=0.2)
+    # (The level takes a little less than the example's whole spread: the
+    # fit leaves room for the detail the full-resolution pass adds.)
+    assert np.ptp(np.percentile(sunk, [0.5, 99.5])) / (want[2] - want[0]) < 0.5
+    assert 0.75 <= (got[2] - got[0]) / (want[2] - want[0]) <= 1.1
     # The change is regional: at the landforms' own scale (the detail above
     # the split, on the coarse grid) it is nearly nothing.
     change = fitted - sunk
@@ -105,6 +115,24 @@ def test_within_examples_fits_regional_relief_and_keeps_landforms(y_sketch):
     assert np.std(detail_above(change, sigma / f)) < 0.08 * np.std(change)
     assert np.std(detail_above(sunk, sigma / f)) > 0.25 * np.std(sunk)
     assert within_examples(sunk.astype(np.float32), layout, f, sigma).tobytes() == fitted.astype(np.float32).tobytes()
+
+
+def test_within_examples_raises_the_regions_of_the_drawn_ridges(y_sketch):
+    # A flat-ish coarse terrain under the Y's ridges: the fitted regional
+    # relief stands high about the strokes, and not only where the coarse
+    # terrain happened to stand high.
+    example = builtin_example("white-mountains").load()
+    session = Session([example], y_sketch, shape=(256, 256), params=P)
+    sigma, f = split_sigma(P.patch_size), 2
+    rng = np.random.default_rng(4)
+    terrain = (500.0 + 50.0 * ndimage.gaussian_filter(rng.normal(0, 1, (128, 128)), 3, mode="wrap"))
+    strokes = sketch_features(y_sketch.resized((128, 128)))
+    ridge = graph_mask(strokes.ridges)
+    plain = within_examples(terrain.astype(np.float32), session.layout, f, sigma)
+    drawn = within_examples(terrain.astype(np.float32), session.layout, f, sigma, strokes)
+    pct = lambda h: float((h[ridge][:, None] > h.ravel()[None, :]).mean())  # noqa: E731
+    assert pct(drawn) > pct(plain) + 0.1
+    assert pct(drawn) > 0.75
 
 
 def test_coarse_factor_is_the_largest_the_examples_allow():
