@@ -60,6 +60,11 @@ class StyleLayout:
     anchor : ndarray of float, shape (n_examples,)
         Each example's shift weight in match costs
         (:func:`~terrasynth_core.matching.costs.anchor_weight`).
+    heights : ndarray of float, shape (n_groups, 2), optional
+        The lowest and highest heights each group's examples have as placed
+        (its base height plus their heights about their medians, scaled),
+        metres: what :meth:`height_range` reads, since ``detail`` becomes
+        the band above the landform split during a run.
     """
 
     examples: list
@@ -74,6 +79,13 @@ class StyleLayout:
     notes: list
     cell_size: float | None = None
     anchor: np.ndarray | None = None
+    heights: np.ndarray | None = None
+
+    def height_range(self) -> tuple[float, float]:
+        """The lowest and highest heights of the examples of the groups
+        the output uses, as placed, metres."""
+        used = np.unique(self.group_map)
+        return float(self.heights[used, 0].min()), float(self.heights[used, 1].max())
 
     def group_at(self, row: float, col: float) -> int:
         rows, cols = self.group_map.shape
@@ -160,8 +172,10 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
     for st in controls.stamps:
         r = render_stamp(st, shape, patch_size, cell_size=cell, notes=notes)
         stamps.append(RenderedStamp(r.bbox, (r.detail * np.float32(factor)).astype(np.float32), r.valid, r.core))
+    placed = np.array([[base[g] + min(float(detail[i].min()) for i in m),
+                        base[g] + max(float(detail[i].max()) for i in m)] for g, m in enumerate(members)])
     return StyleLayout(examples, detail, relief, members, names, group_map, level, stamps, remap, notes, cell,
-                       anchors(detail, relief, patch_size))
+                       anchors(detail, relief, patch_size), placed)
 
 
 def anchors(detail: list, relief: np.ndarray, patch_size: int) -> np.ndarray:

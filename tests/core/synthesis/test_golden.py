@@ -78,8 +78,8 @@ CASES = {
 #: indexed fill search and the narrower last drainage pass, and with the
 #: framed feature warps and prominence read along the feature line.
 GOLDEN = {
-    "y_junction": "1a863f9ffa9daa567d72457305dc69ac326558a4f8c8830cf7b61458c20dfac9",
-    "ring_cross_raster": "34424d027056b386e45df170e423fd3339fdc969eb593a80d36140529a838763",
+    "y_junction": "cd1d08ca827d794a7a171c5556b3212ffe20daea990ad70740ffdbdd2a588005",
+    "ring_cross_raster": "ab9f1ee414e133696e92dc16b4333fbb5f0dc9361b383f5755d75382e1cfd4e3",
     "styles_stamp_water_pin": "947806070207149ee269d5f33ef2d1ce528e4c3878a8f762c5195b48a113e107",
 }
 
