@@ -364,3 +364,38 @@ def test_a_sketch_read_in_bands_keeps_every_row(tmp_path, rows):
     assert sketch.shape == (rows, 40)
     assert sketch.ridge_mask[-1, 5:30].all() and sketch.ridge_mask.sum() == 25
     assert sketch.valley_mask[0, 5:30].all() and sketch.valley_mask.sum() == 25
+
+
+def _stroke_masks_for_speedups():
+    """Masks the sketch analysis's shortcuts must treat as the plain
+    filters do: thin and thick strokes, strokes on the border, a filled
+    area (far from the background), a single pixel, nothing."""
+    rng = np.random.default_rng(3)
+    masks = []
+    for i in range(8):
+        shape = tuple(int(v) for v in rng.integers(40, 220, 2))
+        field = ndimage.gaussian_filter(rng.random(shape), rng.uniform(1.0, 5.0))
+        masks.append(field > np.quantile(field, rng.uniform(0.7, 0.97)))
+    blob = np.zeros((300, 260), bool)
+    blob[20:290, 30:250] = True  # pixels up to 110 from the background: the window must grow
+    blob[0:3, :] = True
+    masks += [blob, np.pad(np.ones((1, 1), bool), 5), np.zeros((50, 60), bool), np.ones((30, 30), bool)]
+    return masks
+
+
+def test_stroke_analysis_shortcuts_equal_the_plain_filters():
+    """The gap bridging, thinning and edge distance work on the strokes'
+    box or tiles only; they give the whole image's filters' pixels and
+    distances exactly."""
+    from skimage.morphology import disk, skeletonize
+
+    from terrasynth_core.features import sketch as sk
+
+    for mask in _stroke_masks_for_speedups():
+        for gap in (0, 3, 7):
+            radius = (gap + 1) // 2
+            plain = mask.copy() if radius == 0 else ndimage.binary_dilation(mask, structure=disk(radius))
+            np.testing.assert_array_equal(sk._bridge_gaps(mask, gap), plain)
+        np.testing.assert_array_equal(sk._skeleton(mask), skeletonize(mask))
+        np.testing.assert_array_equal(sk._edge_distance(mask),
+                                      ndimage.distance_transform_edt(np.pad(mask, 1))[1:-1, 1:-1])
