@@ -28,6 +28,7 @@ from skimage.morphology import disk, skeletonize
 
 from ..errors import ParamsError, SketchError
 from ..io._common import atomic_outputs, open_new
+from ..memo import Memo, array_key
 from .graph import FeatureGraph, FeatureKind, FeatureMaps
 from .network import feature_graph_from_mask, mask_box
 from .ppa import validate_int, validate_number
@@ -582,6 +583,27 @@ def sketch_features(sketch: SketchMap, *, params: SketchParams = SketchParams())
     if not isinstance(params, SketchParams):
         raise ParamsError(f"params must be a SketchParams, got {type(params).__name__}")
     return FeatureMaps(
-        ridges=stroke_graph(sketch.ridge_mask, kind="ridge", params=params),
-        valleys=stroke_graph(sketch.valley_mask, kind="valley", params=params),
+        ridges=_kept_stroke_graph(sketch.ridge_mask, "ridge", params),
+        valleys=_kept_stroke_graph(sketch.valley_mask, "valley", params),
     )
+
+
+#: Stroke graphs of the masks last analysed (:func:`_kept_stroke_graph`).
+_GRAPHS = Memo(8)
+
+
+def _kept_stroke_graph(mask: np.ndarray, kind: FeatureKind, params: SketchParams) -> FeatureGraph:
+    """:func:`stroke_graph`, shared with earlier calls on the same mask.
+
+    A stroke changes one colour of a sketch: the live update after it, the
+    run after that and the sketch overlay all analyse the other colour's
+    unchanged mask again.  Keyed by the mask's bytes, so an edited mask is
+    never served an old graph; the kept graphs' points are read-only.
+    """
+    def make() -> FeatureGraph:
+        graph = stroke_graph(mask, kind=kind, params=params)
+        for path in graph.paths:
+            path.points.flags.writeable = False
+        return graph
+
+    return _GRAPHS.get((array_key(mask), kind, params), make)

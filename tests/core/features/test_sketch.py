@@ -399,3 +399,26 @@ def test_stroke_analysis_shortcuts_equal_the_plain_filters():
         np.testing.assert_array_equal(sk._skeleton(mask), skeletonize(mask))
         np.testing.assert_array_equal(sk._edge_distance(mask),
                                       ndimage.distance_transform_edt(np.pad(mask, 1))[1:-1, 1:-1])
+
+
+def test_an_unchanged_colour_is_not_analysed_again(monkeypatch):
+    """A stroke changes one colour: the other colour's graph is the one
+    made before (the same object, read-only points); the changed colour's
+    is made afresh and equals a plain analysis."""
+    from terrasynth_core.features import sketch as sk
+
+    monkeypatch.setattr(sk, "_GRAPHS", sk.Memo(8))
+    ridge = np.zeros((120, 140), bool)
+    ridge[30:34, 10:120] = True
+    valley = np.zeros_like(ridge)
+    valley[80:84, 20:130] = True
+    first = sketch_features(SketchMap(ridge, valley))
+    ridge2 = ridge.copy()
+    ridge2[34:70, 60:63] = True  # a new ridge stroke, joined to the first
+    second = sketch_features(SketchMap(ridge2, valley))
+    assert second.valleys is first.valleys and second.ridges is not first.ridges
+    assert not second.valleys.paths[0].points.flags.writeable
+    plain = sk.stroke_graph(ridge2, kind="ridge")
+    assert second.ridges.nodes == plain.nodes
+    assert [p.points.tobytes() for p in second.ridges.paths] == [p.points.tobytes() for p in plain.paths]
+    assert len(second.ridges.nodes) > len(first.ridges.nodes)
