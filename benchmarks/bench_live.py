@@ -3,6 +3,7 @@
 Usage::
 
     python benchmarks/bench_live.py [--quick] [--no-app] [--json OUT]
+    python benchmarks/bench_live.py --baseline REV [--quick] [--repeats N] [--json OUT]
 
 One 1000x1000 terrain (``s_valley_1000.png`` on the built-in
 ``white-mountains``, default :class:`SynthesisParams` with seed 1) is
@@ -34,6 +35,19 @@ on): latency from the stroke's end to the 2D view showing the new terrain
 examples' snapshot to the pasted result), and the largest gap of a 10 ms heartbeat timer on
 the GUI thread during each update (from the stroke's end until a few ticks
 after the new terrain is shown): the longest the GUI stalled.
+
+``--baseline REV`` instead times the crop re-synthesis of the engine of
+commit ``REV`` (checked out in a temporary ``git worktree``) against this
+tree's, in the same run: each engine works in its own long-lived child
+process, as in the app (imports, the example's analysis and a warm-up
+stroke first, not timed), and the two take turns stroke by stroke (which
+goes first alternates).  Every repeat starts two fresh processes, so no
+stroke is timed twice in one process (a process keeps what it made for a
+stroke, such as seam solvers, and a repeated stroke would find them).
+Both engines start from the same terrain (this tree's whole-map run) and
+the same strokes; the table gives each stroke's median seconds from the
+stroke's end to the whole map's result, the ratio new/old, and whether
+both gave the same bytes (when not, ``follow`` of each).
 """
 
 from __future__ import annotations
@@ -42,7 +56,11 @@ import argparse
 import json
 import os
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -63,6 +81,8 @@ STROKES = (
     ("valley", [(80, 600), (221, 741)]),
 )
 BRUSH_RADIUS = 4.5  # the app's default 9-cell brush
+#: A stroke apart from :data:`STROKES`: each engine's warm-up with ``--baseline``.
+WARM_UP_STROKE = ("valley", [(700, 150), (700, 350)])
 
 
 def _stroked(base_sketch, kind, points):
@@ -237,6 +257,124 @@ def _picture(path, example, sketch, previous, picked=(0, 2)) -> None:
     print(f"picture: {path} (before with the stroke, whole-map re-synthesis, crop re-synthesis)\n")
 
 
+#: The engine's side of ``--baseline``, run in a child process with the
+#: engine's tree first on ``sys.path`` (public API only, so any commit with
+#: ``resynthesize_region`` can be compared).  Reads the terrain and the
+#: strokes from the file in ``argv[1]``, makes the warm-up stroke, then makes
+#: the stroke whose number comes on each line of stdin and answers with one
+#: line: ``RESULT {json}`` (seconds from the stroke's end, the crop run's
+#: timings, the heights' digest; the heights go to the file in ``argv[2]``).
+ENGINE_CHILD = r"""
+import hashlib, json, sys, time
+import numpy as np
+from terrasynth_core.examples import builtin_example
+from terrasynth_core.features import SketchMap
+from terrasynth_core.synthesis import SynthesisParams, changed_cells, resynthesize_region, stroke_selection
+data = np.load(sys.argv[1])
+params = SynthesisParams(seed=int(data["seed"]))
+example = builtin_example("white-mountains").load()
+previous = data["previous"]
+before = SketchMap(data["ridge_before"], data["valley_before"])
+def stroke(i):
+    after = SketchMap(data["ridge"][i], data["valley"][i])
+    t = time.perf_counter()
+    selection = stroke_selection(changed_cells(before, after), patch_size=params.patch_size)
+    result = resynthesize_region([example], after, previous=previous, selection=selection, params=params)
+    return time.perf_counter() - t, result
+stroke(0)
+for line in sys.stdin:
+    seconds, result = stroke(int(line))
+    np.save(sys.argv[2], result.heights)
+    print("RESULT " + json.dumps({"seconds": seconds, "timings": dict(result.timings),
+                                  "digest": hashlib.sha256(result.heights.tobytes()).hexdigest()[:16]}), flush=True)
+"""
+
+
+class _Engine:
+    """One engine's child process (:data:`ENGINE_CHILD`)."""
+
+    def __init__(self, tree: Path, data: Path, cache: str, heights: Path):
+        env = {**os.environ, "PYTHONPATH": str(tree), "TERRASYNTH_CACHE_DIR": cache}
+        self.heights = heights
+        self.proc = subprocess.Popen([sys.executable, "-c", ENGINE_CHILD, str(data), str(heights)], cwd=tree,
+                                     env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+
+    def stroke(self, i: int) -> dict:
+        self.proc.stdin.write(f"{i}\n")
+        self.proc.stdin.flush()
+        for line in self.proc.stdout:
+            if line.startswith("RESULT "):
+                return json.loads(line[len("RESULT "):])
+        raise RuntimeError(f"the engine's process ended (exit {self.proc.wait()}); its error is above")
+
+    def close(self) -> None:
+        self.proc.stdin.close()
+        self.proc.wait()
+
+
+def baseline_rows(rev: str, sketch, strokes, repeats: int) -> list[dict]:
+    """The crop re-synthesis of commit ``rev`` (old) against this tree's
+    (new), alternating stroke by stroke; see the module docstring."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from compare_engines import REPO, baseline_worktree
+
+    example = builtin_example("white-mountains").load()
+    t = time.perf_counter()
+    previous = Session([example], sketch, params=PARAMS).run().heights
+    print(f"whole 1000x1000 run first (this tree): {time.perf_counter() - t:.1f} s")
+    after = [_stroked(sketch, kind, points) for kind, points in (WARM_UP_STROKE, *strokes)]
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="terrasynth-live-") as tmp, baseline_worktree(rev, tmp) as old:
+        tmp = Path(tmp)
+        data = tmp / "strokes.npz"
+        np.savez(data, seed=PARAMS.seed, previous=previous, ridge_before=sketch.ridge_mask,
+                 valley_before=sketch.valley_mask, ridge=np.stack([a.ridge_mask for a in after]),
+                 valley=np.stack([a.valley_mask for a in after]))
+        trees = {"old": old, "new": REPO}
+        caches = {k: str(tmp / f"cache-{k}") for k in trees}
+        times = {k: [[] for _ in strokes] for k in trees}
+        out = {k: [None] * len(strokes) for k in trees}
+        follow = {k: [None] * len(strokes) for k in trees}
+        print(f"crop re-synthesis, engine of {rev} (old) against this tree (new): stroke end to result, "
+              f"median of {repeats} (fresh processes each), seconds")
+        for rep in range(repeats):
+            engines = {k: _Engine(tree, data, caches[k], tmp / f"heights-{k}.npy") for k, tree in trees.items()}
+            try:
+                for i in range(len(strokes)):
+                    order = ("old", "new") if (rep + i) % 2 == 0 else ("new", "old")
+                    for k in order:
+                        res = engines[k].stroke(i + 1)
+                        times[k][i].append(res["seconds"])
+                        out[k][i] = res
+                        if rep == 0:
+                            kind = strokes[i][0]
+                            mask = after[i + 1].ridge_mask & ~sketch.ridge_mask if kind == "ridge" else \
+                                after[i + 1].valley_mask & ~sketch.valley_mask
+                            follow[k][i] = follow_score(np.load(engines[k].heights), mask, kind)
+            finally:
+                for engine in engines.values():
+                    engine.close()
+        print(f"  {'stroke':<34} {'old':>7} {'new':>7} {'new/old':>8} {'same bytes':>11} {'follow old':>11} "
+              f"{'new':>6}")
+        for i, (kind, points) in enumerate(strokes):
+            o, n = (statistics.median(times[k][i]) for k in ("old", "new"))
+            same = out["old"][i]["digest"] == out["new"][i]["digest"]
+            rows.append({"stroke": f"{kind} {points[0]}->{points[-1]}", "old": o, "new": n, "ratio": n / o,
+                         "old_runs": times["old"][i], "new_runs": times["new"][i], "same_bytes": same,
+                         "follow_old": follow["old"][i], "follow_new": follow["new"][i],
+                         "new_timings": {k: round(v, 3) for k, v in out["new"][i]["timings"].items()},
+                         "old_timings": {k: round(v, 3) for k, v in out["old"][i]["timings"].items()}})
+            print(f"  {rows[-1]['stroke']:<34} {o:7.2f} {n:7.2f} {n / o:8.2f} {'yes' if same else 'no':>11} "
+                  f"{follow['old'][i]:11.2f} {follow['new'][i]:6.2f}", flush=True)
+    olds, news = [r["old"] for r in rows], [r["new"] for r in rows]
+    print(f"  {'median':<34} {statistics.median(olds):7.2f} {statistics.median(news):7.2f} "
+          f"{statistics.median(r['ratio'] for r in rows):8.2f}")
+    print(f"  {'max':<34} {max(olds):7.2f} {max(news):7.2f}")
+    print("  last stroke's stages, old:", rows[-1]["old_timings"])
+    print("                        new:", rows[-1]["new_timings"])
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="two strokes, one repeat (default: six, three repeats)")
@@ -244,11 +382,21 @@ def main() -> None:
     parser.add_argument("--app-only", action="store_true", help="only the app's latency and stalls")
     parser.add_argument("--json", help="also write the figures here")
     parser.add_argument("--picture", help="also write a PNG comparing both paths on one stroke")
+    parser.add_argument("--baseline", metavar="REV",
+                        help="only time the crop re-synthesis of commit REV against this tree's, side by side")
+    parser.add_argument("--repeats", type=int, default=None,
+                        help="repeats per stroke (default 3, 1 with --quick)")
     args = parser.parse_args()
     strokes = STROKES[:2] if args.quick else STROKES
-    repeats = 1 if args.quick else 3
+    repeats = args.repeats or (1 if args.quick else 3)
     sketch = read_sketch(resource_path("sketches", "s_valley_1000.png"))
     out = {}
+    if args.baseline:
+        out["baseline"] = baseline_rows(args.baseline, sketch, strokes, repeats)
+        if args.json:
+            with open(args.json, "w") as fh:
+                json.dump(out, fh, indent=1)
+        return
     if not args.app_only:
         out["core"] = _core_table(sketch, strokes, repeats, args.picture)
     if not args.no_app:

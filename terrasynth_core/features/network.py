@@ -805,6 +805,15 @@ def feature_graph_from_mask(
     FeatureGraph
         Acyclic by construction.
     """
+    shape = mask.shape
+    # Only the mask's bounding box and a ring of background around it (a
+    # sketch's strokes cover a few percent of it): pixels are numbered row
+    # by row there as over the whole grid, every neighbour of a mask pixel
+    # is inside, and the coordinates are moved back before anything reads
+    # them, so the graph is the same to the bit.
+    box = _crop_box(mask)
+    if box is not None:
+        mask, strength = mask[box], strength[box]
     # A component of n pixels spans at most sqrt(2) * (n - 1) cells, so the
     # ones below min_component_length can go before the costlier steps.
     labels, n_labels = ndimage.label(mask, structure=np.ones((3, 3), dtype=bool))
@@ -814,6 +823,8 @@ def feature_graph_from_mask(
         too_small[0] = True
         mask = ~too_small[labels]
     forest = spanning_forest(mask, strength)
+    if box is not None:
+        forest = PixelForest(forest.coords + np.array([box[0].start, box[1].start], dtype=np.int64), forest.edges)
     chains = reduce_branches(
         forest,
         prune_length=prune_length,
@@ -825,7 +836,27 @@ def feature_graph_from_mask(
         chains,
         forest.coords,
         kind=kind,
-        shape=mask.shape,
+        shape=shape,
         junction_merge_distance=junction_merge_distance,
         smoothing=smoothing,
     )
+
+
+def mask_box(mask: np.ndarray, margin: int = 1) -> tuple[slice, slice] | None:
+    """The bounding box of ``mask``'s pixels widened by ``margin`` pixels
+    (within the grid), as slices; None when the mask is empty."""
+    rows = np.flatnonzero(mask.any(axis=1))
+    if len(rows) == 0:
+        return None
+    cols = np.flatnonzero(mask.any(axis=0))
+    return (slice(max(int(rows[0]) - margin, 0), min(int(rows[-1]) + 1 + margin, mask.shape[0])),
+            slice(max(int(cols[0]) - margin, 0), min(int(cols[-1]) + 1 + margin, mask.shape[1])))
+
+
+def _crop_box(mask: np.ndarray) -> tuple[slice, slice] | None:
+    """Where :func:`feature_graph_from_mask` works: the mask's box and a
+    ring of background; None for the whole grid (or an empty mask)."""
+    box = mask_box(mask, 1)
+    if box is None or (box[0].stop - box[0].start, box[1].stop - box[1].start) == mask.shape:
+        return None
+    return box

@@ -28,8 +28,9 @@ from skimage.morphology import disk, skeletonize
 
 from ..errors import ParamsError, SketchError
 from ..io._common import atomic_outputs, open_new
+from ..memo import Memo, array_key
 from .graph import FeatureGraph, FeatureKind, FeatureMaps
-from .network import feature_graph_from_mask
+from .network import feature_graph_from_mask, mask_box
 from .ppa import validate_int, validate_number
 
 #: Stroke colours written by :meth:`SketchMap.to_rgb`.
@@ -401,7 +402,85 @@ def _bridge_gaps(mask: np.ndarray, gap: int) -> np.ndarray:
     radius = (gap + 1) // 2
     if radius == 0:
         return mask.copy()  # skeletonize needs a writable array
-    return ndimage.binary_dilation(mask, structure=disk(radius))
+    footprint = disk(radius).astype(bool)
+    bridged = np.zeros(mask.shape, dtype=bool)
+    pixels = np.argwhere(mask)
+    if len(pixels) * int(footprint.sum()) > mask.size // 4:
+        # Much painted: the filter over the strokes' box and the disc's reach.
+        box = mask_box(mask, radius + 1)
+        bridged[box] = ndimage.binary_dilation(mask[box], structure=footprint)
+        return bridged
+    # Strokes cover a few percent of a sketch: the disc's copies of them,
+    # the same pixels as the filter (a union of the disc's shifts; the disc
+    # is symmetric, and off the image there are no strokes).
+    rows, cols = mask.shape
+    for dr, dc in np.argwhere(footprint) - radius:
+        r, c = pixels[:, 0] + dr, pixels[:, 1] + dc
+        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+        bridged[r[inside], c[inside]] = True
+    return bridged
+
+
+def _skeleton(mask: np.ndarray) -> np.ndarray:
+    """``skeletonize(mask)``, thinned on the strokes' bounding box only.
+
+    The same pixels as over the whole image: thinning reads only each
+    stroke pixel's 8 neighbours, and the box keeps a ring of background
+    around the strokes (or the image's own border where they reach it).
+    """
+    skeleton = np.zeros(mask.shape, dtype=bool)
+    box = mask_box(mask, 1)
+    if box is not None:
+        skeleton[box] = skeletonize(mask[box].copy())
+    return skeleton
+
+
+#: Side, in pixels, of the tiles :func:`_edge_distance` works in.
+_DISTANCE_TILE = 64
+
+#: Background first looked for this many pixels around a tile (a wider
+#: stroke widens its own tile's window).
+_DISTANCE_MARGIN = 8
+
+
+def _edge_distance(mask: np.ndarray) -> np.ndarray:
+    """Each stroke pixel's distance to the nearest background pixel,
+    counting the image's border as background: exactly
+    ``distance_transform_edt(np.pad(mask, 1))[1:-1, 1:-1]``, shape of
+    ``mask``, float64 (0 off the strokes).
+
+    Computed only in the tiles that hold strokes, each on a window of
+    ``m`` more pixels around it.  Any pixel outside that window is at
+    least ``m + 1`` away, so where the window's transform gives at most
+    ``m + 1`` no farther background can be nearer, and the value is the
+    whole image's (the same squared integer offset, so the same float).
+    A tile with a pixel farther than that from the window's background is
+    done again with ``m`` that distance, which bounds its pixels' true
+    distance from above.
+    """
+    padded = np.pad(mask, 1)
+    distance = np.zeros(padded.shape, dtype=np.float64)
+    t = _DISTANCE_TILE
+    rows, cols = padded.shape
+    tr, tc = -(-rows // t), -(-cols // t)
+    blocks = np.zeros((tr * t, tc * t), dtype=bool)
+    blocks[:rows, :cols] = padded
+    for i, j in np.argwhere(blocks.reshape(tr, t, tc, t).any(axis=(1, 3))).tolist():
+        r0, r1, c0, c1 = i * t, min((i + 1) * t, rows), j * t, min((j + 1) * t, cols)
+        m = _DISTANCE_MARGIN
+        while True:
+            w0, w1, v0, v1 = max(r0 - m, 0), min(r1 + m, rows), max(c0 - m, 0), min(c1 + m, cols)
+            window = padded[w0:w1, v0:v1]
+            if window.all():  # no background in sight (the padding guarantees some farther out)
+                m *= 2
+                continue
+            part = ndimage.distance_transform_edt(window)[r0 - w0:r1 - w0, c0 - v0:c1 - v0]
+            worst = float(part.max())
+            if worst <= m + 1:
+                break
+            m = int(math.ceil(worst))
+        distance[r0:r1, c0:c1] = part
+    return distance[1:-1, 1:-1]
 
 
 def _touches_border(mask: np.ndarray) -> bool:
@@ -438,7 +517,7 @@ def _skeleton_to_border(mask: np.ndarray, width: float) -> np.ndarray:
     padded[-pad:, pad:-pad] = _crossing_runs(mask[-1], max_run)
     padded[pad:-pad, :pad] = _crossing_runs(mask[:, 0], max_run)[:, None]
     padded[pad:-pad, -pad:] = _crossing_runs(mask[:, -1], max_run)[:, None]
-    return skeletonize(padded)[pad:-pad, pad:-pad]
+    return _skeleton(padded)[pad:-pad, pad:-pad]
 
 
 def stroke_graph(
@@ -462,10 +541,10 @@ def stroke_graph(
     if not mask.any():
         return FeatureGraph(kind, shape, (), ())
     bridged = _bridge_gaps(mask, params.gap_closing)
-    skeleton = skeletonize(bridged)
+    skeleton = _skeleton(bridged)
     # Distance to the stroke's edge, counting the image border as an edge so
     # that a stroke cut by the border does not look twice as wide there.
-    distance = ndimage.distance_transform_edt(np.pad(bridged, 1))[1:-1, 1:-1]
+    distance = _edge_distance(bridged)
     width = _stroke_width(distance, skeleton)
     if _touches_border(bridged):
         skeleton = _skeleton_to_border(bridged, width)
@@ -504,6 +583,27 @@ def sketch_features(sketch: SketchMap, *, params: SketchParams = SketchParams())
     if not isinstance(params, SketchParams):
         raise ParamsError(f"params must be a SketchParams, got {type(params).__name__}")
     return FeatureMaps(
-        ridges=stroke_graph(sketch.ridge_mask, kind="ridge", params=params),
-        valleys=stroke_graph(sketch.valley_mask, kind="valley", params=params),
+        ridges=_kept_stroke_graph(sketch.ridge_mask, "ridge", params),
+        valleys=_kept_stroke_graph(sketch.valley_mask, "valley", params),
     )
+
+
+#: Stroke graphs of the masks last analysed (:func:`_kept_stroke_graph`).
+_GRAPHS = Memo(8)
+
+
+def _kept_stroke_graph(mask: np.ndarray, kind: FeatureKind, params: SketchParams) -> FeatureGraph:
+    """:func:`stroke_graph`, shared with earlier calls on the same mask.
+
+    A stroke changes one colour of a sketch: the live update after it, the
+    run after that and the sketch overlay all analyse the other colour's
+    unchanged mask again.  Keyed by the mask's bytes, so an edited mask is
+    never served an old graph; the kept graphs' points are read-only.
+    """
+    def make() -> FeatureGraph:
+        graph = stroke_graph(mask, kind=kind, params=params)
+        for path in graph.paths:
+            path.points.flags.writeable = False
+        return graph
+
+    return _GRAPHS.get((array_key(mask), kind, params), make)

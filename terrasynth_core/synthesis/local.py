@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Iterator, Sequence
 
 import numpy as np
@@ -195,8 +194,8 @@ def resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketch: Sk
         (default: no patch, no seam there).
     features : FeatureMaps, optional
         The whole sketch's feature networks for the result, when the caller
-        has them (default: computed from ``sketch`` on a helper thread
-        while the crop runs; about 0.1-0.3 s at 1000x1000).
+        has them (default: computed from ``sketch`` once the crop run is
+        done; about 0.1 s at 1000x1000).
     landform : bool, default False
         Run the landform pass on the crop (``params.landform`` is ignored).
         Off by default: the coarse pass builds new landforms over the whole
@@ -217,7 +216,10 @@ def resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketch: Sk
         in map cells); in ``patch_id`` the new patch ``i`` has id
         ``first + i``, where ``first`` is one more than the largest id of
         ``previous_patch_id`` (0 without it), so old and new patches keep
-        distinct ids.  ``timings`` are the crop run's, plus ``"crop"``.
+        distinct ids.  ``timings`` are the crop run's, plus ``"crop"``
+        (cutting the inputs, making the crop's session and pasting the
+        result) and ``"sketch"`` (the whole sketch's networks, 0 when
+        ``features`` were given).
 
     Raises
     ------
@@ -278,11 +280,6 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
                     params=dataclasses.replace(params, landform=bool(landform)),
                     controls=_cropped_controls(whole, crop))
     t_crop = time.perf_counter() - t_start
-    # The whole sketch's networks (for the result's overlays) are made on a
-    # helper thread while the crop runs: the crop run leaves a core free
-    # much of the time, and they are as slow as a small crop's stage.
-    helper = ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-local")
-    whole_features = helper.submit(_features_of, sketch, shape) if features is None else None
     finished = None
     events = local.iter_run()
     try:
@@ -295,10 +292,16 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
                 yield event
     finally:
         events.close()
-        helper.shutdown(wait=False, cancel_futures=True)
     if finished is None:
         return
 
+    t_sketch = time.perf_counter()
+    if features is None:
+        # The whole sketch's networks (for the result's overlays), made
+        # after the crop run: on a helper thread beside it they competed
+        # with the run's own threads for the interpreter lock and saved
+        # nothing measurable (bench_live.py --baseline: 0.98x, same bytes).
+        features = _features_of(sketch, shape)
     t_paste = time.perf_counter()
     sel = whole.selection[crop]
     heights = previous.copy()
@@ -322,12 +325,13 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
         [*examples, *(s.example for s in whole.styles)], shape, cell)
     timings = dict(finished.timings)
     timings["crop"] = t_crop + (time.perf_counter() - t_paste)
+    timings["sketch"] = t_paste - t_sketch
     yield SynthesisFinished(SynthesisResult(
         heights=heights,
         patch_id=patch_id,
         seam_mask=seam_mask,
         patches=records,
-        sketch_features=features if features is not None else whole_features.result(),
+        sketch_features=features,
         timings=timings,
         total_seconds=time.perf_counter() - t_start,
         warnings=finished.warnings,

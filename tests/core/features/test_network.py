@@ -191,3 +191,38 @@ def test_a_component_as_long_as_the_limit_is_left_to_the_chains():
     assert network._small_forest_components(forest, 30.0, None) is None
     assert not network._small_forest_components(forest, 29.0, None).any()
     assert network._small_forest_components(forest, 31.0, None).all()
+
+
+def _graph_record(graph) -> tuple:
+    """Everything a FeatureGraph holds, positions to the bit."""
+    return (graph.kind, graph.shape, graph.nodes,
+            [(p.start, p.end, np.ascontiguousarray(p.points).tobytes()) for p in graph.paths])
+
+
+def test_a_graph_made_on_the_masks_box_is_the_graph_of_the_whole_grid(monkeypatch):
+    """feature_graph_from_mask works on the mask's bounding box (a sketch's
+    strokes cover a few percent of it); moved back, the graph is the one
+    the whole grid gives, to the bit, wherever the strokes lie (touching
+    the grid's border or not)."""
+    from scipy import ndimage
+
+    from terrasynth_core.features import network
+
+    rng = np.random.default_rng(11)
+    options = dict(kind="ridge", prune_length=6.0, prune_iterations=3, min_component_length=8.0,
+                   junction_merge_distance=4.0, smoothing=5)
+    cases = []
+    for i in range(12):
+        shape = tuple(int(v) for v in rng.integers(30, 120, 2))
+        field = ndimage.gaussian_filter(rng.random(shape), 2.0)
+        mask = ndimage.binary_opening(field > np.quantile(field, 0.85)) if i % 3 else field > np.quantile(field, 0.9)
+        if i % 4 == 0:  # away from the border
+            mask[:5], mask[-5:], mask[:, :5], mask[:, -5:] = False, False, False, False
+        from skimage.morphology import skeletonize
+
+        cases.append((skeletonize(mask), rng.random(shape)))
+    boxed = [_graph_record(network.feature_graph_from_mask(m, s, **options)) for m, s in cases]
+    monkeypatch.setattr(network, "_crop_box", lambda mask: None)
+    whole = [_graph_record(network.feature_graph_from_mask(m, s, **options)) for m, s in cases]
+    assert boxed == whole
+    assert sum(len(r[3]) for r in whole) > 30  # real graphs, not empty ones

@@ -364,3 +364,61 @@ def test_a_sketch_read_in_bands_keeps_every_row(tmp_path, rows):
     assert sketch.shape == (rows, 40)
     assert sketch.ridge_mask[-1, 5:30].all() and sketch.ridge_mask.sum() == 25
     assert sketch.valley_mask[0, 5:30].all() and sketch.valley_mask.sum() == 25
+
+
+def _stroke_masks_for_speedups():
+    """Masks the sketch analysis's shortcuts must treat as the plain
+    filters do: thin and thick strokes, strokes on the border, a filled
+    area (far from the background), a single pixel, nothing."""
+    rng = np.random.default_rng(3)
+    masks = []
+    for i in range(8):
+        shape = tuple(int(v) for v in rng.integers(40, 220, 2))
+        field = ndimage.gaussian_filter(rng.random(shape), rng.uniform(1.0, 5.0))
+        masks.append(field > np.quantile(field, rng.uniform(0.7, 0.97)))
+    blob = np.zeros((300, 260), bool)
+    blob[20:290, 30:250] = True  # pixels up to 110 from the background: the window must grow
+    blob[0:3, :] = True
+    masks += [blob, np.pad(np.ones((1, 1), bool), 5), np.zeros((50, 60), bool), np.ones((30, 30), bool)]
+    return masks
+
+
+def test_stroke_analysis_shortcuts_equal_the_plain_filters():
+    """The gap bridging, thinning and edge distance work on the strokes'
+    box or tiles only; they give the whole image's filters' pixels and
+    distances exactly."""
+    from skimage.morphology import disk, skeletonize
+
+    from terrasynth_core.features import sketch as sk
+
+    for mask in _stroke_masks_for_speedups():
+        for gap in (0, 3, 7):
+            radius = (gap + 1) // 2
+            plain = mask.copy() if radius == 0 else ndimage.binary_dilation(mask, structure=disk(radius))
+            np.testing.assert_array_equal(sk._bridge_gaps(mask, gap), plain)
+        np.testing.assert_array_equal(sk._skeleton(mask), skeletonize(mask))
+        np.testing.assert_array_equal(sk._edge_distance(mask),
+                                      ndimage.distance_transform_edt(np.pad(mask, 1))[1:-1, 1:-1])
+
+
+def test_an_unchanged_colour_is_not_analysed_again(monkeypatch):
+    """A stroke changes one colour: the other colour's graph is the one
+    made before (the same object, read-only points); the changed colour's
+    is made afresh and equals a plain analysis."""
+    from terrasynth_core.features import sketch as sk
+
+    monkeypatch.setattr(sk, "_GRAPHS", sk.Memo(8))
+    ridge = np.zeros((120, 140), bool)
+    ridge[30:34, 10:120] = True
+    valley = np.zeros_like(ridge)
+    valley[80:84, 20:130] = True
+    first = sketch_features(SketchMap(ridge, valley))
+    ridge2 = ridge.copy()
+    ridge2[34:70, 60:63] = True  # a new ridge stroke, joined to the first
+    second = sketch_features(SketchMap(ridge2, valley))
+    assert second.valleys is first.valleys and second.ridges is not first.ridges
+    assert not second.valleys.paths[0].points.flags.writeable
+    plain = sk.stroke_graph(ridge2, kind="ridge")
+    assert second.ridges.nodes == plain.nodes
+    assert [p.points.tobytes() for p in second.ridges.paths] == [p.points.tobytes() for p in plain.paths]
+    assert len(second.ridges.nodes) > len(first.ridges.nodes)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from terrasynth_core.errors import ParamsError, SynthesisCancelled
-from terrasynth_core.features.sketch import SketchMap, read_sketch
+from terrasynth_core.features.sketch import SketchMap, read_sketch, sketch_features
 from terrasynth_core.synthesis import (Controls, PatchPlaced, Pin, Session, SynthesisFinished, SynthesisParams, Water,
                                        changed_cells, iter_resynthesize_region, resynthesize_region, stroke_selection)
 from terrasynth_core.synthesis.local import crop_box
@@ -81,7 +81,12 @@ def test_region_changes_only_the_selection_and_runs_on_a_crop(white_mountains, f
                           for e in placed)
     assert (r1 - r0) * (c1 - c0) < 0.6 * SHAPE[0] * SHAPE[1]
     assert any(p.kind in ("path", "end", "branch") for p in result.patches)  # the new ridge got a feature patch
-    assert result.sketch_features.ridges.paths and "crop" in result.timings
+    assert "crop" in result.timings and result.timings["sketch"] > 0
+    # The result carries the whole sketch's networks (for the overlays), not the crop's.
+    whole = sketch_features(after)
+    assert result.sketch_features.ridges.paths and result.sketch_features.ridges.shape == SHAPE
+    assert [p.points.tobytes() for p in result.sketch_features.ridges.paths] == \
+        [p.points.tobytes() for p in whole.ridges.paths]
     # The new terrain meets the old: the step across the selection's edge is like the steps inside.
     from scipy import ndimage
     gy, gx = np.gradient(result.heights.astype(np.float64))
