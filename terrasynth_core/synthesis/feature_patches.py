@@ -19,6 +19,7 @@ from ..features.stations import LineStations
 from ..matching.candidates import Candidate, FeaturePool
 from ..matching.costs import match_cost, overlap_ssd, settle
 from ..matching.usage import UsageRegistry
+from ..memo import Memo, array_key
 from ..placing.canvas import Canvas, Cut
 from ..placing.windows import patch_window
 from ..warping.frame import framed
@@ -62,6 +63,30 @@ def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
             pools[key] = FeaturePool([(i, layout.examples[i].samples[kind]) for i in members], radius,
                                      mirror=mirror, prominence=[standing[i] for i in members])
     return pools
+
+
+#: Feature pools kept between sessions (:func:`memo_feature_pools`).
+_POOLS = Memo(4)
+
+
+def memo_feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
+    """:func:`feature_pools`, shared with earlier sessions
+    whose layout gave it the same inputs.
+
+    A session is made for every run and every live stroke, and the pools
+    (each example's standing map and its samples' prominence, about 0.3 s
+    for a 1201x1201 example) depend only on the examples, never on the
+    sketch.  The key holds what the pools are made of: each example's
+    samples (by identity: the example analysis is memoised, and the kept
+    pools hold those very objects, so an identity cannot be reused while
+    its entry lives), the detail's bytes, the style groups, the radius and
+    the mirror option.  Pools are read-only once made.
+    """
+    samples = tuple(ex.samples for ex in layout.examples)
+    key = (tuple(id(s) for s in samples), array_key(*layout.detail),
+           tuple(tuple(int(i) for i in m) for m in layout.members), float(radius), bool(mirror))
+    kept = _POOLS.get(key, lambda: (samples, feature_pools(layout, radius, mirror=mirror)))
+    return kept[1]
 
 
 def standing_map(heights: np.ndarray, size: float) -> np.ndarray:

@@ -23,12 +23,11 @@ from ..controls.layout import StyleLayout
 from ..controls.options import Controls
 from ..features.samples import FeatureSample
 from ..matching.usage import UsageRegistry, window_cap
-from ..memo import Memo, array_key
 from ..order.bfs import feature_order
 from ..placing.canvas import Canvas
 from ..placing.windows import WindowQueue, estimate_fill_count, fill_windows, region_seeds
 from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, SynthesisFinished
-from .feature_patches import Stations, feature_pools, place_feature, place_stamp, pool_for, prepare_feature
+from .feature_patches import Stations, memo_feature_pools, place_feature, place_stamp, pool_for, prepare_feature
 from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
 from .fill_workers import MIN_PARALLEL_WINDOWS, WAVE, FillKit, FillWorkers, warm_up, window_task
 from .finish import finish_heights
@@ -179,30 +178,6 @@ def analyse_stage(state: RunState):
     state.timings["analyse"] = time.perf_counter() - t
     yield StageFinished("analyse", state.timings["analyse"])
     return samples, pools
-
-
-#: Feature pools kept between sessions (:func:`memo_feature_pools`).
-_POOLS = Memo(4)
-
-
-def memo_feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
-    """:func:`.feature_patches.feature_pools`, shared with earlier sessions
-    whose layout gave it the same inputs.
-
-    A session is made for every run and every live stroke, and the pools
-    (each example's standing map and its samples' prominence, about 0.3 s
-    for a 1201x1201 example) depend only on the examples, never on the
-    sketch.  The key holds what the pools are made of: each example's
-    samples (by identity: the example analysis is memoised, and the kept
-    pools hold those very objects, so an identity cannot be reused while
-    its entry lives), the detail's bytes, the style groups, the radius and
-    the mirror option.  Pools are read-only once made.
-    """
-    samples = tuple(ex.samples for ex in layout.examples)
-    key = (tuple(id(s) for s in samples), array_key(*layout.detail),
-           tuple(tuple(int(i) for i in m) for m in layout.members), float(radius), bool(mirror))
-    kept = _POOLS.get(key, lambda: (samples, feature_pools(layout, radius, mirror=mirror)))
-    return kept[1]
 
 
 def _sample_wanted(state: RunState, sample: FeatureSample) -> bool:
