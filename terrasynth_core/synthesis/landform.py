@@ -177,8 +177,9 @@ def coarse_session_for(params, layout, shape: tuple[int, int], controls: Control
     rows, cols = shape
     if len(lay.members) > 1:
         # Measured on the Middle-earth map, a coarse pass over several
-        # styles let regions stray from their own heights (its height
-        # squeeze is global, not per region) and drowned more lowland.
+        # styles let regions stray from their own heights (with the range
+        # squeeze of the time; the height fit is global too, not per
+        # region) and drowned more lowland.
         return None, 0, ("landform pass not used with several style regions: each region is built on its own "
                          "flat level")
     smallest = min(min(ex.heights.shape) for ex in lay.examples)

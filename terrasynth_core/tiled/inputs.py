@@ -100,7 +100,7 @@ class CoarseLevel:
     Parameters
     ----------
     heights : ndarray of float32, shape (R, C)
-        The coarse terrain (squeezed into the examples' heights as the
+        The coarse terrain (fitted to the examples' heights as the
         whole-map pass does), metres.
     shape : (rows, cols)
         The output's size; the coarse grid spans it.
