@@ -23,7 +23,7 @@ from ..memo import Memo, array_key
 from ..placing.canvas import Canvas, Cut
 from ..placing.windows import patch_window
 from ..warping.frame import framed
-from ..warping.thin_plate import ThinPlateSpline, warp_distortion, warp_patch
+from ..warping.thin_plate import ThinPlateSpline, WarpWindow
 from .result import PatchRecord
 
 #: Share of a warped patch's cells that must come from inside its example.
@@ -283,17 +283,20 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
     if r1 - r0 < 4 or c1 - c0 < 4:
         return bbox, [], False
     exclude = usage.exclusion(bbox, sample.center, cap)
-    window = (r1 - r0, c1 - c0)
+    # The candidates' splines mostly share the sketch's control points: the
+    # window keeps what depends only on them (kernel matrices, Jacobian
+    # terms), and the spline systems are kept by those points.
+    window = WarpWindow((r0, c0), (r1 - r0, c1 - c0))
     warped, distorted = [], []
     for cand in pool.rank(sample, count, rng, exclude=exclude):
         for src, dst in _fits(sample, cand, stations):
             tps = ThinPlateSpline.fit(src, dst, regularization=1e-3)
-            if warp_distortion(tps, (r0, c0), window) <= MAX_STRETCH:
+            if window.distortion(tps) <= MAX_STRETCH:
                 break
         else:
             distorted.append(cand)
             continue
-        patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, return_valid=True)
+        patch, valid = window.warp(detail[cand.example], tps, return_valid=True)
         if valid >= MIN_VALID_SHARE:
             warped.append((cand, patch))
     rigid = not warped and bool(distorted)
@@ -303,7 +306,7 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
         # the ground keeps its shape).
         for cand in distorted:
             tps = ThinPlateSpline.similarity(cand.target, cand.control, reflect=cand.mirrored)
-            patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, return_valid=True)
+            patch, valid = window.warp(detail[cand.example], tps, return_valid=True)
             if valid >= MIN_VALID_SHARE:
                 warped.append((cand, patch))
     return bbox, warped, rigid
