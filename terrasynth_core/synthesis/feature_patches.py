@@ -185,6 +185,10 @@ def pool_for(pools: dict, layout: StyleLayout, sample: FeatureSample, warnings: 
     return pool
 
 
+#: Example networks' stations kept between sessions (:meth:`Stations._of`).
+_EXAMPLE_STATIONS = Memo(8)
+
+
 class Stations:
     """The stations (:mod:`~terrasynth_core.features.stations`) of the
     sketch's and the examples' feature lines, each network's made when
@@ -207,10 +211,20 @@ class Stations:
                              for i, ex in enumerate(examples) for kind in ("ridge", "valley")})
         self._radius = radius
         self._made: dict = {}
+        # The sketch's stations by sample: its candidates all ask for them.
+        self._drawn: dict = {}
 
     def _of(self, key) -> LineStations:
         if key not in self._made:
-            self._made[key] = LineStations(self._graphs[key], self._radius)
+            graph = self._graphs[key]
+            if key[0] == "sketch":
+                self._made[key] = LineStations(graph, self._radius)
+            else:
+                # An example's network comes from its memoised analysis:
+                # its stations are kept for later sessions (the entry holds
+                # the graph, so its identity cannot be reused meanwhile).
+                self._made[key] = _EXAMPLE_STATIONS.get(
+                    (id(graph), float(self._radius)), lambda: (graph, LineStations(graph, self._radius)))[1]
         return self._made[key]
 
     def pairs(self, sample: FeatureSample, cand: Candidate) -> tuple[np.ndarray, np.ndarray] | None:
@@ -219,7 +233,10 @@ class Stations:
         ``cand.control``: shapes (m, 2) and (m, 2); None when m is 0."""
         if sample.degree != len(cand.control) - 1:
             return None  # a stand-in degree: its crossings do not pair
-        drawn = self._of(("sketch", sample.kind)).inner(sample.center, cand.target[1:])
+        key = (sample.kind, np.asarray(sample.center, float).tobytes(), cand.target.tobytes())
+        drawn = self._drawn.get(key)
+        if drawn is None:
+            drawn = self._drawn[key] = self._of(("sketch", sample.kind)).inner(sample.center, cand.target[1:])
         found = self._of((cand.example, sample.kind)).inner(cand.center, cand.control[1:])
         both = ~(np.isnan(drawn).any(axis=1) | np.isnan(found).any(axis=1))
         return (drawn[both], found[both]) if both.any() else None
