@@ -566,17 +566,21 @@ class WarpWindow:
         coords = self.coordinates(tps)
         rows, cols = src.shape
         cr, cc = coords[:, 0], coords[:, 1]
-        inside = (cr >= 0.0) & (cr <= rows - 1) & (cc >= 0.0) & (cc <= cols - 1)
-        n_inside = int(np.count_nonzero(inside))
+        # (Per column: the same extremes as along axis 0, without its
+        # strided reduction.)
+        low, high = (cr.min(), cc.min()), (cr.max(), cc.max())
+        if low[0] >= 0.0 and low[1] >= 0.0 and high[0] <= rows - 1 and high[1] <= cols - 1:
+            n_inside = len(coords)  # the usual case: every sample inside
+        else:
+            inside = (cr >= 0.0) & (cr <= rows - 1) & (cc >= 0.0) & (cc <= cols - 1)
+            n_inside = int(np.count_nonzero(inside))
 
         # Crop to the sampled area; "reflect"/"mirror" need the whole source as
         # soon as a sample falls outside it, so crop only when all are inside.
-        if mode == "nearest" or n_inside == len(inside):
+        if mode == "nearest" or n_inside == len(coords):
             margin = _CROP_MARGIN if order > 1 else 1
-            # (Per column: the same extremes as along axis 0, without its
-            # strided reduction.)
-            lo = np.floor([cr.min(), cc.min()]).astype(np.int64) - margin
-            hi = np.ceil([cr.max(), cc.max()]).astype(np.int64) + margin + 1
+            lo = np.floor(low).astype(np.int64) - margin
+            hi = np.ceil(high).astype(np.int64) + margin + 1
             lo = np.clip(lo, 0, [rows - 1, cols - 1])
             hi = np.clip(hi, lo + 1, [rows, cols])
             src = src[lo[0] : hi[0], lo[1] : hi[1]]
@@ -586,7 +590,7 @@ class WarpWindow:
         patch = patch.reshape(h, w).astype(np.float32, copy=False)
         if return_valid:
             # The count over the size: the mean of the 0/1 flags, exactly.
-            return patch, n_inside / len(inside)
+            return patch, n_inside / len(coords)
         return patch
 
 
