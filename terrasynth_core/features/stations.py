@@ -77,9 +77,11 @@ class LineStations:
         order = np.argsort(keys, kind="stable")
         path = np.repeat(np.arange(len(lengths)), lengths)
         index = np.concatenate([np.arange(n) for n in lengths]) if lengths else np.zeros(0, np.int64)
-        self._at = keys[order], path[order], index[order]
         nodes = np.array([[nd.row, nd.col] for nd in self._graph.nodes], dtype=float).reshape(-1, 2)
         self._nodes = {int(k): n for n, k in enumerate(_keys(nodes))}
+        # Last: an example's stations are shared between sessions, and
+        # another thread takes a set ``_at`` for a finished index.
+        self._at = keys[order], path[order], index[order]
 
     def routes(self, centre: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Every way out of the patch's disc from a sample centre: where it

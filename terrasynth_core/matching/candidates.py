@@ -120,6 +120,11 @@ class FeaturePool:
             for s, r in zip(lst, rk):
                 by_degree.setdefault(s.degree, []).append((ex, s, float(r)))
         self._groups = {}
+        # Per degree, what every ranking of a sample of that degree starts
+        # from (made once: a pool serves every sample of a run, and runs
+        # after it): the crossings relative to their centres in radii, and
+        # all their alignments (:meth:`_alignments`).
+        self._aligned: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         for d, items in by_degree.items():
             self._groups[d] = (
                 np.array([ex for ex, _, _ in items], dtype=np.int32),
@@ -166,28 +171,20 @@ class FeaturePool:
             return []
         ex_idx, centers, crossings, prominence = self._groups[degree]
         src = (sample.crossings - sample.center) / self.radius  # (d_s, 2)
-        rel = (crossings - centers[:, None, :]) / self.radius  # (N, d, 2)
-        if degree != sample.degree:
+        if degree == sample.degree:
+            if degree not in self._aligned:
+                self._aligned[degree] = self._alignments((crossings - centers[:, None, :]) / self.radius)
+            flat, mflat, centred = self._aligned[degree]
+        else:
+            rel = (crossings - centers[:, None, :]) / self.radius  # (N, d, 2)
             src, rel = _match_counts(src, rel)
+            flat, mflat, centred = self._alignments(rel)
         d = src.shape[0]
-        # All alignments: cyclic shifts, and of the mirrored order.
-        shifts = np.array([np.roll(np.arange(d), -a) for a in range(d)])  # (d, d)
-        aligned = rel[:, shifts, :]  # (N, d_align, d, 2)
-        mirrored = np.zeros(aligned.shape[:2], dtype=bool)
-        if self.mirror:
-            mshifts = np.array([np.roll(np.arange(d)[::-1], -a) for a in range(d)])
-            maligned = rel[:, mshifts, :]
-            aligned = np.concatenate([aligned, maligned], axis=1)
-            mirrored = np.concatenate([mirrored, np.ones_like(mirrored)], axis=1)
-        n_cand, n_align = aligned.shape[:2]
-        flat = aligned.reshape(-1, d, 2)
-        mflat = mirrored.reshape(-1)
+        n_align = len(flat) // len(centers)
         cost = _rotation_residual(src, flat, mflat) / (d + 1)
         # The framed spline through the centre (0, 0) and the crossings: it
         # bends as much as the two features' shapes differ.
-        centre = np.zeros((len(flat), 1, 2))
-        cost = cost + framed_bending_energies(np.vstack([[0.0, 0.0], src]), np.concatenate([centre, flat], axis=1),
-                                              mflat)
+        cost = cost + framed_bending_energies(np.vstack([[0.0, 0.0], src]), centred, mflat)
         cost = cost + rng.random(cost.shape) * 1e-6  # random tie-break, seeded
         # Prominence reorders only candidates that fit nearly as well as
         # the best: a prominent feature warped far from its shape would be
@@ -207,6 +204,40 @@ class FeaturePool:
             out.append(Candidate(int(ex_idx[ci]), centers[ci].copy(), ctrl, target, bool(mflat[t]), float(cost[t]),
                                  float(standing[t])))
         return out
+
+
+    def _alignments(self, rel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every alignment of the pool's crossings: their cyclic shifts,
+        and those of the mirrored order when mirrors are on.
+
+        Parameters
+        ----------
+        rel : ndarray of float, shape (N, d, 2)
+            Crossings relative to their centres, in radii.
+
+        Returns
+        -------
+        flat : ndarray of float, shape (N * a, d, 2)
+            Sample by sample, its ``a`` alignments (``a`` = d, or 2d with
+            mirrors).
+        mirrored : ndarray of bool, shape (N * a,)
+        centred : ndarray of float, shape (N * a, d + 1, 2)
+            ``flat`` after the centre (0, 0).
+        """
+        d = rel.shape[1]
+        shifts = np.array([np.roll(np.arange(d), -a) for a in range(d)])  # (d, d)
+        aligned = rel[:, shifts, :]  # (N, d_align, d, 2)
+        mirrored = np.zeros(aligned.shape[:2], dtype=bool)
+        if self.mirror:
+            mshifts = np.array([np.roll(np.arange(d)[::-1], -a) for a in range(d)])
+            maligned = rel[:, mshifts, :]
+            aligned = np.concatenate([aligned, maligned], axis=1)
+            mirrored = np.concatenate([mirrored, np.ones_like(mirrored)], axis=1)
+        flat = aligned.reshape(-1, d, 2)
+        centred = np.concatenate([np.zeros((len(flat), 1, 2)), flat], axis=1)
+        for a in (flat, mirrored, centred):
+            a.flags.writeable = False  # shared by every ranking
+        return flat, mirrored.reshape(-1), centred
 
 
 def prominence_ranks(prominence: np.ndarray) -> np.ndarray:

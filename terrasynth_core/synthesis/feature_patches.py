@@ -23,7 +23,7 @@ from ..memo import Memo, array_key
 from ..placing.canvas import Canvas, Cut
 from ..placing.windows import patch_window
 from ..warping.frame import framed
-from ..warping.thin_plate import ThinPlateSpline, warp_distortion, warp_patch
+from ..warping.thin_plate import ThinPlateSpline, WarpWindow
 from .result import PatchRecord
 
 #: Share of a warped patch's cells that must come from inside its example.
@@ -185,6 +185,10 @@ def pool_for(pools: dict, layout: StyleLayout, sample: FeatureSample, warnings: 
     return pool
 
 
+#: Example networks' stations kept between sessions (:meth:`Stations._of`).
+_EXAMPLE_STATIONS = Memo(8)
+
+
 class Stations:
     """The stations (:mod:`~terrasynth_core.features.stations`) of the
     sketch's and the examples' feature lines, each network's made when
@@ -207,10 +211,20 @@ class Stations:
                              for i, ex in enumerate(examples) for kind in ("ridge", "valley")})
         self._radius = radius
         self._made: dict = {}
+        # The sketch's stations by sample: its candidates all ask for them.
+        self._drawn: dict = {}
 
     def _of(self, key) -> LineStations:
         if key not in self._made:
-            self._made[key] = LineStations(self._graphs[key], self._radius)
+            graph = self._graphs[key]
+            if key[0] == "sketch":
+                self._made[key] = LineStations(graph, self._radius)
+            else:
+                # An example's network comes from its memoised analysis:
+                # its stations are kept for later sessions (the entry holds
+                # the graph, so its identity cannot be reused meanwhile).
+                self._made[key] = _EXAMPLE_STATIONS.get(
+                    (id(graph), float(self._radius)), lambda: (graph, LineStations(graph, self._radius)))[1]
         return self._made[key]
 
     def pairs(self, sample: FeatureSample, cand: Candidate) -> tuple[np.ndarray, np.ndarray] | None:
@@ -219,7 +233,10 @@ class Stations:
         ``cand.control``: shapes (m, 2) and (m, 2); None when m is 0."""
         if sample.degree != len(cand.control) - 1:
             return None  # a stand-in degree: its crossings do not pair
-        drawn = self._of(("sketch", sample.kind)).inner(sample.center, cand.target[1:])
+        key = (sample.kind, np.asarray(sample.center, float).tobytes(), cand.target.tobytes())
+        drawn = self._drawn.get(key)
+        if drawn is None:
+            drawn = self._drawn[key] = self._of(("sketch", sample.kind)).inner(sample.center, cand.target[1:])
         found = self._of((cand.example, sample.kind)).inner(cand.center, cand.control[1:])
         both = ~(np.isnan(drawn).any(axis=1) | np.isnan(found).any(axis=1))
         return (drawn[both], found[both]) if both.any() else None
@@ -283,17 +300,20 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
     if r1 - r0 < 4 or c1 - c0 < 4:
         return bbox, [], False
     exclude = usage.exclusion(bbox, sample.center, cap)
-    window = (r1 - r0, c1 - c0)
+    # The candidates' splines mostly share the sketch's control points: the
+    # window keeps what depends only on them (kernel matrices, Jacobian
+    # terms), and the spline systems are kept by those points.
+    window = WarpWindow((r0, c0), (r1 - r0, c1 - c0))
     warped, distorted = [], []
     for cand in pool.rank(sample, count, rng, exclude=exclude):
         for src, dst in _fits(sample, cand, stations):
             tps = ThinPlateSpline.fit(src, dst, regularization=1e-3)
-            if warp_distortion(tps, (r0, c0), window) <= MAX_STRETCH:
+            if window.distortion(tps) <= MAX_STRETCH:
                 break
         else:
             distorted.append(cand)
             continue
-        patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, return_valid=True)
+        patch, valid = window.warp(detail[cand.example], tps, return_valid=True)
         if valid >= MIN_VALID_SHARE:
             warped.append((cand, patch))
     rigid = not warped and bool(distorted)
@@ -303,7 +323,7 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
         # the ground keeps its shape).
         for cand in distorted:
             tps = ThinPlateSpline.similarity(cand.target, cand.control, reflect=cand.mirrored)
-            patch, valid = warp_patch(detail[cand.example], tps, (r0, c0), window, return_valid=True)
+            patch, valid = window.warp(detail[cand.example], tps, return_valid=True)
             if valid >= MIN_VALID_SHARE:
                 warped.append((cand, patch))
     return bbox, warped, rigid

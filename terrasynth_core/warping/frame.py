@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..memo import Memo
 from .thin_plate import bending_energies, similarity_params
 
 __all__ = ["FRAME_GAP", "frame_points", "framed", "framed_bending_energies"]
@@ -69,6 +70,23 @@ def frame_points(points: np.ndarray) -> np.ndarray:
     return np.array(out).reshape(-1, 2)
 
 
+#: Frame points by their control set's bytes (:func:`_frame_of`).
+_FRAMES = Memo(256)
+
+
+def _frame_of(points: np.ndarray) -> np.ndarray:
+    """:func:`frame_points` of ``points``, kept: every candidate of a
+    feature patch frames the same sketch control set.  Read-only."""
+    points = np.asarray(points, dtype=np.float64)
+
+    def make():
+        frame = frame_points(points)
+        frame.flags.writeable = False
+        return frame
+
+    return _FRAMES.get((points.shape, points.tobytes()), make)
+
+
 def _apply(a: np.ndarray, b: np.ndarray, points: np.ndarray, reflect: np.ndarray) -> np.ndarray:
     z = points[:, 0] + 1j * points[:, 1]
     z = np.where(reflect[:, None], np.conj(z)[None, :], z[None, :])
@@ -92,7 +110,7 @@ def framed(src: np.ndarray, dst: np.ndarray, *, reflect: bool) -> tuple[np.ndarr
     -------
     src_all, dst_all : ndarray of float64, shape (n + f, 2)
     """
-    frame = frame_points(src)
+    frame = _frame_of(src)
     if len(frame) == 0:
         return src, dst
     flag = np.array([bool(reflect)])
@@ -116,7 +134,7 @@ def framed_bending_energies(src: np.ndarray, dst: np.ndarray, reflect: np.ndarra
         As :func:`~terrasynth_core.warping.thin_plate.bending_energies` of
         :func:`framed` pairs; in the square of ``src``'s units.
     """
-    frame = frame_points(src)
+    frame = _frame_of(src)
     if len(frame) == 0:
         return bending_energies(src, dst)
     a, b = similarity_params(src, dst, reflect)

@@ -24,6 +24,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..errors import ParamsError
+from ..memo import Memo
 
 #: Relative size (to the point spread) below which two control points count
 #: as the same point.
@@ -147,6 +148,77 @@ def similarity_params(src: np.ndarray, dst: np.ndarray, reflect: np.ndarray) -> 
 
 
 
+#: Spline systems by their source control points (:func:`_spline_system`):
+#: a feature patch's candidates share the sketch's side of their splines,
+#: so its system is made once for all of them.
+_SYSTEMS = Memo(64)
+
+
+def _spline_system(src: np.ndarray, regularization: float, collinear_tolerance: float) -> tuple:
+    """What :meth:`ThinPlateSpline.fit` derives from its source points alone.
+
+    Parameters
+    ----------
+    src : ndarray of float64, shape (n, 2)
+        Checked source control points, n >= 1.
+    regularization, collinear_tolerance : float
+        As in :meth:`ThinPlateSpline.fit`.
+
+    Returns
+    -------
+    center : ndarray of float64, shape (2,)
+        The points' mean.
+    virtual : ndarray of float64, shape (2,), or None
+        The virtual control point added to a (nearly) collinear set.
+    kernel_src : ndarray of float64, shape (m, 2)
+        The spline's kernel centres (``src``, then ``virtual``); only for
+        n >= 3.
+    system : ndarray of float64, shape (m + 3, m + 3), or None
+        The interpolation system; None for n <= 2 (no kernel).
+
+    Raises
+    ------
+    ParamsError
+        Two source points coincide.
+    """
+    n = len(src)
+    center = src.mean(axis=0)
+    spread = float(np.sqrt(((src - center) ** 2).sum(axis=1).max()))
+    tol = _DEGENERACY_TOL * max(spread, 1.0)
+    if n > 1:
+        d2 = squared_distances(src, src)
+        d2[np.diag_indices(n)] = np.inf
+        if d2.min() <= tol * tol:
+            i, j = np.unravel_index(np.argmin(d2), d2.shape)
+            raise ParamsError(
+                f"src control points {i} and {j} coincide at {tuple(src[i])}; expected distinct points"
+            )
+    if n <= 2:
+        return center, None, None, None
+
+    # Collinear: the centred points' smaller singular value is ~ 0, or
+    # small against the larger one.
+    virtual = None
+    _, sing, vt = np.linalg.svd(src - center, full_matrices=False)
+    if sing[-1] <= max(tol * math.sqrt(n), collinear_tolerance * sing[0]):
+        virtual = center + spread * vt[-1]
+        src = np.vstack([src, virtual])
+        n += 1
+
+    x = src - center
+    k = radial_kernel(squared_distances(src, src))
+    system = np.zeros((n + 3, n + 3))
+    system[:n, :n] = k + regularization * np.eye(n)
+    system[:n, n] = 1.0
+    system[:n, n + 1 :] = x
+    system[n, :n] = 1.0
+    system[n + 1 :, :n] = x.T
+    # Shared by every spline fitted on these points: never written to.
+    for a in (center, src, system) + (() if virtual is None else (virtual,)):
+        a.flags.writeable = False
+    return center, virtual, src, system
+
+
 def _similarity_fit(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Least-squares rotation + uniform scale + translation taking src to dst.
 
@@ -195,10 +267,8 @@ class ThinPlateSpline:
         self.linear = linear
         self._offset = offset
         self._center = center
-        self._bending_energy = 0.0
-        if len(control_points):
-            k = radial_kernel(squared_distances(control_points, control_points))
-            self._bending_energy = float(kernel_energy(weights[None], k)[0])
+        # Made when first asked for: a feature patch's warps never ask.
+        self._bending_energy: float | None = None
 
     # -- construction ----------------------------------------------------
     @classmethod
@@ -264,17 +334,9 @@ class ThinPlateSpline:
         if not 0.0 <= collinear_tolerance < 1.0:
             raise ParamsError(f"collinear_tolerance must be in [0, 1), got {collinear_tolerance}")
 
-        center = src.mean(axis=0)
-        spread = float(np.sqrt(((src - center) ** 2).sum(axis=1).max()))
-        tol = _DEGENERACY_TOL * max(spread, 1.0)
-        if n > 1:
-            d2 = squared_distances(src, src)
-            d2[np.diag_indices(n)] = np.inf
-            if d2.min() <= tol * tol:
-                i, j = np.unravel_index(np.argmin(d2), d2.shape)
-                raise ParamsError(
-                    f"src control points {i} and {j} coincide at {tuple(src[i])}; expected distinct points"
-                )
+        key = (src.tobytes(), float(regularization), float(collinear_tolerance))
+        center, virtual, kernel_src, system = _SYSTEMS.get(
+            key, lambda: _spline_system(src, regularization, collinear_tolerance))
 
         empty = np.zeros((0, 2))
         if n == 1:
@@ -282,30 +344,16 @@ class ThinPlateSpline:
         if n == 2:
             linear, offset = _similarity_fit(src, dst)
             return cls(empty, empty, center @ linear.T + offset, linear, center)
-
-        # Collinear: the centred points' smaller singular value is ~ 0, or
-        # small against the larger one.
-        _, sing, vt = np.linalg.svd(src - center, full_matrices=False)
-        if sing[-1] <= max(tol * math.sqrt(n), collinear_tolerance * sing[0]):
+        if virtual is not None:
             linear, offset = _similarity_fit(src, dst)
-            virtual = center + spread * vt[-1]
-            src = np.vstack([src, virtual])
             dst = np.vstack([dst, virtual @ linear.T + offset])
             n += 1
 
-        x = src - center
-        k = radial_kernel(squared_distances(src, src))
-        system = np.zeros((n + 3, n + 3))
-        system[:n, :n] = k + regularization * np.eye(n)
-        system[:n, n] = 1.0
-        system[:n, n + 1 :] = x
-        system[n, :n] = 1.0
-        system[n + 1 :, :n] = x.T
         rhs = np.zeros((n + 3, 2))
         rhs[:n] = dst
         sol = np.linalg.solve(system, rhs)
         weights = sol[:n]
-        return cls(src, weights, sol[n], sol[n + 1 :].T, center)
+        return cls(kernel_src, weights, sol[n], sol[n + 1 :].T, center)
 
     @classmethod
     def similarity(cls, src, dst, *, reflect: bool = False) -> "ThinPlateSpline":
@@ -345,9 +393,16 @@ class ThinPlateSpline:
         ndarray of float64, shape (m, 2)
         """
         p = _as_points(points, "points")
+        kernel = radial_kernel(squared_distances(p, self.control_points)) if len(self.control_points) else None
+        return self._transform_with(p, kernel)
+
+    def _transform_with(self, p: np.ndarray, kernel: np.ndarray | None) -> np.ndarray:
+        """:meth:`transform` of checked points ``p`` (m, 2) whose kernel
+        matrix ``U(|p_i - c_j|)`` (m, n) against the control points is
+        given (None without control points)."""
         out = (p - self._center) @ self.linear.T + self._offset
-        if len(self.control_points):
-            out += radial_kernel(squared_distances(p, self.control_points)) @ self.weights
+        if kernel is not None:
+            out += kernel @ self.weights
         return out
 
     def jacobian(self, points) -> np.ndarray:
@@ -364,13 +419,16 @@ class ThinPlateSpline:
             ``J[i, k, j] = d f_k / d x_j`` at ``points[i]``.
         """
         p = _as_points(points, "points")
-        jac = np.broadcast_to(self.linear, (len(p), 2, 2)).copy()
-        if len(self.control_points):
-            diff = p[:, None, :] - self.control_points[None, :, :]  # (m, n, 2)
-            r2 = np.einsum("mnj,mnj->mn", diff, diff)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                # d/dx of r^2 log r^2 = 2 (x - p) (log r^2 + 1), 0 at r = 0.
-                g = np.where(r2 > 0.0, 2.0 * (np.log(r2) + 1.0), 0.0)
+        terms = _jacobian_terms(p, self.control_points) if len(self.control_points) else None
+        return self._jacobian_with(len(p), terms)
+
+    def _jacobian_with(self, m: int, terms: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+        """:meth:`jacobian` at ``m`` points whose :func:`_jacobian_terms`
+        against the control points are given (None without control
+        points)."""
+        jac = np.broadcast_to(self.linear, (m, 2, 2)).copy()
+        if terms is not None:
+            g, diff = terms
             jac += np.einsum("nk,mn,mnj->mkj", self.weights, g, diff)
         return jac
 
@@ -382,7 +440,158 @@ class ThinPlateSpline:
         the map (Bookstein 1989); 0 for an affine map, in cells^2 (it grows
         with the square of the displacements).
         """
+        if self._bending_energy is None:
+            energy = 0.0
+            if len(self.control_points):
+                k = radial_kernel(squared_distances(self.control_points, self.control_points))
+                energy = float(kernel_energy(self.weights[None], k)[0])
+            self._bending_energy = energy
         return self._bending_energy
+
+
+def _jacobian_terms(p: np.ndarray, control_points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The parts of a spline's Jacobian at points ``p`` (m, 2) that depend
+    only on where its kernel centres (n, 2) are: ``g`` (m, n), the radial
+    factor, and ``diff`` (m, n, 2), the offsets from each centre."""
+    diff = p[:, None, :] - control_points[None, :, :]  # (m, n, 2)
+    r2 = np.einsum("mnj,mnj->mn", diff, diff)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # d/dx of r^2 log r^2 = 2 (x - p) (log r^2 + 1), 0 at r = 0.
+        g = np.where(r2 > 0.0, 2.0 * (np.log(r2) + 1.0), 0.0)
+    return g, diff
+
+
+class WarpWindow:
+    """An output window that splines are checked and sampled on.
+
+    The candidates of one feature patch are warped onto the same window by
+    splines that mostly share their output-side control points (the
+    sketch's), so the window keeps its cells' coordinates and, per set of
+    control points, the kernel matrix over its cells and the Jacobian's
+    terms over its disc: each is computed once for every candidate, with
+    the very same floating-point operations as for one.
+
+    Parameters
+    ----------
+    top_left : (row, col)
+        Output coordinates of the window's first cell.
+    shape : (h, w)
+        Window size, cells, both >= 1.
+
+    Raises
+    ------
+    ParamsError
+        ``shape`` is not positive.
+    """
+
+    def __init__(self, top_left, shape):
+        h, w = (int(v) for v in shape)
+        if h < 1 or w < 1:
+            raise ParamsError(f"warp window shape must be positive, got {tuple(shape)}")
+        self.top_left = (float(top_left[0]), float(top_left[1]))
+        self.shape = (h, w)
+        self._cells: np.ndarray | None = None
+        self._kernels: dict[bytes, np.ndarray] = {}
+        self._discs: dict[int, np.ndarray] = {}
+        self._terms: dict[tuple[int, bytes], tuple[np.ndarray, np.ndarray]] = {}
+
+    @property
+    def cells(self) -> np.ndarray:
+        """Output coordinates of every cell, row by row: shape (h * w, 2)."""
+        if self._cells is None:
+            h, w = self.shape
+            rr, cc = np.mgrid[0:h, 0:w]
+            self._cells = np.column_stack([rr.ravel() + self.top_left[0], cc.ravel() + self.top_left[1]])
+        return self._cells
+
+    def disc(self, step: int) -> np.ndarray:
+        """Cells every ``step`` cells of a grid centred in the window, inside
+        its inscribed disc: shape (m, 2), output coordinates."""
+        if step not in self._discs:
+            h, w = self.shape
+            rr, cc = np.mgrid[0:h:step, 0:w:step].astype(float)
+            rr, cc = rr + (h - 1 - rr.max()) / 2, cc + (w - 1 - cc.max()) / 2  # centred grid
+            radius = min(h, w) / 2
+            inside = (rr - (h - 1) / 2) ** 2 + (cc - (w - 1) / 2) ** 2 <= radius**2
+            self._discs[step] = np.column_stack([rr[inside] + self.top_left[0], cc[inside] + self.top_left[1]])
+        return self._discs[step]
+
+    def coordinates(self, tps: ThinPlateSpline) -> np.ndarray:
+        """``tps.transform`` of :attr:`cells`: shape (h * w, 2)."""
+        cp = tps.control_points
+        if not len(cp):
+            return tps._transform_with(self.cells, None)
+        key = cp.tobytes()
+        kernel = self._kernels.get(key)
+        if kernel is None:
+            kernel = self._kernels[key] = radial_kernel(squared_distances(self.cells, cp))
+        return tps._transform_with(self.cells, kernel)
+
+    def distortion(self, tps: ThinPlateSpline, *, step: int = 4) -> float:
+        """:func:`warp_distortion` of ``tps`` on this window."""
+        pts = self.disc(step)
+        if len(pts) == 0:
+            return 1.0
+        cp = tps.control_points
+        terms = None
+        if len(cp):
+            key = (step, cp.tobytes())
+            terms = self._terms.get(key)
+            if terms is None:
+                terms = self._terms[key] = _jacobian_terms(pts, cp)
+        jac = tps._jacobian_with(len(pts), terms)
+        det = jac[:, 0, 0] * jac[:, 1, 1] - jac[:, 0, 1] * jac[:, 1, 0]
+        if not (np.all(det > 0) or np.all(det < 0)):
+            return math.inf
+        # Singular values of a 2x2 matrix: sqrt of the eigenvalues of J^T J.
+        sq = np.einsum("mkj,mkj->m", jac, jac)
+        root = np.sqrt(np.maximum(sq * sq - 4.0 * det * det, 0.0))
+        big, small = np.sqrt((sq + root) / 2), np.sqrt(np.maximum((sq - root) / 2, 0.0))
+        return float(np.max(big / np.maximum(small, 1e-12)))
+
+    def warp(self, source: np.ndarray, tps: ThinPlateSpline, *, order: int = 1, mode: str = "nearest",
+             return_valid: bool = False):
+        """:func:`warp_patch` of ``source`` through ``tps`` onto this window."""
+        src = np.asarray(source)
+        if src.ndim != 2 or min(src.shape) < 1:
+            raise ParamsError(f"warp source must be a 2-D array, got shape {src.shape}")
+        if order not in range(6):
+            raise ParamsError(f"interpolation order must be an integer 0-5, got {order}")
+        if mode not in ("nearest", "reflect", "mirror"):
+            raise ParamsError(f"warp mode must be 'nearest', 'reflect' or 'mirror', got {mode!r}")
+        if not np.issubdtype(src.dtype, np.floating):
+            src = src.astype(np.float32)
+
+        h, w = self.shape
+        coords = self.coordinates(tps)
+        rows, cols = src.shape
+        cr, cc = coords[:, 0], coords[:, 1]
+        # (Per column: the same extremes as along axis 0, without its
+        # strided reduction.)
+        low, high = (cr.min(), cc.min()), (cr.max(), cc.max())
+        if low[0] >= 0.0 and low[1] >= 0.0 and high[0] <= rows - 1 and high[1] <= cols - 1:
+            n_inside = len(coords)  # the usual case: every sample inside
+        else:
+            inside = (cr >= 0.0) & (cr <= rows - 1) & (cc >= 0.0) & (cc <= cols - 1)
+            n_inside = int(np.count_nonzero(inside))
+
+        # Crop to the sampled area; "reflect"/"mirror" need the whole source as
+        # soon as a sample falls outside it, so crop only when all are inside.
+        if mode == "nearest" or n_inside == len(coords):
+            margin = _CROP_MARGIN if order > 1 else 1
+            lo = np.floor(low).astype(np.int64) - margin
+            hi = np.ceil(high).astype(np.int64) + margin + 1
+            lo = np.clip(lo, 0, [rows - 1, cols - 1])
+            hi = np.clip(hi, lo + 1, [rows, cols])
+            src = src[lo[0] : hi[0], lo[1] : hi[1]]
+            coords = coords - lo
+
+        patch = ndimage.map_coordinates(src, coords.T, order=order, mode=mode, prefilter=order > 1)
+        patch = patch.reshape(h, w).astype(np.float32, copy=False)
+        if return_valid:
+            # The count over the size: the mean of the 0/1 flags, exactly.
+            return patch, n_inside / len(coords)
+        return patch
 
 
 def warp_distortion(tps: ThinPlateSpline, top_left, shape, *, step: int = 4) -> float:
@@ -410,23 +619,7 @@ def warp_distortion(tps: ThinPlateSpline, top_left, shape, *, step: int = 4) -> 
         max sigma_1 / sigma_2 of the Jacobian over the disc (>= 1); inf
         where the map folds (its determinant changes sign or vanishes).
     """
-    h, w = (int(v) for v in shape)
-    rr, cc = np.mgrid[0:h:step, 0:w:step].astype(float)
-    rr, cc = rr + (h - 1 - rr.max()) / 2, cc + (w - 1 - cc.max()) / 2  # centred grid
-    radius = min(h, w) / 2
-    inside = (rr - (h - 1) / 2) ** 2 + (cc - (w - 1) / 2) ** 2 <= radius**2
-    pts = np.column_stack([rr[inside] + float(top_left[0]), cc[inside] + float(top_left[1])])
-    if len(pts) == 0:
-        return 1.0
-    jac = tps.jacobian(pts)
-    det = jac[:, 0, 0] * jac[:, 1, 1] - jac[:, 0, 1] * jac[:, 1, 0]
-    if not (np.all(det > 0) or np.all(det < 0)):
-        return math.inf
-    # Singular values of a 2x2 matrix: sqrt of the eigenvalues of J^T J.
-    sq = np.einsum("mkj,mkj->m", jac, jac)
-    root = np.sqrt(np.maximum(sq * sq - 4.0 * det * det, 0.0))
-    big, small = np.sqrt((sq + root) / 2), np.sqrt(np.maximum((sq - root) / 2, 0.0))
-    return float(np.max(big / np.maximum(small, 1e-12)))
+    return WarpWindow(top_left, shape).distortion(tps, step=step)
 
 
 def warp_patch(
@@ -479,41 +672,4 @@ def warp_patch(
     prefilter runs on the crop plus a 12-cell margin, which changes values
     by far less than float32 precision.
     """
-    src = np.asarray(source)
-    if src.ndim != 2 or min(src.shape) < 1:
-        raise ParamsError(f"warp source must be a 2-D array, got shape {src.shape}")
-    h, w = (int(v) for v in shape)
-    if h < 1 or w < 1:
-        raise ParamsError(f"warp window shape must be positive, got {tuple(shape)}")
-    if order not in range(6):
-        raise ParamsError(f"interpolation order must be an integer 0-5, got {order}")
-    if mode not in ("nearest", "reflect", "mirror"):
-        raise ParamsError(f"warp mode must be 'nearest', 'reflect' or 'mirror', got {mode!r}")
-    if not np.issubdtype(src.dtype, np.floating):
-        src = src.astype(np.float32)
-
-    r0, c0 = (float(v) for v in top_left)
-    rr, cc = np.mgrid[0:h, 0:w]
-    out_pts = np.column_stack([rr.ravel() + r0, cc.ravel() + c0])
-    coords = tps.transform(out_pts)
-    rows, cols = src.shape
-    inside = (
-        (coords[:, 0] >= 0.0) & (coords[:, 0] <= rows - 1) & (coords[:, 1] >= 0.0) & (coords[:, 1] <= cols - 1)
-    )
-
-    # Crop to the sampled area; "reflect"/"mirror" need the whole source as
-    # soon as a sample falls outside it, so crop only when all are inside.
-    if mode == "nearest" or inside.all():
-        margin = _CROP_MARGIN if order > 1 else 1
-        lo = np.floor(coords.min(axis=0)).astype(np.int64) - margin
-        hi = np.ceil(coords.max(axis=0)).astype(np.int64) + margin + 1
-        lo = np.clip(lo, 0, [rows - 1, cols - 1])
-        hi = np.clip(hi, lo + 1, [rows, cols])
-        src = src[lo[0] : hi[0], lo[1] : hi[1]]
-        coords = coords - lo
-
-    patch = ndimage.map_coordinates(src, coords.T, order=order, mode=mode, prefilter=order > 1)
-    patch = patch.reshape(h, w).astype(np.float32, copy=False)
-    if return_valid:
-        return patch, float(inside.mean())
-    return patch
+    return WarpWindow(top_left, shape).warp(source, tps, order=order, mode=mode, return_valid=return_valid)

@@ -61,3 +61,34 @@ def test_height_range_scales_the_styles_towards_it():
     np.testing.assert_allclose(lay.detail[0], (field - np.median(field)) * 0.5, atol=1e-3)
     np.testing.assert_allclose(lay.level, 0.5 * np.median(field) + 100.0, atol=1e-3)
     assert lay.relief[0] == pytest.approx(0.5 * lay.examples[0].relief)
+
+
+def test_anchors_keep_each_detail_level_spread_by_its_bytes(monkeypatch):
+    """A new session's layout reuses the level spread of an example detail
+    it has seen (the same weights), and measures a changed one again."""
+    from terrasynth_core.controls import layout as layout_module
+    from terrasynth_core.matching.costs import anchor_weight, level_spread
+    from terrasynth_core.memo import Memo
+
+    measured = []
+
+    def counted(detail, patch_size):
+        measured.append(patch_size)
+        return level_spread(detail, patch_size)
+
+    monkeypatch.setattr(layout_module, "_SPREADS", Memo(16))
+    monkeypatch.setattr(layout_module, "level_spread", counted)
+    rng = np.random.default_rng(5)
+    detail = [rng.normal(scale=20.0, size=(90, 80)).astype(np.float32),
+              np.add.outer(np.arange(70.0), np.arange(60.0)).astype(np.float32)]
+    relief = np.array([150.0, 90.0])
+    expected = np.array([anchor_weight(r, level_spread(d, 32)) for d, r in zip(detail, relief)])
+    first = layout_module.anchors(detail, relief, 32)
+    np.testing.assert_array_equal(first, expected)
+    again = layout_module.anchors([d.copy() for d in detail], relief, 32)  # equal bytes, new arrays
+    np.testing.assert_array_equal(again, first)
+    assert measured == [32, 32]
+    changed = [detail[0] * np.float32(2), detail[1]]
+    layout_module.anchors(changed, relief, 32)
+    layout_module.anchors(detail, relief, 40)
+    assert measured == [32, 32, 32, 40, 40]

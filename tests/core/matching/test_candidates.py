@@ -160,3 +160,23 @@ def test_prominence_does_not_promote_a_candidate_that_fits_badly():
     ranked = pool.rank(_sample((50, 50), [0, 180]), 4, _rng())
     assert ranked[0].example == 0
     assert ranked[0].deformation + PROMINENCE_SLACK < min(c.deformation for c in ranked if c.example == 1)
+
+
+@pytest.mark.parametrize("mirror", [False, True])
+def test_a_pool_ranks_every_sample_as_a_fresh_pool_does(mirror):
+    """The alignments a pool keeps per degree after its first ranking give
+    the very rankings (costs to the bit) a fresh pool gives, for several
+    samples in a row, a degree the pool lacks among them."""
+    gen = np.random.default_rng(11)
+    examples = [_sample((200.0 + 7 * i, 300.0 - 5 * i), sorted(gen.uniform(0, 360, size=d)))
+                for i, d in enumerate([2, 3, 2, 1, 3, 2, 3, 1, 2])]
+    kept = FeaturePool([(0, examples[:5]), (1, examples[5:])], RADIUS, mirror=mirror)
+    sketches = [_sample((50.0, 60.0), angles) for angles in ([10, 170], [0, 100, 230], [20, 190], [5, 95, 185, 275])]
+    for sketch in sketches + sketches:
+        fresh = FeaturePool([(0, examples[:5]), (1, examples[5:])], RADIUS, mirror=mirror)
+        got, want = kept.rank(sketch, 6, np.random.default_rng(2)), fresh.rank(sketch, 6, np.random.default_rng(2))
+        assert len(got) == len(want) > 0
+        for a, b in zip(got, want):
+            assert (a.example, a.mirrored, a.deformation, a.prominence) == (b.example, b.mirrored, b.deformation,
+                                                                          b.prominence)
+            assert a.control.tobytes() == b.control.tobytes() and a.target.tobytes() == b.target.tobytes()

@@ -45,3 +45,26 @@ def test_feature_pools_are_kept_for_the_same_examples_and_made_again_for_others(
     feature_patches.memo_feature_pools(layout, 20.0, mirror=True)
     feature_patches.memo_feature_pools(layout, 16.0, mirror=False)
     assert made[2:] == [(16.0, True), (20.0, True), (16.0, False)]
+
+
+def test_example_stations_are_kept_between_sessions_and_the_sketch_stations_are_not(white_mountains, sketch_dir,
+                                                                                    monkeypatch):
+    """Two sessions on the same example share its networks' stations (they
+    come from the memoised analysis); each session's sketch gets its own,
+    and the shared ones answer as fresh ones do."""
+    monkeypatch.setattr(feature_patches, "_EXAMPLE_STATIONS", Memo(8))
+    sketch = read_sketch(sketch_dir / "y_junction_512.png").resized((160, 160))
+    made = [Session([white_mountains], sketch, params=P) for _ in range(2)]
+    stations = [feature_patches.Stations(s.sketch_maps, s.layout.examples, 16.0) for s in made]
+    assert made[0].layout.examples[0].features is made[1].layout.examples[0].features
+    for kind in ("ridge", "valley"):
+        assert stations[0]._of((0, kind)) is stations[1]._of((0, kind))
+        assert stations[0]._of(("sketch", kind)) is not stations[1]._of(("sketch", kind))
+    samples = made[0].layout.examples[0].samples["ridge"][:20]
+    assert samples
+    monkeypatch.setattr(feature_patches, "_EXAMPLE_STATIONS", Memo(8))
+    fresh = feature_patches.Stations(made[0].sketch_maps, made[0].layout.examples, 16.0)._of((0, "ridge"))
+    assert fresh is not stations[0]._of((0, "ridge"))
+    for s in samples:
+        kept = stations[1]._of((0, "ridge")).inner(s.center, s.crossings)
+        np.testing.assert_array_equal(kept, fresh.inner(s.center, s.crossings))

@@ -202,3 +202,41 @@ def test_warp_rejects_bad_arguments(dem):
         warp_patch(dem, tps, (0, 0), (4, 4), order=7)
     with pytest.raises(ParamsError, match="shape"):
         warp_patch(dem, tps, (0, 0), (0, 4))
+
+
+def test_warp_window_gives_the_bytes_of_one_warp_per_spline():
+    # A window shared by splines on the same control points (and a
+    # collinear set with its virtual point, and an affine one) keeps their
+    # kernel matrices: each spline's patch, valid share and distortion
+    # must be exactly those of a warp made on its own.
+    from terrasynth_core.warping.thin_plate import WarpWindow, warp_distortion
+
+    rng = np.random.default_rng(3)
+    source = rng.normal(size=(120, 110)).astype(np.float32)
+    line = np.array([[10.0, 10.0], [30.0, 31.0], [50.0, 49.0], [70.0, 71.0]])
+    splines = [ThinPlateSpline.fit(SRC, SRC + rng.normal(scale=2.0, size=SRC.shape) + 20.0, regularization=1e-3)
+               for _ in range(3)]
+    splines += [ThinPlateSpline.fit(line, line + rng.normal(scale=1.0, size=line.shape) + 5.0),
+                ThinPlateSpline.similarity(SRC, SRC * 1.1, reflect=True)]
+    window = WarpWindow((5, 7), (41, 37))
+    for tps in splines + splines:  # the second time from the window's memory
+        patch, valid = window.warp(source, tps, return_valid=True)
+        alone, alone_valid = warp_patch(source, tps, (5, 7), (41, 37), return_valid=True)
+        assert patch.tobytes() == alone.tobytes() and valid == alone_valid
+        reference = tps.transform(window.cells)
+        assert window.coordinates(tps).tobytes() == reference.tobytes()
+        assert window.distortion(tps) == warp_distortion(tps, (5, 7), (41, 37))
+        disc = window.disc(4)
+        assert window.distortion(tps) >= 1.0 and len(disc) > 0
+
+
+def test_fits_on_the_same_source_points_share_their_system_and_still_interpolate():
+    dst_a, dst_b = SRC + _perturbation(), SRC - 2.0 * _perturbation()
+    a, b = ThinPlateSpline.fit(SRC, dst_a), ThinPlateSpline.fit(SRC.copy(), dst_b)
+    assert np.abs(a.transform(SRC) - dst_a).max() < 1e-6
+    assert np.abs(b.transform(SRC) - dst_b).max() < 1e-6
+    assert a.control_points is b.control_points and not a.control_points.flags.writeable
+    # A repeated point is refused every time, not only when first seen.
+    for _ in range(2):
+        with pytest.raises(ParamsError, match="coincide"):
+            ThinPlateSpline.fit(np.vstack([SRC, SRC[:1]]), np.vstack([dst_a, dst_a[:1]]))
