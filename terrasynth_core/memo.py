@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import threading
+import weakref
 from collections import OrderedDict
 from typing import Callable, Hashable, TypeVar
 
@@ -57,14 +58,50 @@ class Memo:
 
 def array_key(*arrays: np.ndarray | None) -> tuple:
     """A key for arrays' contents: a 128-bit hash of their bytes (a few
-    milliseconds for an example DEM), shapes and types; None stays None."""
-    digest = hashlib.blake2b(digest_size=16)
-    described = []
-    for a in arrays:
-        if a is None:
-            described.append(None)
-            continue
-        a = np.ascontiguousarray(a)
-        digest.update(a.data)
-        described.append((a.shape, a.dtype.str))
-    return digest.digest(), tuple(described)
+    milliseconds for an example DEM), shapes and types; None stays None.
+
+    A read-only array's hash is made once and kept while the array lives
+    (:func:`_digest`): the examples' detail, shared read-only by every
+    session, is asked for by several memos (its detail band, level spread,
+    feature pools, fill searches) in every run and every live stroke.
+    """
+    described = [None if a is None else (a.shape, a.dtype.str) for a in arrays]
+    digests = [_digest(a) for a in arrays if a is not None]
+    if len(digests) == 1:
+        return digests[0], tuple(described)
+    combined = hashlib.blake2b(digest_size=16)
+    for d in digests:
+        combined.update(d)
+    return combined.digest(), tuple(described)
+
+
+#: Hashes of read-only arrays by ``id``, each with a weak reference that
+#: drops it when its array goes.
+_DIGESTS: dict[int, tuple[weakref.ref, bytes]] = {}
+_DIGESTS_LOCK = threading.Lock()
+
+
+def _digest(a: np.ndarray) -> bytes:
+    """The 128-bit BLAKE2b hash of ``a``'s bytes (C order), kept for an
+    array whose bytes cannot change (not writeable, nor any array it views)."""
+    fixed = not a.flags.writeable
+    base = a.base
+    while fixed and isinstance(base, np.ndarray):
+        fixed, base = not base.flags.writeable, base.base
+    if fixed:
+        with _DIGESTS_LOCK:
+            kept = _DIGESTS.get(id(a))
+        if kept is not None and kept[0]() is a:
+            return kept[1]
+    digest = hashlib.blake2b(np.ascontiguousarray(a).data, digest_size=16).digest()
+    if fixed:
+        key = id(a)
+
+        def forget(_ref, key=key):
+            with _DIGESTS_LOCK:
+                if _DIGESTS.get(key, (None,))[0] is _ref:
+                    del _DIGESTS[key]
+
+        with _DIGESTS_LOCK:
+            _DIGESTS[key] = (weakref.ref(a, forget), digest)
+    return digest

@@ -164,6 +164,8 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
         remap = (lo, hi, factor, shift)
     detail = [((ex.heights - np.float32(med)) * np.float32(s * factor)).astype(np.float32)
               for ex, med, s in zip(examples, medians, scales)]
+    for d in detail:
+        d.flags.writeable = False  # read by every stage and memo of the run; its hash is made once
     relief = np.array([ex.relief for ex in examples]) * scales * factor
     level = level_field(group_map, base, patch_size)
     if controls.selection is None:

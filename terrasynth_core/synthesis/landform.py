@@ -236,7 +236,7 @@ def landform_from(session: Session, coarse, f: int) -> Landform:
     heights = coarse.heights
     sigma = split_sigma(p.patch_size)
     if c.height_range is None:  # (a height range maps the result onto itself at the end)
-        heights = within_examples(heights, lay, f, sigma, coarse.sketch_features)
+        heights = fitted_to_examples(heights, lay, f, sigma, coarse.sketch_features)
     up = _upsampled(heights, session.shape)
     level = landform_lowpass(up, sigma)
     if c.selection is not None:
@@ -281,7 +281,7 @@ def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray
     return level
 
 
-def within_examples(heights: np.ndarray, layout, f: int, sigma: float,
+def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
                     strokes: FeatureMaps | None = None) -> np.ndarray:
     """The coarse terrain with the examples' heights: its regional relief
     fitted so that, with the examples' detail on it, its heights take the

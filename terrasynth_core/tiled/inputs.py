@@ -25,7 +25,7 @@ from scipy import ndimage
 
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
-from ..synthesis.landform import coarse_session_for, landform_lowpass, split_sigma, within_examples
+from ..synthesis.landform import coarse_session_for, landform_lowpass, split_sigma, fitted_to_examples
 from ..synthesis.params import SynthesisParams
 from ..synthesis.session import Session
 
@@ -225,5 +225,5 @@ def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap
     # As the whole-map pass (landform.landform_from): chained patches may
     # carry the coarse terrain out of the examples' heights.
     sigma = split_sigma(params.patch_size)
-    heights = within_examples(result.heights, probe.layout, factor, sigma, result.sketch_features)
+    heights = fitted_to_examples(result.heights, probe.layout, factor, sigma, result.sketch_features)
     return CoarseLevel(np.asarray(heights, np.float32), tuple(shape), sigma, factor), notes

@@ -24,7 +24,7 @@ from terrasynth_core.synthesis.landform import (
     TREND_SIGMA,
     fitted_heights,
     split_sigma,
-    within_examples,
+    fitted_to_examples,
 )
 
 P = SynthesisParams(patch_size=32, k=2, seed=1)
@@ -81,7 +81,7 @@ def test_fitted_heights_is_monotone_smooth_and_holds_its_gain():
     assert np.all(fitted_heights(flat, np.full(len(FIT_QUANTILES), 300.0), target) == target[len(target) // 2])
 
 
-def test_within_examples_fits_regional_relief_and_keeps_landforms(y_sketch):
+def test_fitted_to_examples_fits_regional_relief_and_keeps_landforms(y_sketch):
     # A coarse terrain that sank and holds under half the example's relief,
     # in regional relief and landforms: the fit brings its heights onto
     # the example's, moving only the largest scales (the landforms' shapes,
@@ -99,7 +99,7 @@ def test_within_examples_fits_regional_relief_and_keeps_landforms(y_sketch):
         return noise / np.ptp(noise)
 
     sunk = float(np.median(ex)) - 400.0 + 0.25 * span * (field(3) + field(20))
-    fitted = within_examples(sunk.astype(np.float32), layout, f, sigma).astype(np.float64)
+    fitted = fitted_to_examples(sunk.astype(np.float32), layout, f, sigma).astype(np.float64)
     want = np.percentile(ex, [0.5, 50, 99.5])
     got = np.percentile(fitted, [0.5, 50, 99.5])
     assert abs(got[1] - want[1]) < 0.1 * (want[2] - want[0])
@@ -114,10 +114,10 @@ def test_within_examples_fits_regional_relief_and_keeps_landforms(y_sketch):
     # change's spread: np.std(detail_above(sunk, ...)) / np.std(sunk).)
     assert np.std(detail_above(change, sigma / f)) < 0.08 * np.std(change)
     assert np.std(detail_above(sunk, sigma / f)) > 0.25 * np.std(sunk)
-    assert within_examples(sunk.astype(np.float32), layout, f, sigma).tobytes() == fitted.astype(np.float32).tobytes()
+    assert fitted_to_examples(sunk.astype(np.float32), layout, f, sigma).tobytes() == fitted.astype(np.float32).tobytes()
 
 
-def test_within_examples_raises_the_regions_of_the_drawn_ridges(y_sketch):
+def test_fitted_to_examples_raises_the_regions_of_the_drawn_ridges(y_sketch):
     # A flat-ish coarse terrain under the Y's ridges: the fitted regional
     # relief stands high about the strokes, and not only where the coarse
     # terrain happened to stand high.
@@ -128,8 +128,8 @@ def test_within_examples_raises_the_regions_of_the_drawn_ridges(y_sketch):
     terrain = (500.0 + 50.0 * ndimage.gaussian_filter(rng.normal(0, 1, (128, 128)), 3, mode="wrap"))
     strokes = sketch_features(y_sketch.resized((128, 128)))
     ridge = graph_mask(strokes.ridges)
-    plain = within_examples(terrain.astype(np.float32), session.layout, f, sigma)
-    drawn = within_examples(terrain.astype(np.float32), session.layout, f, sigma, strokes)
+    plain = fitted_to_examples(terrain.astype(np.float32), session.layout, f, sigma)
+    drawn = fitted_to_examples(terrain.astype(np.float32), session.layout, f, sigma, strokes)
     pct = lambda h: float((h[ridge][:, None] > h.ravel()[None, :]).mean())  # noqa: E731
     assert pct(drawn) > pct(plain) + 0.1
     assert pct(drawn) > 0.75
