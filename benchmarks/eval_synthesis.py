@@ -459,7 +459,7 @@ def main(argv: list[str] | None = None) -> int:
         log(follow_summary(rows))
         notes = sorted({f"{r['example']}: {w}" for r in rows if r["order"] != "none" for w in r["warnings"]})
         if any(r["fallback"] for r in rows):
-            notes.insert(0, f"48* = the {SynthesisParams().patch_size}-cell patch raised ParamsError; "
+            notes.insert(0, "48* = the automatic patch raised ParamsError; "
                             f"run with {SMALL_PATCH}-cell patches")
         if notes:
             log("\nNotes and run warnings:\n" + "\n".join(f"  {n}" for n in notes))

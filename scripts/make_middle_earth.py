@@ -89,6 +89,7 @@ from PIL import Image, ImageDraw
 from scipy import ndimage
 
 from terrasynth_core.features import SketchMap, resize_nearest
+from terrasynth_core.exemplars.patch_size import DEFAULT_PATCH
 from terrasynth_core.presets import load_preset
 from terrasynth_core.synthesis import Controls, SynthesisParams
 
@@ -344,9 +345,11 @@ def load_demo(*, shape=None) -> tuple[SketchMap, Controls, float]:
 def demo_params(*, seed: int, scale: float) -> SynthesisParams:
     """Parameters of the demo at ``scale`` (output rows / map rows): the same
     ground at any size, so the cell size grows and the patch shrinks (in
-    cells) as the map shrinks."""
+    cells) as the map shrinks: the automatic patch at the map's own size,
+    the paper's 80 scaled at any other."""
     preset = load_preset("middle-earth")
-    return SynthesisParams(seed=seed, patch_size=max(32, round(SynthesisParams().patch_size * scale)),
+    patch = None if scale == 1 else max(32, round(DEFAULT_PATCH * scale))
+    return SynthesisParams(seed=seed, patch_size=patch,
                            cell_size=None if preset.cell_size is None else preset.cell_size / scale)
 
 

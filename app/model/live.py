@@ -20,12 +20,13 @@ change it far beyond a stroke's neighbourhood).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Iterator
 
 import numpy as np
 
 from terrasynth_core.errors import ParamsError
+from terrasynth_core.exemplars.patch_size import DEFAULT_PATCH
 from terrasynth_core.features import SketchMap
 from terrasynth_core.synthesis import (SynthesisFinished, SynthesisResult, changed_cells, iter_resynthesize_region,
                                        stroke_selection)
@@ -117,14 +118,18 @@ def live_events(request: LiveRequest) -> Iterator[object]:
     patch."""
     start = time.perf_counter()
     run = request.run
+    terrain = request.terrain
+    params = run.params
+    if params.patch_size is None:  # automatic: the size the terrain was made with
+        made = terrain.report.get("params", {}).get("patch_size")
+        params = replace(params, patch_size=made) if made else params
     changed = changed_cells(request.before, request.strokes, run.shape)
-    selection = stroke_selection(changed, patch_size=run.params.patch_size)
+    selection = stroke_selection(changed, patch_size=params.patch_size or DEFAULT_PATCH)
     if selection is None:
         return
-    terrain = request.terrain
     result = None
     for event in iter_resynthesize_region(run.example_fields(), request.strokes, previous=terrain.heights,
-                                          selection=selection, params=run.params, controls=run.make_controls(),
+                                          selection=selection, params=params, controls=run.make_controls(),
                                           previous_patch_id=terrain.patch_id,
                                           previous_seam_mask=terrain.seam_mask):
         if isinstance(event, SynthesisFinished):

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import secrets
+from dataclasses import replace
 
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QLabel, QPushButton,
                                QSpinBox, QWidget)
 
 from terrasynth_core.errors import ParamsError
+from terrasynth_core.exemplars.patch_size import DEFAULT_PATCH
 from terrasynth_core.synthesis import SynthesisParams
 
 from ..model import MAX_SEED
@@ -17,7 +19,8 @@ from .panel_widgets import error_label, hbox
 
 _TIPS = {
     "patch_size": "Side of a square patch in output cells (the paper uses 80). Larger patches copy "
-                  "bigger landforms; smaller ones follow the sketch more closely.",
+                  "bigger landforms; smaller ones follow the sketch more closely. Auto: 80, or down to 48 "
+                  "when an example holds too few distinct ridges or valleys at 80 (the run says so).",
     "overlap": "Width of the band a fill patch shares with its neighbours, in cells. "
                "Auto is a third of the patch, as in the paper.",
     "k": "Candidates kept after the cheap ranking; the final pick among them adds the overlap "
@@ -64,7 +67,9 @@ class ParamsPanel(QWidget):
         self._updating = False
         form = QFormLayout(self)
 
+        self.patch_size_auto = QCheckBox("auto")
         self.patch_size = QSpinBox(minimum=16, maximum=512, suffix=" cells")
+        patch_row = hbox(self.patch_size_auto, (self.patch_size, 1))
         self.overlap_auto = QCheckBox("auto")
         self.overlap = QSpinBox(minimum=2, maximum=256, suffix=" cells")
         overlap_row = hbox(self.overlap_auto, (self.overlap, 1))
@@ -93,7 +98,7 @@ class ParamsPanel(QWidget):
         self.error_label = error_label()
 
         for label, widget, name in (
-            ("Patch size", self.patch_size, "patch_size"),
+            ("Patch size", patch_row, "patch_size"),
             ("Overlap", overlap_row, "overlap"),
             ("Candidates (k)", self.k, "k"),
             ("Seed", seed_row, "seed"),
@@ -124,7 +129,7 @@ class ParamsPanel(QWidget):
         self.cell_size.valueChanged.connect(self._apply)
         for combo in (self.order, self.seam, self.blend):
             combo.currentTextChanged.connect(self._apply)
-        for check in (self.overlap_auto, self.mirror, self.drainage, self.landform):
+        for check in (self.patch_size_auto, self.overlap_auto, self.mirror, self.drainage, self.landform):
             check.toggled.connect(self._apply)
 
         self._show(document.params)
@@ -142,9 +147,12 @@ class ParamsPanel(QWidget):
     def _show(self, params: SynthesisParams) -> None:
         self._updating = True
         try:
-            self.patch_size.setValue(params.patch_size)
+            self.patch_size_auto.setChecked(params.patch_size is None)
+            self.patch_size.setValue(params.patch_size or DEFAULT_PATCH)
+            self.patch_size.setEnabled(params.patch_size is not None)
             self.overlap_auto.setChecked(params.overlap is None)
-            self.overlap.setValue(params.overlap_cells)
+            # (Shown for the patch in the box when the patch size is automatic.)
+            self.overlap.setValue(replace(params, patch_size=self.patch_size.value()).overlap_cells)
             self.overlap.setEnabled(params.overlap is not None)
             self.k.setValue(params.k)
             self.seed.setValue(min(params.seed, MAX_SEED))
@@ -176,7 +184,7 @@ class ParamsPanel(QWidget):
     def values(self) -> dict:
         """The widgets' values as ``SynthesisParams`` keyword arguments."""
         return {
-            "patch_size": self.patch_size.value(),
+            "patch_size": None if self.patch_size_auto.isChecked() else self.patch_size.value(),
             "overlap": None if self.overlap_auto.isChecked() else self.overlap.value(),
             "k": self.k.value(),
             "seed": self.seed.value(),
@@ -196,6 +204,7 @@ class ParamsPanel(QWidget):
         if self._updating:
             return
         self.overlap.setEnabled(not self.overlap_auto.isChecked())
+        self.patch_size.setEnabled(not self.patch_size_auto.isChecked())
         try:
             params = SynthesisParams(**self.values())
         except ParamsError as exc:

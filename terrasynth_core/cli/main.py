@@ -268,7 +268,7 @@ def _run_inputs(args: argparse.Namespace):
 
 #: ``synth`` options that set up a run, and their defaults; given with
 #: ``--project`` they would contradict the project (which holds them all).
-_RUN_OPTIONS = {"example": None, "sketch": None, "patch_size": 80, "overlap": None, "order": "bfs", "seam": "cut",
+_RUN_OPTIONS = {"example": None, "sketch": None, "patch_size": None, "overlap": None, "order": "bfs", "seam": "cut",
                 "blend": "c1", "cell_size": None, "no_drainage": None, "no_landform": None, "band": None, "styles": None, "style": None,
                 "water": None, "water_level": None, "water_depth": None, "bank_width": None, "stamp": None,
                 "pin": None, "pin_radius": None, "height_range": None}
@@ -697,7 +697,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size", type=parse_size, help="output ROWSxCOLS (default: the sketch's; it is scaled)")
     # Run options default to None here (their defaults: _RUN_OPTIONS), so
     # --project can tell which were given.
-    p.add_argument("--patch-size", type=int, help="patch side in cells (default 80)")
+    p.add_argument("--patch-size", type=int,
+                   help="patch side in cells (default: automatic, 80, or down to 48 for a small example)")
     p.add_argument("--overlap", type=int, default=None, help="overlap in cells (default a third of the patch)")
     p.add_argument("--seed", type=int, help="random seed (default 0; with --project, the project's)")
     p.add_argument("--order", choices=("bfs", "raster"), help="patch order (default bfs)")

@@ -18,9 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exemplars.ground import on_ground, run_cell_size
+from ..exemplars.patch_size import fitting_patch_size
+from ..exemplars.prepare import ExampleAnalysis, prepare_example
 from ..matching.costs import anchor_weight, level_spread
 from ..memo import Memo, array_key
-from ..exemplars.prepare import ExampleAnalysis, prepare_example
 from .levels import level_field, steer_level
 from .options import Controls
 from .stamps import RenderedStamp, render_stamp
@@ -130,7 +131,7 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
         notes.append("no example has a known cell size: examples are used cell for cell and the output's "
                      "cell size is unknown")
     for i, ex in enumerate(fields):
-        name = str(getattr(ex, "source", None) or f"example {i + 1}")
+        name = _example_name(ex, i)
         ex, said = on_ground(ex, cell, name=name)
         notes.extend(said)
         analysis = prepare_example(ex, patch_size, name=name)
@@ -180,6 +181,30 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
     return StyleLayout(examples, detail, relief, members, names, group_map, level, stamps, remap, notes, cell,
                        anchors(detail, relief, patch_size), placed)
 
+
+def automatic_patch_size(plain: list, controls: Controls, kinds: tuple[str, ...], *,
+                         cell_size: float | None = None) -> tuple[int, list[str]]:
+    """The patch size the run's examples (plain and styles') can serve at
+    the run's cell size, for a sketch drawing ``kinds``
+    (:func:`~terrasynth_core.exemplars.patch_size.fitting_patch_size`),
+    and its notes for the warnings.  Kept by the examples' bytes: the app
+    asks again at every live stroke."""
+    fields = [*plain, *(st.example for st in controls.styles)]
+    cell = run_cell_size(cell_size, [*fields, *(st.field for st in controls.stamps)])
+    names = [_example_name(ex, i) for i, ex in enumerate(fields)]
+    grounded = [on_ground(ex, cell, name=name)[0] for ex, name in zip(fields, names)]
+    key = (array_key(*(np.asarray(getattr(g, "heights", g)) for g in grounded)), tuple(names), tuple(kinds))
+    size, notes = _PATCH_SIZES.get(key, lambda: fitting_patch_size(grounded, names, kinds))
+    return size, list(notes)
+
+
+def _example_name(ex, i: int) -> str:
+    """An example's name in messages: its source, or its place in the run."""
+    return str(getattr(ex, "source", None) or f"example {i + 1}")
+
+
+#: The automatic patch size by the examples' bytes and the kinds drawn.
+_PATCH_SIZES = Memo(16)
 
 #: Each example detail's level spread (:func:`anchors`) by its bytes.
 _SPREADS = Memo(16)

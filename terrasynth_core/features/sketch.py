@@ -91,6 +91,11 @@ class SketchMap:
         """True when any pixel asks for a ridge or a valley."""
         return bool(self.ridge_mask.any() or self.valley_mask.any())
 
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """The feature kinds painted: ``"ridge"``, ``"valley"``, both or none."""
+        return tuple(kind for kind, mask in (("ridge", self.ridge_mask), ("valley", self.valley_mask)) if mask.any())
+
     @classmethod
     def empty(cls, shape: tuple[int, int]) -> "SketchMap":
         """A sketch of ``shape`` without strokes."""

@@ -26,12 +26,11 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-#: Sources of one example within this many cells of each other share a window.
-SAME_WINDOW = 20.0
-#: Largest share of a run's feature patches one window may supply ...
+from ..exemplars.patch_size import MIN_POOL, SAME_WINDOW
+
+#: Largest share of a run's feature patches one window may supply when the
+#: pool has at least :data:`MIN_POOL` samples of the kind.
 MAX_SHARE = 0.10
-#: ... when the pool has at least this many samples of the kind.
-MIN_POOL = 20
 #: Patch kinds that are feature patches.
 FEATURE_KINDS = ("branch", "end", "path")
 

@@ -27,7 +27,8 @@ alike, so an erase re-makes the terrain under the erased stroke).
 
 Usage::
 
-    selection = stroke_selection(changed_cells(before, after), patch_size=params.patch_size)
+    # (old.params: the patch size the old run used, when it was automatic)
+    selection = stroke_selection(changed_cells(before, after), patch_size=old.params.patch_size)
     result = resynthesize_region([example], after, previous=old.heights, selection=selection,
                                  params=params)
 """
@@ -41,6 +42,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 from scipy import ndimage
 
+from ..controls.layout import automatic_patch_size
 from ..controls.options import Controls
 from ..controls.pins import Pin, PinError
 from ..controls.water import Water
@@ -258,6 +260,10 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
     if not isinstance(params, SynthesisParams):
         raise ParamsError(f"params must be SynthesisParams, got {type(params).__name__}")
     examples = list(examples or ())
+    if params.patch_size is None:  # automatic: what the whole map's run chose (same examples and strokes)
+        size, _ = automatic_patch_size(examples, controls, () if sketch is None else sketch.kinds,
+                                       cell_size=params.cell_size)
+        params = dataclasses.replace(params, patch_size=size)
     # The whole map's controls, checked (and their maps fitted) once, so the
     # crop cuts exactly what a whole-map re-synthesis would use.
     whole = dataclasses.replace(controls, previous=previous, selection=selection).checked(

@@ -8,6 +8,7 @@ from dataclasses import asdict, dataclass, fields
 from typing import Literal
 
 from ..errors import ParamsError
+from ..exemplars.patch_size import PATCH_SIZES
 
 
 @dataclass(frozen=True)
@@ -16,8 +17,13 @@ class SynthesisParams:
 
     Parameters
     ----------
-    patch_size : int, default 80
-        Side of a square patch in output cells (the paper's 80).
+    patch_size : int or None, default None
+        Side of a square patch in output cells.  None: automatic, the
+        paper's 80, or down to 48 for examples that hold too few distinct
+        feature windows at 80
+        (:func:`~terrasynth_core.exemplars.patch_size.fitting_patch_size`;
+        the session says why in its warnings, and its ``params`` hold the
+        size chosen).
     overlap : int or None, default None
         Width in cells of the band a fill patch shares with its neighbours;
         ``None`` is a third of the patch, as in the paper.
@@ -67,7 +73,7 @@ class SynthesisParams:
         flat level per style region, as in the paper.
     """
 
-    patch_size: int = 80
+    patch_size: int | None = None
     overlap: int | None = None
     k: int = 3
     seed: int = 0
@@ -86,12 +92,15 @@ class SynthesisParams:
         def bad(name, expected):
             raise ParamsError(f"parameter {name}={getattr(self, name)!r}: expected {expected}")
 
-        if not isinstance(self.patch_size, int) or not 16 <= self.patch_size <= 512:
-            bad("patch_size", "an integer from 16 to 512 cells")
-        if self.overlap is not None and (
-            not isinstance(self.overlap, int) or not 2 <= self.overlap <= self.patch_size // 2
+        if self.patch_size is not None and (
+            isinstance(self.patch_size, bool) or not isinstance(self.patch_size, int)
+            or not 16 <= self.patch_size <= 512
         ):
-            bad("overlap", f"an integer from 2 to {self.patch_size // 2} (half the patch) or None")
+            bad("patch_size", "an integer from 16 to 512 cells, or None (automatic)")
+        # (An automatic patch is at least the smallest automatic size.)
+        half = (self.patch_size or PATCH_SIZES[-1]) // 2
+        if self.overlap is not None and (not isinstance(self.overlap, int) or not 2 <= self.overlap <= half):
+            bad("overlap", f"an integer from 2 to {half} (half the patch) or None")
         if not isinstance(self.k, int) or not 1 <= self.k <= 64:
             bad("k", "an integer from 1 to 64")
         if not isinstance(self.seed, int) or self.seed < 0:
@@ -120,7 +129,8 @@ class SynthesisParams:
 
     @property
     def overlap_cells(self) -> int:
-        """The overlap actually used: ``overlap`` or a third of the patch."""
+        """The overlap actually used: ``overlap`` or a third of the patch
+        (once the session has chosen an automatic patch size)."""
         return self.overlap if self.overlap is not None else max(2, self.patch_size // 3)
 
     def coarse_factor_for(self, example_shape: tuple[int, int]) -> int:

@@ -24,9 +24,10 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 import scipy
 
-from ..controls.layout import anchors, build_layout
+from ..controls.layout import anchors, automatic_patch_size, build_layout
 from ..controls.options import Controls, check_heights
 from ..errors import ParamsError
+from ..exemplars.patch_size import DEFAULT_PATCH
 from ..exemplars import cache
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
@@ -112,20 +113,28 @@ class Session:
             else:
                 raise ParamsError("give an output shape when there is no sketch")
         rows, cols = (int(v) for v in shape)
+        if rows * cols > 64_000_000:
+            raise ParamsError(f"output {rows}x{cols} exceeds 64 million cells")
+        checked = controls.checked((rows, cols), params.patch_size or DEFAULT_PATCH, len(examples))
+        check_heights(examples, checked)
+        size_notes = []
+        if params.patch_size is None:
+            kinds = () if sketch is None else sketch.kinds
+            size, size_notes = automatic_patch_size(examples, checked, kinds, cell_size=params.cell_size)
+            params = dataclasses.replace(params, patch_size=size)
+            if size != DEFAULT_PATCH and controls.pin_radius is None:
+                checked = controls.checked((rows, cols), size, len(examples))  # (pins reach a patch)
         if min(rows, cols) < params.patch_size:
             raise ParamsError(
                 f"output {rows}x{cols} is smaller than a patch ({params.patch_size}): "
                 "make the output larger or the patch smaller"
             )
-        if rows * cols > 64_000_000:
-            raise ParamsError(f"output {rows}x{cols} exceeds 64 million cells")
         if sketch is not None and sketch.shape != (rows, cols):
             sketch = sketch.resized((rows, cols))
         self.shape = (rows, cols)
         self.sketch = sketch
         self.params = params
-        self.controls = controls.checked(self.shape, params.patch_size, len(examples))
-        check_heights(examples, self.controls)
+        self.controls = checked
         self.layout = build_layout(examples, self.controls, self.shape, params.patch_size,
                                    cell_size=params.cell_size)
         #: The run's square cell size in metres (None: unknown).
@@ -139,7 +148,7 @@ class Session:
         self.n_plain = len(examples)
         self._detail_above: dict[float, list] = {}
         self._coarse = None
-        self.warnings: list[str] = list(self.layout.notes)
+        self.warnings: list[str] = [*size_notes, *self.layout.notes]
         self.sketch_maps = self._sketch_maps()
         self._check_features()
         #: Cells of the selection kept as terrain that may be replaced (see ``band``).

@@ -27,6 +27,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ..controls.layout import automatic_patch_size
 from ..controls.options import Controls
 from ..errors import ParamsError, SynthesisCancelled
 from ..features.sketch import SketchMap
@@ -245,6 +246,11 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
     examples = list(examples or ())
     if not examples and not (controls is not None and controls.styles):
         raise ParamsError("no example DEM given: synthesis needs at least one")
+    size_notes = []
+    if params.patch_size is None:  # chosen once for every tile
+        size, size_notes = automatic_patch_size(examples, controls or Controls(),
+                                                () if sketch is None else sketch.kinds, cell_size=params.cell_size)
+        params = dataclasses.replace(params, patch_size=size)
     plan = plan_tiles((rows, cols), tile, patch_size=params.patch_size, seed=params.seed)
     # Checks the examples (and the parameters against them) before any
     # worker starts; its layout gives the run's cell size and the styles' bases.
@@ -252,7 +258,7 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
     side = 2 * params.patch_size
     probe = Session(examples, None, shape=(side, side), params=_quiet(params),
                     controls=Controls(styles=styles, style_map=np.zeros((side, side), np.int16)) if styles else None)
-    notes = [w for w in probe.warnings if "no strokes" not in w]
+    notes = [*size_notes, *(w for w in probe.warnings if "no strokes" not in w)]
     if params.drainage:
         notes.append("drainage is not applied to a tiled run (it needs the whole map's streams): the heights are "
                      "as synthesized")

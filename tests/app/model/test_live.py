@@ -57,3 +57,16 @@ def test_live_events_change_the_terrain_near_the_stroke_only(finished, new_small
     assert np.array_equal(update.terrain.heights[~selection], terrain.heights[~selection])
     assert update.terrain.cell_size == terrain.cell_size
     assert same_strokes(update.strokes, doc.sketch.to_sketch_map())
+
+
+def test_with_an_automatic_patch_size_a_stroke_uses_the_terrains(finished, new_small_document):
+    from dataclasses import replace
+
+    _, terrain = finished
+    made = terrain.report["params"]["patch_size"]
+    doc = new_small_document()
+    doc.set_params(replace(doc.params, patch_size=None))
+    doc.set_result(terrain)
+    doc.sketch.draw_polyline([(100, 20), (100, 60)], "ridge", radius=2)
+    update = list(live_events(live_request(doc)))[-1]
+    assert isinstance(update, LiveUpdated) and update.result.params.patch_size == made

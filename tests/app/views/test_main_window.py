@@ -36,6 +36,12 @@ def test_starts_ready_with_the_default_example_and_sketch(qtbot, tmp_path, dialo
 
 def test_params_panel_edits_the_document(qtbot, window):
     panel, doc = window.params, window.document
+    assert not panel.patch_size_auto.isChecked() and panel.patch_size.value() == doc.params.patch_size == 32
+    panel.patch_size_auto.setChecked(True)
+    assert doc.params.patch_size is None and not panel.patch_size.isEnabled()
+    assert panel.patch_size.value() == 80  # where the automatic size starts
+    panel.patch_size_auto.setChecked(False)  # the box's size made explicit
+    assert doc.params.patch_size == 80 and panel.patch_size.isEnabled()
     panel.patch_size.setValue(48)
     assert doc.params.patch_size == 48
     panel.blend.setCurrentText("poisson")
@@ -58,6 +64,9 @@ def test_params_panel_edits_the_document(qtbot, window):
     assert doc.params.landform is False
     doc.set_params(SynthesisParams(patch_size=64, k=9))
     assert panel.patch_size.value() == 64 and panel.k.value() == 9 and panel.overlap_auto.isChecked()
+    assert not panel.patch_size_auto.isChecked()
+    panel.patch_size_auto.setChecked(True)
+    assert doc.params.patch_size is None and doc.params.k == 9
     assert panel.drainage.isChecked() and panel.landform.isChecked()
     assert panel.patch_size.toolTip()
 

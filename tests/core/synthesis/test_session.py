@@ -39,9 +39,14 @@ def test_params_are_validated():
         SynthesisParams(order="spiral")
     with pytest.raises(ParamsError, match="overlap"):
         SynthesisParams(patch_size=40, overlap=30)
+    with pytest.raises(ParamsError, match="overlap"):
+        SynthesisParams(overlap=30)  # an automatic patch may be 48 cells
+    with pytest.raises(ParamsError, match="patch_size"):
+        SynthesisParams(patch_size=True)
     with pytest.raises(ParamsError, match="unknown"):
         SynthesisParams.from_dict({"patch_sise": 80})
-    assert SynthesisParams().overlap_cells == 80 // 3
+    assert SynthesisParams().patch_size is None  # automatic
+    assert SynthesisParams(patch_size=80).overlap_cells == 80 // 3
     assert SynthesisParams.from_dict(SynthesisParams(seed=5).to_dict()) == SynthesisParams(seed=5)
 
 

@@ -1,0 +1,72 @@
+"""The automatic patch size: the paper's 80 for a large example, smaller
+for one too small to vary at 80, and a warning for one that cannot vary at
+any size (issue 10, "small examples")."""
+
+import numpy as np
+import pytest
+
+from terrasynth_core.exemplars.patch_size import (DEFAULT_PATCH, MIN_POOL, PATCH_SIZES, distinct_windows,
+                                                  fitting_patch_size, path_windows)
+from terrasynth_core.exemplars.prepare import prepare_example
+from terrasynth_core.features.sketch import SketchMap
+from terrasynth_core.synthesis import Session, SynthesisParams
+
+BOTH = ("ridge", "valley")
+
+
+def test_windows_count_centres_apart():
+    # Three centres within 20 cells of the first are one window; two far ones are two more.
+    centres = np.array([[0, 0], [5, 5], [0, 19], [100, 100], [0, 60]], dtype=float)
+    assert distinct_windows(centres) == 3
+    assert distinct_windows(np.empty((0, 2))) == 0
+
+
+def test_a_large_example_keeps_the_papers_patch(dems_dir):
+    from terrasynth_core.io import load_dem
+
+    big = load_dem(dems_dir / "bigtujunga.tif")  # 643x1197 cells of 30 m, many ridges and valleys
+    assert fitting_patch_size([big], ["big"], BOTH) == (DEFAULT_PATCH, [])
+
+
+def test_a_small_example_gets_a_smaller_patch_and_the_run_says_why(highland):
+    # The Himalaya example, 415x252 cells of 89 m: at 80 cells it holds too
+    # few distinct ridge and valley windows for a run not to repeat them.
+    at_80 = prepare_example(highland, DEFAULT_PATCH, name="himalaya").samples
+    assert min(path_windows(at_80[k]) for k in BOTH) < MIN_POOL
+    size, notes = fitting_patch_size([highland], ["himalaya"], BOTH)
+    assert PATCH_SIZES[-1] <= size < DEFAULT_PATCH
+    assert min(path_windows(prepare_example(highland, size, name="himalaya").samples[k]) for k in BOTH) >= MIN_POOL
+    assert len(notes) == 1 and "himalaya" in notes[0] and f"patch size {size}" in notes[0]
+
+
+def test_a_single_landform_keeps_the_size_and_is_named(helens):
+    # A volcano has few ridges and valleys at any patch size: smaller
+    # patches would not vary it, so the size stays and the run says why.
+    size, notes = fitting_patch_size([helens], ["st-helens"], BOTH)
+    assert size == DEFAULT_PATCH
+    assert len(notes) == 1 and "st-helens" in notes[0] and "repeat" in notes[0]
+
+
+def test_without_strokes_no_example_is_analysed(highland, monkeypatch):
+    import terrasynth_core.exemplars.prepare as prepare
+
+    monkeypatch.setattr(prepare, "prepare_example", lambda *a, **k: pytest.fail("analysed"))
+    assert fitting_patch_size([highland], ["himalaya"], ()) == (DEFAULT_PATCH, [])
+
+
+def test_an_example_smaller_than_the_default_patch_gets_one_that_fits(highland):
+    crop = highland.with_heights(highland.heights[:70, :200].copy())
+    size, notes = fitting_patch_size([crop], ["crop"], ("ridge",))
+    assert size + 4 <= 70 and size in PATCH_SIZES
+    assert any("crop is only 70x200" in n for n in notes)
+
+
+def test_the_session_chooses_and_reports_it_and_a_given_size_is_kept(highland):
+    rr, cc = np.mgrid[0:200, 0:200]
+    sketch = SketchMap(np.abs(rr - cc) < 3, np.zeros((200, 200), bool))
+    auto = Session([highland], sketch, params=SynthesisParams())
+    assert auto.params.patch_size < DEFAULT_PATCH
+    assert any("automatic" in w for w in auto.warnings)
+    given = Session([highland], sketch, params=SynthesisParams(patch_size=80))
+    assert given.params.patch_size == 80
+    assert not any("automatic" in w for w in given.warnings)
