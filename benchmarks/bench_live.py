@@ -103,7 +103,7 @@ def follow_score(heights, stroke, kind) -> float:
     return score if kind == "ridge" else -score
 
 
-def core_rows(example, sketch, previous, strokes, repeats):
+def core_rows(example, sketch, previous, strokes, repeats, patch_size):
     rows = []
     for kind, points in strokes:
         after = _stroked(sketch, kind, points)
@@ -115,7 +115,7 @@ def core_rows(example, sketch, previous, strokes, repeats):
         for _ in range(repeats):
             for path in ("old", "crop"):  # alternate: same load for both
                 t = time.perf_counter()
-                selection = stroke_selection(changed_cells(sketch, after), patch_size=PARAMS.patch_size)
+                selection = stroke_selection(changed_cells(sketch, after), patch_size=patch_size)
                 if path == "old":
                     result = Session([example], after, params=PARAMS,
                                      controls=Controls(previous=previous, selection=selection)).run()
@@ -209,14 +209,15 @@ def app_rows(sketch, strokes):
 def _core_table(sketch, strokes, repeats, picture=None) -> list:
     example = builtin_example("white-mountains").load()
     t = time.perf_counter()
-    previous = Session([example], sketch, params=PARAMS).run().heights
+    first = Session([example], sketch, params=PARAMS).run()
+    previous, patch_size = first.heights, first.params.patch_size  # (the automatic size, as the app's strokes)
     if picture:
-        _picture(picture, example, sketch, previous)
+        _picture(picture, example, sketch, previous, patch_size)
     print(f"whole 1000x1000 run first: {time.perf_counter() - t:.1f} s (analysis cached or not)\n")
     print(f"stroke-to-result, median of {repeats}, seconds (old: whole-map re-synthesis, crop: this)")
     print(f"  {'stroke':<34} {'cells':>7} {'old':>7} {'crop':>7} {'ratio':>6} {'follow: before':>14} "
           f"{'old':>6} {'crop':>6}")
-    core = core_rows(example, sketch, previous, strokes, repeats)
+    core = core_rows(example, sketch, previous, strokes, repeats, patch_size)
     olds, crops = [r["old"] for r in core], [r["crop"] for r in core]
     ratios = [r["old"] / r["crop"] for r in core]
     follows = [statistics.median(r[k] for r in core) for k in ("follow_before", "follow_old", "follow_crop")]
@@ -227,7 +228,7 @@ def _core_table(sketch, strokes, repeats, picture=None) -> list:
     return core
 
 
-def _picture(path, example, sketch, previous, picked=(0, 2)) -> None:
+def _picture(path, example, sketch, previous, patch_size, picked=(0, 2)) -> None:
     """The terrain around two strokes, one row each: before the stroke (in
     red), after the whole-map re-synthesis, after the crop's."""
     from terrasynth_core.pictures import save_png, shaded_relief
@@ -236,7 +237,7 @@ def _picture(path, example, sketch, previous, picked=(0, 2)) -> None:
     for index in picked:
         kind, points = STROKES[index]
         after = _stroked(sketch, kind, points)
-        selection = stroke_selection(changed_cells(sketch, after), patch_size=PARAMS.patch_size)
+        selection = stroke_selection(changed_cells(sketch, after), patch_size=patch_size)
         old = Session([example], after, params=PARAMS,
                       controls=Controls(previous=previous, selection=selection)).run()
         new = resynthesize_region([example], after, previous=previous, selection=selection, params=PARAMS)
@@ -271,7 +272,7 @@ from terrasynth_core.examples import builtin_example
 from terrasynth_core.features import SketchMap
 from terrasynth_core.synthesis import SynthesisParams, changed_cells, resynthesize_region, stroke_selection
 data = np.load(sys.argv[1])
-params = SynthesisParams(seed=int(data["seed"]))
+params = SynthesisParams(seed=int(data["seed"]), patch_size=int(data["patch_size"]))
 example = builtin_example("white-mountains").load()
 previous = data["previous"]
 before = SketchMap(data["ridge_before"], data["valley_before"])
@@ -320,14 +321,15 @@ def baseline_rows(rev: str, sketch, strokes, repeats: int) -> list[dict]:
 
     example = builtin_example("white-mountains").load()
     t = time.perf_counter()
-    previous = Session([example], sketch, params=PARAMS).run().heights
+    first = Session([example], sketch, params=PARAMS).run()
+    previous = first.heights
     print(f"whole 1000x1000 run first (this tree): {time.perf_counter() - t:.1f} s")
     after = [_stroked(sketch, kind, points) for kind, points in (WARM_UP_STROKE, *strokes)]
     rows = []
     with tempfile.TemporaryDirectory(prefix="terrasynth-live-") as tmp, baseline_worktree(rev, tmp) as old:
         tmp = Path(tmp)
         data = tmp / "strokes.npz"
-        np.savez(data, seed=PARAMS.seed, previous=previous, ridge_before=sketch.ridge_mask,
+        np.savez(data, seed=PARAMS.seed, patch_size=first.params.patch_size, previous=previous, ridge_before=sketch.ridge_mask,
                  valley_before=sketch.valley_mask, ridge=np.stack([a.ridge_mask for a in after]),
                  valley=np.stack([a.valley_mask for a in after]))
         trees = {"old": old, "new": REPO}
