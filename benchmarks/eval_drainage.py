@@ -147,9 +147,9 @@ def evaluate(size: int, seed: int, pictures: Path | None, log=print) -> list[dic
             t_run = time.perf_counter() - t
             maps = res.sketch_features
             t = time.perf_counter()
-            after = apply_drainage(res.heights, maps.valleys, maps.ridges, patch_size=params.patch_size)
+            after = apply_drainage(res.heights, maps.valleys, maps.ridges, patch_size=res.params.patch_size)
             t_drain = time.perf_counter() - t
-            width = VALLEY_HALF_WIDTH * params.patch_size
+            width = VALLEY_HALF_WIDTH * res.params.patch_size
             row = {"sketch": sketch_name, "example": key, "run_s": t_run, "drain_s": t_drain,
                    "max_dz": float(np.abs(after - res.heights).max()),
                    "changed": float(np.mean(after != res.heights))}

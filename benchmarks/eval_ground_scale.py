@@ -106,7 +106,7 @@ def two_styles(pictures: Path | None) -> list[float]:
         cell = result.cell_size
         per_cell = slope(result.heights, cell_size=(cell, cell))
         for label, (name, field) in enumerate((("big-tujunga", tujunga), ("white-mountains", white))):
-            inside = ndimage.binary_erosion(labels == label, iterations=params.patch_size // 2, border_value=1)
+            inside = ndimage.binary_erosion(labels == label, iterations=result.params.patch_size // 2, border_value=1)
             out = float(np.tan(np.radians(np.nanmedian(per_cell[inside]))))
             solo = Session([field], sketch, shape=SHAPE, params=replace(params, cell_size=cell)).run()
             alone = float(np.tan(np.radians(np.nanmedian(slope(solo.heights, cell_size=(cell, cell))[inside]))))

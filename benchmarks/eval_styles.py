@@ -10,7 +10,7 @@ The demo (``resources/sketches/middle_earth*``, drawn by
 river, Mount St. Helens stamped in the volcanic land, three elevation pins)
 is synthesized with ``Session([], sketch, controls=Controls(...))`` at
 ``--size`` (default the map's own 768x1024; maps, stamp and pins are scaled
-to it, and the patch with them unless ``--patch`` is given).  Slopes and
+to it, and the patch (automatic at the map's size) with them unless ``--patch`` is given).  Slopes and
 curvatures are on the ground: the gradient magnitude (``np.gradient`` over
 the run's cell size, metres per metre) and the 5-point Laplacian (per
 metre), for the output and alike for every example DEM brought to the
@@ -313,10 +313,11 @@ def evaluate(*, shape, patch: int | None, seed: int, log=print) -> dict:
     params = demo_params(seed=seed, scale=scale)
     if patch:
         params = replace(params, patch_size=patch)
-    patch = params.patch_size
     names = [name for name, _, _ in STYLES]
     rng = np.random.default_rng(0)
     result, t_session, t_total = timed_run(sketch, controls, shape, params)
+    patch = result.params.patch_size  # (the automatic size as chosen)
+    params = result.params
     examples = example_statistics([dem for _, _, dem in STYLES], rng, result.cell_size)
     unpinned, _, t_unpinned = timed_run(sketch, replace(controls, pins=()), shape, params)
     box = np.zeros(shape, bool)
@@ -459,7 +460,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--size", type=parse_size, default=None, metavar="ROWSxCOLS",
                         help="output size (default the map's 768x1024; keep the 3:4 aspect)")
     parser.add_argument("--patch", type=int, default=None, metavar="N",
-                        help="patch size (default 80 scaled with the size, at least 32)")
+                        help="patch size (default: automatic at the map's own size, 80 scaled at any other, at least 32)")
     parser.add_argument("--seed", type=int, default=0, help="synthesis seed (default 0)")
     parser.add_argument("--json", type=Path, default=None, metavar="OUT", help="also write the figures as JSON")
     args = parser.parse_args(argv)

@@ -344,9 +344,10 @@ def load_demo(*, shape=None) -> tuple[SketchMap, Controls, float]:
 
 def demo_params(*, seed: int, scale: float) -> SynthesisParams:
     """Parameters of the demo at ``scale`` (output rows / map rows): the same
-    ground at any size, so the cell size grows and the patch shrinks (in
-    cells) as the map shrinks: the automatic patch at the map's own size,
-    the paper's 80 scaled at any other."""
+    ground at any size, so the cell size grows as the map shrinks.  At the
+    map's own size the patch size is automatic (48 cells there); at any
+    other it is the paper's 80 scaled with the map (at least 32), the
+    ground 80 cells span at the map's size."""
     preset = load_preset("middle-earth")
     patch = None if scale == 1 else max(32, round(DEFAULT_PATCH * scale))
     return SynthesisParams(seed=seed, patch_size=patch,

@@ -498,8 +498,10 @@ class Document:
         if self._selection is None:
             raise ParamsError("nothing is selected: select the part of the terrain to synthesize again")
         request = self.synthesis_request()
-        return dataclasses.replace(request, params=dataclasses.replace(self._params, seed=int(seed)),
-                                   previous=result.heights, selection=self._selection.copy())
+        # An automatic patch size: the one the terrain was made with.
+        params = dataclasses.replace(self._params, seed=int(seed),
+                                     patch_size=self._params.patch_size or result.patch_size)
+        return dataclasses.replace(request, params=params, previous=result.heights, selection=self._selection.copy())
 
     # -- internals --------------------------------------------------------------------
     def _touch(self, what: str) -> None:

@@ -119,10 +119,8 @@ def live_events(request: LiveRequest) -> Iterator[object]:
     start = time.perf_counter()
     run = request.run
     terrain = request.terrain
-    params = run.params
-    if params.patch_size is None:  # automatic: the size the terrain was made with
-        made = terrain.report.get("params", {}).get("patch_size")
-        params = replace(params, patch_size=made) if made else params
+    # An automatic patch size: the one the terrain was made with.
+    params = replace(run.params, patch_size=run.params.patch_size or terrain.patch_size)
     changed = changed_cells(request.before, request.strokes, run.shape)
     selection = stroke_selection(changed, patch_size=params.patch_size or DEFAULT_PATCH)
     if selection is None:

@@ -76,6 +76,13 @@ class TerrainResult:
         return None if seed is None else int(seed)
 
     @property
+    def patch_size(self) -> int | None:
+        """The patch size the terrain was made with (an automatic one as
+        chosen), when the report says: a change to part of it re-uses it."""
+        size = self.report.get("params", {}).get("patch_size")
+        return None if size is None else int(size)
+
+    @property
     def relief(self) -> float:
         """Height range of the terrain, metres (max - min)."""
         return float(self.heights.max() - self.heights.min())

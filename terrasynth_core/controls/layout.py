@@ -183,18 +183,18 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
 
 
 def automatic_patch_size(plain: list, controls: Controls, kinds: tuple[str, ...], *,
-                         cell_size: float | None = None) -> tuple[int, list[str]]:
+                         cell_size: float | None = None, largest: int | None = None) -> tuple[int, list[str]]:
     """The patch size the run's examples (plain and styles') can serve at
-    the run's cell size, for a sketch drawing ``kinds``
-    (:func:`~terrasynth_core.exemplars.patch_size.fitting_patch_size`),
-    and its notes for the warnings.  Kept by the examples' bytes: the app
-    asks again at every live stroke."""
+    the run's cell size, for a sketch drawing ``kinds``, at most
+    ``largest`` (:func:`~terrasynth_core.exemplars.patch_size.fitting_patch_size`),
+    and its notes for the warnings.  Kept by the examples' bytes: every
+    run and variation of a document asks again."""
     fields = [*plain, *(st.example for st in controls.styles)]
     cell = run_cell_size(cell_size, [*fields, *(st.field for st in controls.stamps)])
     names = [_example_name(ex, i) for i, ex in enumerate(fields)]
     grounded = [on_ground(ex, cell, name=name)[0] for ex, name in zip(fields, names)]
-    key = (array_key(*(np.asarray(getattr(g, "heights", g)) for g in grounded)), tuple(names), tuple(kinds))
-    size, notes = _PATCH_SIZES.get(key, lambda: fitting_patch_size(grounded, names, kinds))
+    key = (array_key(*(np.asarray(getattr(g, "heights", g)) for g in grounded)), tuple(names), tuple(kinds), largest)
+    size, notes = _PATCH_SIZES.get(key, lambda: fitting_patch_size(grounded, names, kinds, largest=largest))
     return size, list(notes)
 
 

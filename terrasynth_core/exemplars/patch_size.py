@@ -8,15 +8,18 @@ built-ins (path samples of the kind, counted as windows of
 :data:`SAME_WINDOW` cells): the Himalaya example (415x252 cells of 89 m)
 holds 15 ridge and 12 valley windows at 80 cells and 28 and 34 at 48; the
 White Mountains 161 and 119 at 80.  At 48 the Himalaya's strokes stand out
-(local TPI z +2.6 / -1.8 against +1.6 / -1.5 at 80) and no window supplies
-more than a tenth of a run's feature patches.
+(local TPI z +2.47 / -1.78 against +1.83 / -1.38 at 80, 18 evaluation
+runs) and no window supplies more than a tenth of a run's feature patches
+in 13 of them (6 at 80).
 
 When the run's patch size is automatic, :func:`fitting_patch_size` takes
-the largest of :data:`PATCH_SIZES` at which every example holds at least
+the largest of :data:`PATCH_SIZES` (no larger than the output, nor than
+any example can hold) at which every example holds at least
 :data:`MIN_POOL` windows of each kind the sketch draws.  An example that
-holds fewer at every size (a single landform such as a volcano) does not
-pull the size down: smaller patches would not make it more varied, and the
-run says so in its warnings.
+holds fewer at every size (a single landform such as a volcano: St.
+Helens holds 8 ridge windows even at 48) does not pull the size down,
+since no size makes it varied enough, unless it holds none of a kind at
+that size; the run says so in its warnings.
 """
 
 from __future__ import annotations
@@ -65,7 +68,8 @@ def path_windows(samples: list) -> int:
     return distinct_windows(np.array([s.center for s in samples if s.degree == 2], dtype=float).reshape(-1, 2))
 
 
-def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[str]) -> tuple[int, list[str]]:
+def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[str], *,
+                       largest: int | None = None) -> tuple[int, list[str]]:
     """The automatic patch size for these examples and a sketch drawing
     ``kinds``.
 
@@ -76,7 +80,10 @@ def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[s
     names : sequence of str
         For the notes.
     kinds : sequence of {"ridge", "valley"}
-        The feature kinds the sketch draws; none: :data:`DEFAULT_PATCH`.
+        The feature kinds the sketch draws; none: the largest size that
+        fits, without analysing anything.
+    largest : int, optional
+        No size above it (the output's smaller side).
 
     Returns
     -------
@@ -87,43 +94,55 @@ def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[s
     """
     from .prepare import prepare_example  # (here: the parameters import this module's sizes, and start fast)
 
-    if not kinds or not fields:
-        return DEFAULT_PATCH, []
-    chosen, lacking = [], []  # (size, name, counts at the first size tried, at the size chosen); (name, counts)
-    for field, name in zip(fields, names):
-        tried = []
-        for size in PATCH_SIZES:
-            if _side(field) < size + 4:
-                continue  # (prepare_example names it if no size fits)
-            counts = {kind: path_windows(prepare_example(field, size, name=name).samples[kind]) for kind in kinds}
-            tried.append((size, counts))
-            if min(counts.values()) >= MIN_POOL:
-                chosen.append((size, name, tried[0], counts))
-                break
-        else:
-            if tried:
-                lacking.append((name, tried[-1][1]))
-    # Every example must hold a patch (prepare_example names one that cannot).
-    fit_all = [s for s in PATCH_SIZES if all(_side(f) >= s + 4 for f in fields)]
-    room = fit_all[0] if fit_all else DEFAULT_PATCH
-    size = min([room, *(s for s, *_ in chosen)])
+    # Every example must hold a patch and so must the output (too small
+    # for the smallest, the example's analysis or the session says so).
+    room = [s for s in PATCH_SIZES if all(_side(f) >= s + 4 for f in fields)]
+    sizes = [s for s in room if largest is None or s <= largest]
+    if not sizes:
+        return PATCH_SIZES[-1], []
     notes = []
-    if size == room < DEFAULT_PATCH:
-        small = min(zip(fields, names), key=lambda fn: _side(fn[0]))
-        notes.append(f"patch size {size} cells (automatic, not {DEFAULT_PATCH}): {small[1]} is only "
-                     f"{small[0].shape[0]}x{small[0].shape[1]} cells")
-    for s, name, (first, at_first), counts in chosen:
-        if s == size < room:
-            short = [k for k, n in at_first.items() if n < MIN_POOL]
-            at_first, counts = ({k: c[k] for k in short} for c in (at_first, counts))
-            notes.append(f"patch size {s} cells (automatic, not {DEFAULT_PATCH}): at {first} cells {name} holds "
-                         f"only {_listed(at_first)} windows (distinct pieces of its lines), fewer than {MIN_POOL}; "
-                         f"at {s}: {_listed(counts)}. Set a patch size to choose another")
-    for name, counts in lacking:
-        counts = {k: n for k, n in counts.items() if n < MIN_POOL}
-        notes.append(f"{name} holds only {_listed(counts)} windows (distinct pieces of its lines) even at "
-                     f"{PATCH_SIZES[-1]} cells, fewer than {MIN_POOL}: its features will repeat; a larger example, "
-                     "or one with more ridges and valleys, would help")
+    if sizes[0] < DEFAULT_PATCH:
+        if room[0] == sizes[0]:
+            small = min(zip(fields, names), key=lambda fn: _side(fn[0]))
+            why = f"{small[1]} is only {small[0].shape[0]}x{small[0].shape[1]} cells"
+        else:
+            why = f"the output is only {largest} cells across"
+        notes.append(f"patch size at most {sizes[0]} cells (automatic, not {DEFAULT_PATCH}): {why}")
+    if not kinds or not fields:
+        return sizes[0], notes
+    counted: dict = {}
+
+    def count(i: int, size: int) -> dict:
+        if (i, size) not in counted:
+            samples = prepare_example(fields[i], size, name=names[i]).samples
+            counted[i, size] = {kind: path_windows(samples[kind]) for kind in kinds}
+        return counted[i, size]
+
+    def varied(i: int, size: int) -> bool:
+        return min(count(i, size).values()) >= MIN_POOL
+
+    # Examples no size makes varied enough do not decide the size...
+    lacking = [i for i in range(len(fields)) if not any(varied(i, s) for s in sizes)]
+    deciding = [i for i in range(len(fields)) if i not in lacking]
+    size = next((s for s in sizes if all(varied(i, s) for i in deciding)), sizes[-1])
+    # ... unless no example holds a window of a kind there at all (the run
+    # would have nothing to place on those strokes).
+    while size != sizes[-1] and any(sum(count(i, size)[k] for i in range(len(fields))) == 0 for k in kinds):
+        size = sizes[sizes.index(size) + 1]
+    for i in deciding:
+        if size < sizes[0] and not varied(i, sizes[0]):
+            short = {k: n for k, n in count(i, sizes[0]).items() if n < MIN_POOL}
+            notes.append(f"patch size {size} cells (automatic, not {sizes[0]}): at {sizes[0]} cells {names[i]} "
+                         f"holds only {_listed(short)} windows (distinct pieces of its lines), fewer than "
+                         f"{MIN_POOL}; at {size}: {_listed({k: count(i, size)[k] for k in short})}. Set a patch "
+                         "size to choose another")
+    for i in lacking:
+        short = {k: n for k, n in count(i, size).items() if 0 < n < MIN_POOL}
+        if not short:
+            continue  # (an example without such lines: said where it matters, not as repetition)
+        notes.append(f"{names[i]} holds only {_listed(short)} windows (distinct pieces of its lines) at {size} "
+                     f"cells, fewer than {MIN_POOL} at any patch size from {sizes[0]} to {sizes[-1]}: its "
+                     "features will repeat; a larger example, or one with more ridges and valleys, would help")
     return size, notes
 
 

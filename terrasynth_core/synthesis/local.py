@@ -27,10 +27,10 @@ alike, so an erase re-makes the terrain under the erased stroke).
 
 Usage::
 
-    # (old.params: the patch size the old run used, when it was automatic)
+    # old.params: the old run's, with the patch size it chose
     selection = stroke_selection(changed_cells(before, after), patch_size=old.params.patch_size)
     result = resynthesize_region([example], after, previous=old.heights, selection=selection,
-                                 params=params)
+                                 params=old.params)
 """
 
 from __future__ import annotations
@@ -260,9 +260,12 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
     if not isinstance(params, SynthesisParams):
         raise ParamsError(f"params must be SynthesisParams, got {type(params).__name__}")
     examples = list(examples or ())
-    if params.patch_size is None:  # automatic: what the whole map's run chose (same examples and strokes)
+    if params.patch_size is None:
+        # Automatic: chosen as a run of the whole map would, for the new
+        # strokes (the terrain's own run may have chosen another, for other
+        # strokes: pass its ``result.params`` to keep it).
         size, _ = automatic_patch_size(examples, controls, () if sketch is None else sketch.kinds,
-                                       cell_size=params.cell_size)
+                                       cell_size=params.cell_size, largest=min(shape))
         params = dataclasses.replace(params, patch_size=size)
     # The whole map's controls, checked (and their maps fitted) once, so the
     # crop cuts exactly what a whole-map re-synthesis would use.

@@ -23,7 +23,9 @@ class SynthesisParams:
         feature windows at 80
         (:func:`~terrasynth_core.exemplars.patch_size.fitting_patch_size`;
         the session says why in its warnings, and its ``params`` hold the
-        size chosen).
+        size chosen).  A re-synthesis of part of a terrain chooses it as a
+        run of the whole map would for its strokes: give it the terrain's
+        own ``result.params`` to keep the size the terrain was made with.
     overlap : int or None, default None
         Width in cells of the band a fill patch shares with its neighbours;
         ``None`` is a third of the patch, as in the paper.
@@ -131,7 +133,12 @@ class SynthesisParams:
     def overlap_cells(self) -> int:
         """The overlap actually used: ``overlap`` or a third of the patch
         (once the session has chosen an automatic patch size)."""
-        return self.overlap if self.overlap is not None else max(2, self.patch_size // 3)
+        if self.overlap is not None:
+            return self.overlap
+        if self.patch_size is None:
+            raise ParamsError("the overlap of an automatic patch size is known once a session has chosen the size "
+                              "(its params)")
+        return max(2, self.patch_size // 3)
 
     def coarse_factor_for(self, example_shape: tuple[int, int]) -> int:
         """The FFT search down-sampling used for an example of this shape."""

@@ -27,7 +27,7 @@ import scipy
 from ..controls.layout import anchors, automatic_patch_size, build_layout
 from ..controls.options import Controls, check_heights
 from ..errors import ParamsError
-from ..exemplars.patch_size import DEFAULT_PATCH
+from ..exemplars.patch_size import DEFAULT_PATCH, PATCH_SIZES
 from ..exemplars import cache
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
@@ -118,15 +118,16 @@ class Session:
         checked = controls.checked((rows, cols), params.patch_size or DEFAULT_PATCH, len(examples))
         check_heights(examples, checked)
         size_notes = []
-        if params.patch_size is None:
+        if params.patch_size is None and min(rows, cols) >= PATCH_SIZES[-1]:
             kinds = () if sketch is None else sketch.kinds
-            size, size_notes = automatic_patch_size(examples, checked, kinds, cell_size=params.cell_size)
+            size, size_notes = automatic_patch_size(examples, checked, kinds, cell_size=params.cell_size,
+                                                    largest=min(rows, cols))
             params = dataclasses.replace(params, patch_size=size)
-            if size != DEFAULT_PATCH and controls.pin_radius is None:
-                checked = controls.checked((rows, cols), size, len(examples))  # (pins reach a patch)
-        if min(rows, cols) < params.patch_size:
+            if controls.pin_radius is None:
+                checked = dataclasses.replace(checked, pin_radius=float(size))  # (pins reach a patch)
+        if min(rows, cols) < (params.patch_size or PATCH_SIZES[-1]):
             raise ParamsError(
-                f"output {rows}x{cols} is smaller than a patch ({params.patch_size}): "
+                f"output {rows}x{cols} is smaller than a patch ({params.patch_size or PATCH_SIZES[-1]}): "
                 "make the output larger or the patch smaller"
             )
         if sketch is not None and sketch.shape != (rows, cols):

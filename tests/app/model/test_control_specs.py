@@ -1,6 +1,7 @@
 """The document model's artist controls without Qt: style regions, water,
 pins, stamps, selection, requests and project files."""
 
+import dataclasses
 import io
 import json
 import zipfile
@@ -251,6 +252,12 @@ def test_resynthesis_request_needs_a_terrain_and_a_selection():
     assert request.previous is doc.result.heights and request.selection.sum() == 900
     controls = request.make_controls()
     assert controls.resynthesis
+    # An automatic patch size: the one the terrain was made with.
+    doc.set_params(dataclasses.replace(doc.params, patch_size=None))
+    doc.set_result(TerrainResult(heights, np.zeros((96, 96)), np.zeros((96, 96), bool),
+                                 report={"params": {"patch_size": 56}}))
+    doc.select_rect(30, 60, 30, 60)
+    assert doc.resynthesis_request(seed=9).params.patch_size == 56
     doc.sketch.replace(np.zeros((64, 64), np.uint8), np.zeros((64, 64), np.uint8))
     doc.select_rect(0, 10, 0, 10)
     with pytest.raises(ParamsError, match="synthesize it again"):

@@ -52,6 +52,22 @@ def test_without_strokes_no_example_is_analysed(highland, monkeypatch):
 
     monkeypatch.setattr(prepare, "prepare_example", lambda *a, **k: pytest.fail("analysed"))
     assert fitting_patch_size([highland], ["himalaya"], ()) == (DEFAULT_PATCH, [])
+    # ... but the size still fits the example and the output.
+    crop = highland.with_heights(highland.heights[:70, :200].copy())
+    assert fitting_patch_size([crop], ["crop"], ())[0] == 64
+    assert fitting_patch_size([highland], ["himalaya"], (), largest=60)[0] == 56
+
+
+def test_every_example_that_can_vary_does_at_the_size_chosen(highland, helens, dems_dir):
+    from terrasynth_core.io import load_dem
+
+    big = load_dem(dems_dir / "bigtujunga.tif")
+    fields, names = [big, highland, helens], ["big", "himalaya", "st-helens"]
+    size, notes = fitting_patch_size(fields, names, BOTH)
+    for field, name in zip(fields[:2], names[:2]):  # St. Helens cannot, at any size
+        held = prepare_example(field, size, name=name).samples
+        assert min(path_windows(held[k]) for k in BOTH) >= MIN_POOL, name
+    assert any("st-helens" in n and "repeat" in n for n in notes)
 
 
 def test_an_example_smaller_than_the_default_patch_gets_one_that_fits(highland):
@@ -62,6 +78,10 @@ def test_an_example_smaller_than_the_default_patch_gets_one_that_fits(highland):
 
 
 def test_the_session_chooses_and_reports_it_and_a_given_size_is_kept(highland):
+    from terrasynth_core.errors import ParamsError
+
+    with pytest.raises(ParamsError, match="automatic"):
+        SynthesisParams().overlap_cells  # known once a session has chosen the size
     rr, cc = np.mgrid[0:200, 0:200]
     sketch = SketchMap(np.abs(rr - cc) < 3, np.zeros((200, 200), bool))
     auto = Session([highland], sketch, params=SynthesisParams())
