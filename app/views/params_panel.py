@@ -139,7 +139,7 @@ class ParamsPanel(QWidget):
 
     # -- document to widgets -------------------------------------------------------------------
     def _document_changed(self, what: str) -> None:
-        if what == "params":
+        if what in ("params", "result"):
             self._show(self.document.params)
         if what in ("params", "examples", "styles", "stamps"):
             self.show_output()
@@ -148,7 +148,10 @@ class ParamsPanel(QWidget):
         self._updating = True
         try:
             self.patch_size_auto.setChecked(params.patch_size is None)
-            self.patch_size.setValue(params.patch_size or DEFAULT_PATCH)
+            # Automatic: the size the terrain on show was made with, else
+            # where the choice starts.
+            made = None if self.document.result is None else self.document.result.patch_size
+            self.patch_size.setValue(params.patch_size or made or DEFAULT_PATCH)
             self.patch_size.setEnabled(params.patch_size is not None)
             self.overlap_auto.setChecked(params.overlap is None)
             # (Shown for the patch in the box when the patch size is automatic.)

@@ -39,9 +39,13 @@ def test_params_panel_edits_the_document(qtbot, window):
     assert not panel.patch_size_auto.isChecked() and panel.patch_size.value() == doc.params.patch_size == 32
     panel.patch_size_auto.setChecked(True)
     assert doc.params.patch_size is None and not panel.patch_size.isEnabled()
-    assert panel.patch_size.value() == 80  # where the automatic size starts
+    assert panel.patch_size.value() == 80  # where the automatic size starts (no terrain yet)
+    shape = doc.output_shape
+    doc.set_result(TerrainResult(np.zeros(shape, np.float32), np.zeros(shape), np.zeros(shape, bool),
+                                 report={"params": {"patch_size": 56}}))
+    assert panel.patch_size.value() == 56 and doc.params.patch_size is None  # the size the terrain got
     panel.patch_size_auto.setChecked(False)  # the box's size made explicit
-    assert doc.params.patch_size == 80 and panel.patch_size.isEnabled()
+    assert doc.params.patch_size == 56 and panel.patch_size.isEnabled()
     panel.patch_size.setValue(48)
     assert doc.params.patch_size == 48
     panel.blend.setCurrentText("poisson")
