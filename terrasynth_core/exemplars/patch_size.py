@@ -126,9 +126,13 @@ def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[s
     deciding = [i for i in range(len(fields)) if i not in lacking]
     size = next((s for s in sizes if all(varied(i, s) for i in deciding)), sizes[-1])
     # ... unless no example holds a window of a kind there at all (the run
-    # would have nothing to place on those strokes).
-    while size != sizes[-1] and any(sum(count(i, size)[k] for i in range(len(fields))) == 0 for k in kinds):
-        size = sizes[sizes.index(size) + 1]
+    # would have nothing to place on those strokes): then the largest
+    # smaller size where they do, if one does.
+    def placeable(s: int) -> bool:
+        return all(sum(count(i, s)[k] for i in range(len(fields))) > 0 for k in kinds)
+
+    if not placeable(size):
+        size = next((s for s in sizes[sizes.index(size) + 1:] if placeable(s)), size)
     for i in deciding:
         if size < sizes[0] and not varied(i, sizes[0]):
             short = {k: n for k, n in count(i, sizes[0]).items() if n < MIN_POOL}

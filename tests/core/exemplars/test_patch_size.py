@@ -58,6 +58,14 @@ def test_without_strokes_no_example_is_analysed(highland, monkeypatch):
     assert fitting_patch_size([highland], ["himalaya"], (), largest=60)[0] == 56
 
 
+def test_an_example_without_such_lines_keeps_the_largest_size():
+    # A tilted plane has no ridge at any size: a smaller patch would not
+    # give it one (the session then says the sketch's ridges have none).
+    rr, cc = np.mgrid[0:200, 0:200]
+    plane = (3.0 * rr + cc).astype(np.float32)
+    assert fitting_patch_size([plane], ["plane"], ("ridge",)) == (DEFAULT_PATCH, [])
+
+
 def test_every_example_that_can_vary_does_at_the_size_chosen(highland, helens, dems_dir):
     from terrasynth_core.io import load_dem
 
