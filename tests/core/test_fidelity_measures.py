@@ -1,4 +1,5 @@
-"""The fidelity measures of benchmarks/fidelity_measures.py on terrain with a known answer."""
+"""The fidelity measures of benchmarks/fidelity_measures.py on terrain with a known answer, and
+the evaluation's count of source reuse where the issue asks it."""
 
 import sys
 from pathlib import Path
@@ -76,3 +77,14 @@ def test_relief_and_range():
     assert fm.relief(h) == pytest.approx(np.percentile(h, 99.5) - np.percentile(h, 0.5))
     assert fm.share_out_of_range(h, h[:5]) == 0.5
     assert fm.share_out_of_range(h, h) == 0.0
+
+
+def test_reuse_counted_where_the_issue_asks_it():
+    from eval_fidelity import reuse_where_it_applies
+
+    rows = [{"example": "big", "reuse": 0.08, "pool_windows": 40},
+            {"example": "big", "reuse": 0.20, "pool_windows": 25},
+            {"example": "volcano", "reuse": 0.30, "pool_windows": 8},
+            {"example": "old", "reuse": 0.05}]  # (a run saved before pools were counted)
+    line = reuse_where_it_applies(rows)
+    assert "1/2 runs met" in line and "1 runs have smaller pools (volcano)" in line
