@@ -17,9 +17,10 @@ the largest of :data:`PATCH_SIZES` (no larger than the output, nor than
 any example can hold) at which every example holds at least
 :data:`MIN_POOL` windows of each kind the sketch draws.  An example that
 holds fewer at every size (a single landform such as a volcano: St.
-Helens holds 8 ridge windows even at 48) does not pull the size down,
-since no size makes it varied enough, unless it holds none of a kind at
-that size; the run says so in its warnings.
+Helens holds 8 ridge windows even at 48) does not decide the size, since
+no size makes it varied enough; the run says so in its warnings.  Only
+where no example at all holds a window of a drawn kind does the size go
+down to one where some example does.
 """
 
 from __future__ import annotations
