@@ -47,6 +47,7 @@ from ..controls.options import Controls
 from ..controls.pins import Pin, PinError
 from ..controls.water import Water
 from ..errors import ParamsError
+from ..exemplars.patch_size import DEFAULT_PATCH
 from ..features import FeatureMaps, SketchMap, sketch_features
 from ..heightfield import HeightField
 from ..io.resample import output_georeference
@@ -260,17 +261,19 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
     if not isinstance(params, SynthesisParams):
         raise ParamsError(f"params must be SynthesisParams, got {type(params).__name__}")
     examples = list(examples or ())
+    # The whole map's controls, checked (and their maps fitted) once, so the
+    # crop cuts exactly what a whole-map re-synthesis would use.
+    whole = dataclasses.replace(controls, previous=previous, selection=selection).checked(
+        shape, params.patch_size or DEFAULT_PATCH, len(examples))
     if params.patch_size is None:
         # Automatic: chosen as a run of the whole map would, for the new
         # strokes (the terrain's own run may have chosen another, for other
         # strokes: pass its ``result.params`` to keep it).
-        size, _ = automatic_patch_size(examples, controls, () if sketch is None else sketch.kinds,
+        size, _ = automatic_patch_size(examples, whole, () if sketch is None else sketch.kinds,
                                        cell_size=params.cell_size, largest=min(shape))
         params = dataclasses.replace(params, patch_size=size)
-    # The whole map's controls, checked (and their maps fitted) once, so the
-    # crop cuts exactly what a whole-map re-synthesis would use.
-    whole = dataclasses.replace(controls, previous=previous, selection=selection).checked(
-        shape, params.patch_size, len(examples))
+        if controls.pin_radius is None:
+            whole = dataclasses.replace(whole, pin_radius=float(size))  # (pins reach a patch)
     if sketch is not None and sketch.shape != shape:
         sketch = sketch.resized(shape)
     for name, arr in (("patch ids", previous_patch_id), ("seam mask", previous_seam_mask)):

@@ -132,3 +132,12 @@ def test_region_is_checked_and_cancellable(white_mountains, first, after):
                                            params=P))
     assert isinstance(events[-1], SynthesisFinished)
     assert np.array_equal(a.heights, events[-1].result.heights)
+
+
+def test_an_automatic_patch_size_is_chosen_as_a_whole_run_would(highland, after, before, first):
+    # (The terrain's own size is kept by passing its params, as the app does.)
+    selection = stroke_selection(changed_cells(before, after), patch_size=32)
+    auto = SynthesisParams(k=2, seed=7)
+    whole = Session([highland], after, params=auto)
+    local = resynthesize_region([highland], after, previous=first.heights, selection=selection, params=auto)
+    assert local.params.patch_size == whole.params.patch_size < 80
