@@ -103,7 +103,7 @@ def follow_score(heights, stroke, kind) -> float:
     return score if kind == "ridge" else -score
 
 
-def core_rows(example, sketch, previous, strokes, repeats, patch_size):
+def core_rows(example, sketch, previous, strokes, repeats, params):
     rows = []
     for kind, points in strokes:
         after = _stroked(sketch, kind, points)
@@ -115,13 +115,13 @@ def core_rows(example, sketch, previous, strokes, repeats, patch_size):
         for _ in range(repeats):
             for path in ("old", "crop"):  # alternate: same load for both
                 t = time.perf_counter()
-                selection = stroke_selection(changed_cells(sketch, after), patch_size=patch_size)
+                selection = stroke_selection(changed_cells(sketch, after), patch_size=params.patch_size)
                 if path == "old":
-                    result = Session([example], after, params=PARAMS,
+                    result = Session([example], after, params=params,
                                      controls=Controls(previous=previous, selection=selection)).run()
                 else:
                     result = resynthesize_region([example], after, previous=previous, selection=selection,
-                                                 params=PARAMS)
+                                                 params=params)
                 times[path].append(time.perf_counter() - t)
                 assert np.array_equal(result.heights[~selection], previous[~selection])
                 cells = int(selection.sum())
@@ -210,14 +210,15 @@ def _core_table(sketch, strokes, repeats, picture=None) -> list:
     example = builtin_example("white-mountains").load()
     t = time.perf_counter()
     first = Session([example], sketch, params=PARAMS).run()
-    previous, patch_size = first.heights, first.params.patch_size  # (the automatic size, as the app's strokes)
+    # The strokes keep the size the terrain was made with, as the app's do.
+    previous, params = first.heights, first.params
     if picture:
-        _picture(picture, example, sketch, previous, patch_size)
+        _picture(picture, example, sketch, previous, params)
     print(f"whole 1000x1000 run first: {time.perf_counter() - t:.1f} s (analysis cached or not)\n")
     print(f"stroke-to-result, median of {repeats}, seconds (old: whole-map re-synthesis, crop: this)")
     print(f"  {'stroke':<34} {'cells':>7} {'old':>7} {'crop':>7} {'ratio':>6} {'follow: before':>14} "
           f"{'old':>6} {'crop':>6}")
-    core = core_rows(example, sketch, previous, strokes, repeats, patch_size)
+    core = core_rows(example, sketch, previous, strokes, repeats, params)
     olds, crops = [r["old"] for r in core], [r["crop"] for r in core]
     ratios = [r["old"] / r["crop"] for r in core]
     follows = [statistics.median(r[k] for r in core) for k in ("follow_before", "follow_old", "follow_crop")]
@@ -228,7 +229,7 @@ def _core_table(sketch, strokes, repeats, picture=None) -> list:
     return core
 
 
-def _picture(path, example, sketch, previous, patch_size, picked=(0, 2)) -> None:
+def _picture(path, example, sketch, previous, params, picked=(0, 2)) -> None:
     """The terrain around two strokes, one row each: before the stroke (in
     red), after the whole-map re-synthesis, after the crop's."""
     from terrasynth_core.pictures import save_png, shaded_relief
@@ -237,10 +238,10 @@ def _picture(path, example, sketch, previous, patch_size, picked=(0, 2)) -> None
     for index in picked:
         kind, points = STROKES[index]
         after = _stroked(sketch, kind, points)
-        selection = stroke_selection(changed_cells(sketch, after), patch_size=patch_size)
-        old = Session([example], after, params=PARAMS,
+        selection = stroke_selection(changed_cells(sketch, after), patch_size=params.patch_size)
+        old = Session([example], after, params=params,
                       controls=Controls(previous=previous, selection=selection)).run()
-        new = resynthesize_region([example], after, previous=previous, selection=selection, params=PARAMS)
+        new = resynthesize_region([example], after, previous=previous, selection=selection, params=params)
         (r0, c0), (r1, c1) = points[0], points[-1]
         rows, cols = previous.shape
         cr = min(max((r0 + r1) // 2, 190), rows - 190)

@@ -11,8 +11,8 @@ himalaya, st-helens) is synthesized under each shared sketch
 scaled to ``--size`` x ``--size`` (default 512) by ``Session(shape=...)``,
 with seeds 0..N-1 (default 3) in breadth-first and raster order.
 ``--quick`` is one seed, two examples (white-mountains, gabon-plateau),
-breadth-first only.  A run that raises ``ParamsError`` with the default
-80-cell patch is repeated with 48-cell patches (``48*``), as in
+breadth-first only.  A run that raises ``ParamsError`` with the automatic
+patch size is repeated with 48-cell patches (``48*``), as in
 ``eval_synthesis.py``.
 
 Per case (the measures are in ``fidelity_measures.py``; r/v = sketch ridges
@@ -85,8 +85,7 @@ from fidelity_measures import (
     share_out_of_range,
 )
 from terrasynth_core.examples import builtin_example
-from terrasynth_core.exemplars.patch_size import MIN_POOL, path_windows
-from terrasynth_core.exemplars.prepare import prepare_example
+from terrasynth_core.exemplars.patch_size import MIN_POOL, held_windows
 from terrasynth_core.features import read_sketch
 from terrasynth_core.features.network import graph_mask
 from terrasynth_core.matching.usage import FEATURE_KINDS, source_reuse
@@ -289,16 +288,20 @@ def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=p
         ex_h = np.asarray(example.heights, dtype=np.float32)
         ex = example_figures(ex_h, spectrum_tile(ex_h.shape, shape))
         sheet_rows = []
+        pools = {}  # (sketch, patch size): the example's pool windows
         for sketch_file in sketches:
             for seed in seeds:
                 for order in orders:
                     params = SynthesisParams(seed=seed, order=order, **(extra or {}))
                     result, seconds, fallback = synthesize(example, loaded[sketch_file], shape, params)
                     fig = measure(result.heights, result.sketch_features, ex_h, ex, result.patches)
+                    pk = (sketch_file, result.params.patch_size)
+                    if pk not in pools:
+                        pools[pk] = pool_windows(example, result.params.patch_size, loaded[sketch_file])
                     row = {"sketch": sketch_file, "example": key, "seed": seed, "order": order,
                            "shape": list(shape), "patch_size": result.params.patch_size, "fallback": fallback,
                            "seconds": seconds, "warnings": list(result.warnings),
-                           "pool_windows": pool_windows(example, result.params.patch_size, loaded[sketch_file]), **fig}
+                           "pool_windows": pools[pk], **fig}
                     rows.append(row)
                     log(_line(row))
                     if sheets is not None and seed == seeds[0] and order == orders[0]:
@@ -313,10 +316,9 @@ def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=p
 
 def pool_windows(example, patch_size: int, sketch) -> int:
     """The fewest distinct windows the example's pool holds of a kind the
-    sketch draws (:func:`~terrasynth_core.exemplars.patch_size.path_windows`):
+    sketch draws (:func:`~terrasynth_core.exemplars.patch_size.held_windows`):
     the issue's reuse cap applies to pools of 20 or more."""
-    samples = prepare_example(example, patch_size, name="example").samples
-    return min((path_windows(samples[kind]) for kind in sketch.kinds), default=0)
+    return min(held_windows(example, patch_size, sketch.kinds, name="example").values(), default=0)
 
 
 def reuse_where_it_applies(rows: list[dict]) -> str:
@@ -348,7 +350,7 @@ def report(rows: list[dict], examples: list[str], orders: list[str], wall: float
     log(f"\nTime per case: mean {np.mean(secs):.1f} s, max {np.max(secs):.1f} s; whole evaluation {wall / 60:.1f} min")
     notes = sorted({f"{r['example']}: {w}" for r in rows for w in r["warnings"]})
     if any(r["fallback"] for r in rows):
-        notes.insert(0, "48* = the 80-cell patch raised ParamsError; run with 48-cell patches")
+        notes.insert(0, "48* = the automatic patch size raised ParamsError; run with 48-cell patches")
     if notes:
         log("\nNotes and run warnings:\n" + "\n".join(f"  {n}" for n in notes))
 

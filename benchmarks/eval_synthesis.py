@@ -47,8 +47,8 @@ BFS minus raster (valley TPI negated, so positive always favours BFS) with
 its standard error over the (sketch, example, seed, kind) pairs.
 
 A run that fails with :class:`ParamsError` (example too small or too poor in
-features for an 80-cell patch) is repeated with 48-cell patches; its patch
-column then reads ``48*``.
+features for the automatic patch size) is repeated with 48-cell patches;
+its patch column then reads ``48*``.
 
 Seams (``--part seams``)
 ------------------------

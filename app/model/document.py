@@ -498,9 +498,7 @@ class Document:
         if self._selection is None:
             raise ParamsError("nothing is selected: select the part of the terrain to synthesize again")
         request = self.synthesis_request()
-        # An automatic patch size: the one the terrain was made with.
-        params = dataclasses.replace(self._params, seed=int(seed),
-                                     patch_size=self._params.patch_size or result.patch_size)
+        params = result.params_for_change(dataclasses.replace(self._params, seed=int(seed)))
         return dataclasses.replace(request, params=params, previous=result.heights, selection=self._selection.copy())
 
     # -- internals --------------------------------------------------------------------

@@ -20,7 +20,7 @@ change it far beyond a stroke's neighbourhood).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Iterator
 
 import numpy as np
@@ -119,8 +119,7 @@ def live_events(request: LiveRequest) -> Iterator[object]:
     start = time.perf_counter()
     run = request.run
     terrain = request.terrain
-    # An automatic patch size: the one the terrain was made with.
-    params = replace(run.params, patch_size=run.params.patch_size or terrain.patch_size)
+    params = terrain.params_for_change(run.params)
     changed = changed_cells(request.before, request.strokes, run.shape)
     selection = stroke_selection(changed, patch_size=params.patch_size or DEFAULT_PATCH)
     if selection is None:

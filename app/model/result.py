@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -81,6 +81,11 @@ class TerrainResult:
         chosen), when the report says: a change to part of it re-uses it."""
         size = self.report.get("params", {}).get("patch_size")
         return None if size is None else int(size)
+
+    def params_for_change(self, params):
+        """``params`` (SynthesisParams) for re-making part of this terrain:
+        an automatic patch size becomes the one the terrain was made with."""
+        return replace(params, patch_size=params.patch_size or self.patch_size)
 
     @property
     def relief(self) -> float:

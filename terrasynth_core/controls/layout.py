@@ -62,7 +62,7 @@ class StyleLayout:
     anchor : ndarray of float, shape (n_examples,)
         Each example's shift weight in match costs
         (:func:`~terrasynth_core.matching.costs.anchor_weight`).
-    heights : ndarray of float, shape (n_groups, 2), optional
+    heights : ndarray of float, shape (n_groups, 2)
         The lowest and highest heights each group's examples have as placed
         (its base height plus their heights about their medians, scaled),
         metres: what :meth:`height_range` reads, since ``detail`` becomes
@@ -79,9 +79,9 @@ class StyleLayout:
     stamps: list
     remap: tuple | None
     notes: list
-    cell_size: float | None = None
-    anchor: np.ndarray | None = None
-    heights: np.ndarray | None = None
+    cell_size: float | None
+    anchor: np.ndarray
+    heights: np.ndarray
 
     def height_range(self) -> tuple[float, float]:
         """The lowest and highest heights of the examples of the groups
@@ -95,7 +95,7 @@ class StyleLayout:
 
 
 def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_size: int, *,
-                 cell_size: float | None = None) -> StyleLayout:
+                 cell_size: float | None = None, grounded: "Grounded | None" = None) -> StyleLayout:
     """Bring the examples to one cell size, analyse them and lay the styles
     out over the output.
 
@@ -110,6 +110,9 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
     cell_size : float or None
         Metres per output cell; None: the finest example's
         (:func:`~terrasynth_core.exemplars.ground.run_cell_size`).
+    grounded : Grounded, optional
+        :func:`grounded_examples` of the same examples, controls and cell
+        size, when the caller has it already.
     """
     fields, scales, bases, members, names = [], [], [], [], []
     if plain:
@@ -126,13 +129,12 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
         bases.append(style.base)
     examples: list[ExampleAnalysis] = []
     notes = []
-    cell = run_cell_size(cell_size, [*fields, *(st.field for st in controls.stamps)])
+    grounded = grounded or grounded_examples(plain, controls, cell_size)
+    cell = grounded.cell
     if cell is None:
         notes.append("no example has a known cell size: examples are used cell for cell and the output's "
                      "cell size is unknown")
-    for i, ex in enumerate(fields):
-        name = _example_name(ex, i)
-        ex, said = on_ground(ex, cell, name=name)
+    for ex, name, said in zip(grounded.fields, grounded.names, grounded.notes):
         notes.extend(said)
         analysis = prepare_example(ex, patch_size, name=name)
         if analysis.note:
@@ -182,19 +184,49 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
                        anchors(detail, relief, patch_size), placed)
 
 
-def automatic_patch_size(plain: list, controls: Controls, kinds: tuple[str, ...], *,
-                         cell_size: float | None = None, largest: int | None = None) -> tuple[int, list[str]]:
-    """The patch size the run's examples (plain and styles') can serve at
-    the run's cell size, for a sketch drawing ``kinds``, at most
-    ``largest`` (:func:`~terrasynth_core.exemplars.patch_size.fitting_patch_size`),
-    and its notes for the warnings.  Kept by the examples' bytes: every
-    run and variation of a document asks again."""
+@dataclass(frozen=True, eq=False)
+class Grounded:
+    """A run's examples (plain, then each style's) at its square cell size.
+
+    Parameters
+    ----------
+    fields : list of HeightField or ndarray
+    names : list of str
+        For messages.
+    cell : float or None
+        The run's cell size, metres.
+    notes : list of list of str
+        Each example's notes from :func:`~terrasynth_core.exemplars.ground.on_ground`.
+    """
+
+    fields: list
+    names: list
+    cell: float | None
+    notes: list
+
+
+def grounded_examples(plain: list, controls: Controls, cell_size: float | None = None) -> Grounded:
+    """The run's examples brought to its cell size (the finest example's,
+    stamps included, or ``cell_size``); ``controls`` need only hold Styles
+    and Stamps (:meth:`~.options.Controls.check_kinds`)."""
     fields = [*plain, *(st.example for st in controls.styles)]
     cell = run_cell_size(cell_size, [*fields, *(st.field for st in controls.stamps)])
     names = [_example_name(ex, i) for i, ex in enumerate(fields)]
-    grounded = [on_ground(ex, cell, name=name)[0] for ex, name in zip(fields, names)]
-    key = (array_key(*(np.asarray(getattr(g, "heights", g)) for g in grounded)), tuple(names), tuple(kinds), largest)
-    size, notes = _PATCH_SIZES.get(key, lambda: fitting_patch_size(grounded, names, kinds, largest=largest))
+    both = [on_ground(ex, cell, name=name) for ex, name in zip(fields, names)]
+    return Grounded([g for g, _ in both], names, cell, [said for _, said in both])
+
+
+def automatic_patch_size(grounded: Grounded, kinds: tuple[str, ...], *,
+                         largest: int | None = None) -> tuple[int, list[str]]:
+    """The patch size the run's examples can serve, for a sketch drawing
+    ``kinds``, at most ``largest``
+    (:func:`~terrasynth_core.exemplars.patch_size.fitting_patch_size`), and
+    its notes for the warnings.  Kept by the examples' bytes: every run and
+    variation of a document asks again."""
+    key = (array_key(*(np.asarray(getattr(g, "heights", g)) for g in grounded.fields)), tuple(grounded.names),
+           tuple(kinds), largest)
+    size, notes = _PATCH_SIZES.get(
+        key, lambda: fitting_patch_size(grounded.fields, grounded.names, kinds, largest=largest))
     return size, list(notes)
 
 

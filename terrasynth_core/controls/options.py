@@ -251,6 +251,16 @@ class Controls:
     def resynthesis(self) -> bool:
         return self.selection is not None
 
+    def check_kinds(self) -> None:
+        """Raise ParamsError unless every style is a Style and every stamp a
+        Stamp (what reading their examples needs, before any shape is known)."""
+        for i, s in enumerate(self.styles):
+            if not isinstance(s, Style):
+                raise ParamsError(f"style {i + 1} must be a Style, got {type(s).__name__}")
+        for i, st in enumerate(self.stamps):
+            if not isinstance(st, Stamp):
+                raise ParamsError(f"stamp {i + 1} must be a Stamp, got {type(st).__name__}")
+
     def checked(self, shape: tuple[int, int], patch_size: int, n_default: int) -> "Controls":
         """Validated copy for an output ``shape`` (arrays converted, maps
         fitted to the shape).
@@ -267,10 +277,9 @@ class Controls:
         ParamsError
             Naming the bad value and what was expected.
         """
+        self.check_kinds()
         styles = tuple(self.styles)
         for i, s in enumerate(styles):
-            if not isinstance(s, Style):
-                raise ParamsError(f"style {i + 1} must be a Style, got {type(s).__name__}")
             if not (math.isfinite(s.relief_scale) and s.relief_scale > 0):
                 raise ParamsError(f"style {_style_name(s, i)}: relief scale must be a positive number, "
                                   f"got {s.relief_scale}")
@@ -299,8 +308,6 @@ class Controls:
             fitted = _fit_map("water mask", np.asarray(self.water.mask), shape, order=0)
             water = Water(fitted, self.water.level, self.water.depth, self.water.bank_width).checked(shape)
         for i, st in enumerate(self.stamps):
-            if not isinstance(st, Stamp):
-                raise ParamsError(f"stamp {i + 1} must be a Stamp, got {type(st).__name__}")
             check_stamp_transform(st.scale, st.rotation, f"stamp {i + 1}")
             r, c = st.center
             if not (0 <= r < shape[0] and 0 <= c < shape[1]):

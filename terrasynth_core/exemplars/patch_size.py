@@ -69,6 +69,15 @@ def path_windows(samples: list) -> int:
     return distinct_windows(np.array([s.center for s in samples if s.degree == 2], dtype=float).reshape(-1, 2))
 
 
+def held_windows(field, patch_size: int, kinds: Sequence[str], *, name: str) -> dict:
+    """Distinct path windows (:func:`path_windows`) of each kind in
+    ``kinds`` that the example holds at a patch size, ``{kind: n}``."""
+    from .prepare import prepare_example  # (here: the parameters import this module's sizes, and start fast)
+
+    samples = prepare_example(field, patch_size, name=name).samples
+    return {kind: path_windows(samples[kind]) for kind in kinds}
+
+
 def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[str], *,
                        largest: int | None = None) -> tuple[int, list[str]]:
     """The automatic patch size for these examples and a sketch drawing
@@ -93,8 +102,6 @@ def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[s
         For the run's warnings: why the size is smaller than the default,
         and which example is too small or too plain to vary at any size.
     """
-    from .prepare import prepare_example  # (here: the parameters import this module's sizes, and start fast)
-
     # Every example must hold a patch and so must the output (too small
     # for the smallest, the example's analysis or the session says so).
     room = [s for s in PATCH_SIZES if all(_side(f) >= s + 4 for f in fields)]
@@ -115,8 +122,7 @@ def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[s
 
     def count(i: int, size: int) -> dict:
         if (i, size) not in counted:
-            samples = prepare_example(fields[i], size, name=names[i]).samples
-            counted[i, size] = {kind: path_windows(samples[kind]) for kind in kinds}
+            counted[i, size] = held_windows(fields[i], size, kinds, name=names[i])
         return counted[i, size]
 
     def varied(i: int, size: int) -> bool:

@@ -406,7 +406,7 @@ def _bridge_gaps(mask: np.ndarray, gap: int) -> np.ndarray:
     """
     radius = (gap + 1) // 2
     if radius == 0:
-        return mask.copy()  # skeletonize needs a writable array
+        return mask
     footprint = disk(radius).astype(bool)
     bridged = np.zeros(mask.shape, dtype=bool)
     pixels = np.argwhere(mask)

@@ -120,16 +120,19 @@ class FeaturePool:
             for s, r in zip(lst, rk):
                 by_degree.setdefault(s.degree, []).append((ex, s, float(r)))
         self._groups = {}
-        # Per degree, what every ranking of a sample of that degree starts
-        # from (made once: a pool serves every sample of a run, and runs
-        # after it): the crossings relative to their centres in radii, and
-        # all their alignments (:meth:`_alignments`).
+        # Per degree: examples, centres, the crossings relative to their
+        # centres in radii, prominence ranks; and, made on first use, all
+        # the crossings' alignments (:meth:`_alignments`), what every
+        # ranking of a sample of that degree starts from (a pool serves
+        # every sample of a run, and runs after it).
         self._aligned: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         for d, items in by_degree.items():
+            centers = np.array([s.center for _, s, _ in items], dtype=float)
+            crossings = np.array([s.crossings for _, s, _ in items], dtype=float)  # (N, d, 2)
             self._groups[d] = (
                 np.array([ex for ex, _, _ in items], dtype=np.int32),
-                np.array([s.center for _, s, _ in items], dtype=float),
-                np.array([s.crossings for _, s, _ in items], dtype=float),  # (N, d, 2)
+                centers,
+                (crossings - centers[:, None, :]) / self.radius,
                 np.array([r for _, _, r in items], dtype=float),
             )
 
@@ -169,14 +172,13 @@ class FeaturePool:
         degree = self.nearest_degree(sample.degree)
         if degree is None:
             return []
-        ex_idx, centers, crossings, prominence = self._groups[degree]
+        ex_idx, centers, rel, prominence = self._groups[degree]
         src = (sample.crossings - sample.center) / self.radius  # (d_s, 2)
         if degree == sample.degree:
             if degree not in self._aligned:
-                self._aligned[degree] = self._alignments((crossings - centers[:, None, :]) / self.radius)
+                self._aligned[degree] = self._alignments(rel)
             flat, mflat, centred = self._aligned[degree]
         else:
-            rel = (crossings - centers[:, None, :]) / self.radius  # (N, d, 2)
             src, rel = _match_counts(src, rel)
             flat, mflat, centred = self._alignments(rel)
         d = src.shape[0]

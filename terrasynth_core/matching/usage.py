@@ -26,11 +26,13 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from ..exemplars.patch_size import MIN_POOL, SAME_WINDOW
+from ..exemplars.patch_size import SAME_WINDOW
 
-#: Largest share of a run's feature patches one window may supply when the
-#: pool has at least :data:`MIN_POOL` samples of the kind.
+#: Largest share of a run's feature patches one window may supply ...
 MAX_SHARE = 0.10
+#: ... when the pool has at least this many samples of the kind (samples,
+#: not the distinct windows the automatic patch size counts).
+MIN_POOL = 20
 #: Patch kinds that are feature patches.
 FEATURE_KINDS = ("branch", "end", "path")
 

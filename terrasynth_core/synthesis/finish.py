@@ -106,7 +106,7 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
     if sketch is not None:
         heights = apply_drainage(heights, sketch.valleys, sketch.ridges, patch_size=patch_size,
                                  water=None if controls.water is None else controls.water.mask, locked=locked)
-    if layout.remap is None and layout.heights is not None:
+    if layout.remap is None:
         # (After drainage, which may carve a valley floor below the range:
         # the knee keeps every descent a descent.)
         heights = within_examples_range(heights, *_asked_range(layout, heights))

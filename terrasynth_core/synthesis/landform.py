@@ -302,9 +302,9 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
     What is fitted is the level (the terrain's :func:`landform_lowpass`)
     plus a fixed draw of the examples' detail, what the full-resolution
     pass will add to it, against the examples' heights as ``layout`` places
-    them (its group's base height plus its heights about their median);
-    each style group weighs as the share of the output it covers, its
-    examples alike.
+    them (its group's base height plus its heights about their median).
+    (The pass runs with one style group; were there several, each would
+    weigh as the share of the output it covers, its examples alike.)
 
     Parameters
     ----------
@@ -348,7 +348,7 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
     detail = details[np.random.default_rng(0).choice(len(details), size=len(cells), p=weights / weights.sum())]
     h = np.asarray(heights, dtype=np.float64)
     if strokes is not None and UPLIFT > 0:
-        spread = float(np.subtract(*_weighted_quantiles(values, weights, np.array([0.75, 0.25]))))
+        spread = float(target[3] - target[1])  # (the interquartile range: FIT_QUANTILES[1] and [3])
         h = h + UPLIFT * spread * _stroke_regions(strokes, 2 * TREND_SIGMA * sigma, h.shape)
     for _ in range(FIT_ROUNDS):
         low = landform_lowpass(h, sigma).astype(np.float64)

@@ -42,19 +42,20 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 from scipy import ndimage
 
-from ..controls.layout import automatic_patch_size
+from ..controls.layout import grounded_examples
 from ..controls.options import Controls
 from ..controls.pins import Pin, PinError
 from ..controls.water import Water
 from ..errors import ParamsError
 from ..exemplars.patch_size import DEFAULT_PATCH
 from ..features import FeatureMaps, SketchMap, sketch_features
+from ..features.network import mask_box
 from ..heightfield import HeightField
 from ..io.resample import output_georeference
 from .events import PatchPlaced, SynthesisFinished, drive
 from .params import SynthesisParams
 from .result import SynthesisResult
-from .session import Session
+from .session import Session, with_patch_size
 
 __all__ = ["CONTEXT_PATCHES", "STROKE_REACH", "changed_cells", "crop_box", "iter_resynthesize_region",
            "resynthesize_region", "stroke_selection"]
@@ -265,15 +266,13 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
     # crop cuts exactly what a whole-map re-synthesis would use.
     whole = dataclasses.replace(controls, previous=previous, selection=selection).checked(
         shape, params.patch_size or DEFAULT_PATCH, len(examples))
+    # An automatic patch size: chosen as a run of the whole map would, for
+    # the new strokes (the terrain's own run may have chosen another, for
+    # other strokes: pass its ``result.params`` to keep it).
     if params.patch_size is None:
-        # Automatic: chosen as a run of the whole map would, for the new
-        # strokes (the terrain's own run may have chosen another, for other
-        # strokes: pass its ``result.params`` to keep it).
-        size, _ = automatic_patch_size(examples, whole, () if sketch is None else sketch.kinds,
-                                       cell_size=params.cell_size, largest=min(shape))
-        params = dataclasses.replace(params, patch_size=size)
+        params, _ = with_patch_size(params, grounded_examples(examples, whole, params.cell_size), sketch, shape)
         if controls.pin_radius is None:
-            whole = dataclasses.replace(whole, pin_radius=float(size))  # (pins reach a patch)
+            whole = dataclasses.replace(whole, pin_radius=float(params.patch_size))  # (pins reach a patch)
     if sketch is not None and sketch.shape != shape:
         sketch = sketch.resized(shape)
     for name, arr in (("patch ids", previous_patch_id), ("seam mask", previous_seam_mask)):
@@ -405,9 +404,8 @@ def _shifted(bbox: tuple[int, int, int, int], dr: int, dc: int) -> tuple[int, in
 
 def _bbox(mask: np.ndarray) -> tuple[int, int, int, int]:
     """Half-open bounding box of a non-empty mask."""
-    rows = np.flatnonzero(mask.any(axis=1))
-    cols = np.flatnonzero(mask.any(axis=0))
-    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    rows, cols = mask_box(mask, 0)
+    return rows.start, rows.stop, cols.start, cols.stop
 
 
 def _widened(lo: int, hi: int, least: int, size: int) -> tuple[int, int]:

@@ -24,7 +24,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 import scipy
 
-from ..controls.layout import anchors, automatic_patch_size, build_layout
+from ..controls.layout import Grounded, anchors, automatic_patch_size, build_layout, grounded_examples
 from ..controls.options import Controls, check_heights
 from ..errors import ParamsError
 from ..exemplars.patch_size import DEFAULT_PATCH, PATCH_SIZES
@@ -115,19 +115,17 @@ class Session:
         rows, cols = (int(v) for v in shape)
         if rows * cols > 64_000_000:
             raise ParamsError(f"output {rows}x{cols} exceeds 64 million cells")
+        # (Checked before the examples are read; the pins' default reach, a
+        # patch, is set once an automatic patch size is chosen.)
         checked = controls.checked((rows, cols), params.patch_size or DEFAULT_PATCH, len(examples))
         check_heights(examples, checked)
-        size_notes = []
-        if params.patch_size is None and min(rows, cols) >= PATCH_SIZES[-1]:
-            kinds = () if sketch is None else sketch.kinds
-            size, size_notes = automatic_patch_size(examples, checked, kinds, cell_size=params.cell_size,
-                                                    largest=min(rows, cols))
-            params = dataclasses.replace(params, patch_size=size)
-            if controls.pin_radius is None:
-                checked = dataclasses.replace(checked, pin_radius=float(size))  # (pins reach a patch)
-        if min(rows, cols) < (params.patch_size or PATCH_SIZES[-1]):
+        grounded = grounded_examples(examples, checked, params.cell_size)
+        params, size_notes = with_patch_size(params, grounded, sketch, (rows, cols))
+        if controls.pin_radius is None:
+            checked = dataclasses.replace(checked, pin_radius=float(params.patch_size))
+        if min(rows, cols) < params.patch_size:
             raise ParamsError(
-                f"output {rows}x{cols} is smaller than a patch ({params.patch_size or PATCH_SIZES[-1]}): "
+                f"output {rows}x{cols} is smaller than a patch ({params.patch_size}): "
                 "make the output larger or the patch smaller"
             )
         if sketch is not None and sketch.shape != (rows, cols):
@@ -137,7 +135,7 @@ class Session:
         self.params = params
         self.controls = checked
         self.layout = build_layout(examples, self.controls, self.shape, params.patch_size,
-                                   cell_size=params.cell_size)
+                                   cell_size=params.cell_size, grounded=grounded)
         #: The run's square cell size in metres (None: unknown).
         self.cell_size = self.layout.cell_size
         #: Where the output goes on the map: a local Transverse Mercator
@@ -244,6 +242,31 @@ class Session:
         run cleanly at the next patch boundary.
         """
         return run_pipeline(RunState.start(self))
+
+
+def with_patch_size(params: SynthesisParams, grounded: Grounded, sketch: SketchMap | None,
+                    shape: tuple[int, int]) -> tuple[SynthesisParams, list[str]]:
+    """``params`` with an automatic patch size chosen
+    (:func:`~terrasynth_core.controls.layout.automatic_patch_size`), and why,
+    for the run's warnings; a size given is kept.
+
+    Parameters
+    ----------
+    params : SynthesisParams
+    grounded : Grounded
+        The run's examples at its cell size.
+    sketch : SketchMap or None
+        Which feature kinds it draws.
+    shape : (rows, cols)
+        The output: no patch larger than its smaller side (below the
+        smallest automatic size, that size: the caller says it is too small).
+    """
+    if params.patch_size is not None:
+        return params, []
+    if min(shape) < PATCH_SIZES[-1]:
+        return dataclasses.replace(params, patch_size=PATCH_SIZES[-1]), []
+    size, notes = automatic_patch_size(grounded, () if sketch is None else sketch.kinds, largest=min(shape))
+    return dataclasses.replace(params, patch_size=size), notes
 
 
 def _memo_detail_above(detail: np.ndarray, sigma: float) -> np.ndarray:

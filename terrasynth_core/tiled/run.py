@@ -27,14 +27,14 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..controls.layout import automatic_patch_size
+from ..controls.layout import grounded_examples
 from ..controls.options import Controls
 from ..errors import ParamsError, SynthesisCancelled
 from ..features.sketch import SketchMap
 from ..heightfield import HeightField
 from ..io.resample import output_georeference
 from ..synthesis.params import SynthesisParams
-from ..synthesis.session import Session
+from ..synthesis.session import Session, with_patch_size
 from .controls import MapControls, TileControls, map_controls
 from .inputs import CoarseLevel, coarse_level, sketch_window
 from .library import library_examples
@@ -248,9 +248,9 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
         raise ParamsError("no example DEM given: synthesis needs at least one")
     size_notes = []
     if params.patch_size is None:  # chosen once for every tile
-        size, size_notes = automatic_patch_size(examples, controls or Controls(),
-                                                () if sketch is None else sketch.kinds, cell_size=params.cell_size)
-        params = dataclasses.replace(params, patch_size=size)
+        (controls or Controls()).check_kinds()
+        params, size_notes = with_patch_size(
+            params, grounded_examples(examples, controls or Controls(), params.cell_size), sketch, (rows, cols))
     plan = plan_tiles((rows, cols), tile, patch_size=params.patch_size, seed=params.seed)
     # Checks the examples (and the parameters against them) before any
     # worker starts; its layout gives the run's cell size and the styles' bases.

@@ -181,6 +181,9 @@ def _spline_system(src: np.ndarray, regularization: float, collinear_tolerance: 
     ParamsError
         Two source points coincide.
     """
+    # Its own copy: the memo keeps and freezes what it returns, and the
+    # caller's array (or the buffer it views) must stay the caller's.
+    src = np.array(src, dtype=np.float64)
     n = len(src)
     center = src.mean(axis=0)
     spread = float(np.sqrt(((src - center) ** 2).sum(axis=1).max()))

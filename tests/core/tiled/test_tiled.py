@@ -19,7 +19,7 @@ from terrasynth_core.cli.main import EXIT_BAD_INPUT
 from terrasynth_core.cli.main import main as cli_main
 from terrasynth_core.errors import ParamsError, SynthesisCancelled
 from terrasynth_core.features.sketch import read_sketch
-from terrasynth_core.synthesis import SynthesisParams
+from terrasynth_core.synthesis import Controls, SynthesisParams
 from terrasynth_core.tiled import TileFinished, check_scheduler, plan_tiles, run_tiled
 from terrasynth_core.tiled.inputs import CoarseLevel, sketch_window
 from terrasynth_core.tiled.measure import border_ratio
@@ -301,3 +301,9 @@ def test_controls_a_tiled_run_cannot_take_are_refused_in_one_line(white_mountain
     wide = np.zeros((10, 40), np.int16)
     assert "another aspect ratio" in run(Controls(styles=(Style(white_mountains),), style_map=wide))
     assert not store_path(tmp_path / "o.tif").exists()  # refused before anything was made
+
+
+def test_a_bad_style_is_named_before_an_automatic_patch_size_reads_it(white_mountains, tmp_path):
+    with pytest.raises(ParamsError, match="style 1 must be a Style"):
+        run_tiled([white_mountains], None, shape=(256, 256), tile=128, out=tmp_path / "t.tif",
+                  params=SynthesisParams(), controls=Controls(styles=("not a style",)))
