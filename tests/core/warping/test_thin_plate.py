@@ -240,3 +240,16 @@ def test_fits_on_the_same_source_points_share_their_system_and_still_interpolate
     for _ in range(2):
         with pytest.raises(ParamsError, match="coincide"):
             ThinPlateSpline.fit(np.vstack([SRC, SRC[:1]]), np.vstack([dst_a, dst_a[:1]]))
+
+
+def test_a_fit_leaves_the_callers_points_its_own():
+    # The spline systems are kept by their points: the kept copy is the
+    # memo's, so the caller's array stays writable and a later change to
+    # it (or to a buffer it views) reaches no other spline.
+    buffer = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0], [10.0, 10.0], [5.0, 3.0]])
+    src, dst = buffer[:4], buffer[:4] + 1.0
+    ThinPlateSpline.fit(src, dst)
+    assert src.flags.writeable
+    buffer[0] = (3.0, 3.0)
+    again = ThinPlateSpline.fit(np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0], [10.0, 10.0]]), dst)
+    np.testing.assert_allclose(again.transform(np.array([[0.0, 0.0]])), [[1.0, 1.0]], atol=1e-6)
