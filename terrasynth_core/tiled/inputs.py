@@ -25,7 +25,7 @@ from scipy import ndimage
 
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
-from ..synthesis.landform import coarse_session_for, landform_lowpass, split_sigma, fitted_to_examples
+from ..synthesis.landform import coarse_session_for, coherence, fitted_to_examples, landform_lowpass, split_sigma
 from ..synthesis.params import SynthesisParams
 from ..synthesis.session import Session
 
@@ -108,12 +108,17 @@ class CoarseLevel:
         The landform/detail split's standard deviation, output cells.
     factor : int
         The coarse grid's down-sampling.
+    coherent : ndarray of float32, shape (R, C), or None
+        Where the level and the detail carry the same landform
+        (:func:`~terrasynth_core.synthesis.landform.coherence`); None
+        without strokes.
     """
 
     heights: np.ndarray
     shape: tuple[int, int]
     sigma: float
     factor: int
+    coherent: np.ndarray | None = None
 
     def window(self, box: Box) -> "CoarseWindow":
         """What a tile needs to make the level over ``box`` (output cells):
@@ -123,7 +128,8 @@ class CoarseLevel:
         R, C = self.heights.shape
         q0, q1 = _coarse_span(r0 - pad, r1 + pad, self.shape[0], R)
         p0, p1 = _coarse_span(c0 - pad, c1 + pad, self.shape[1], C)
-        return CoarseWindow(np.array(self.heights[q0:q1, p0:p1]), (q0, p0), (R, C), self.shape, self.sigma)
+        coherent = None if self.coherent is None else np.array(self.coherent[q0:q1, p0:p1])
+        return CoarseWindow(np.array(self.heights[q0:q1, p0:p1]), (q0, p0), (R, C), self.shape, self.sigma, coherent)
 
 
 def _coarse_span(lo: int, hi: int, size: int, coarse: int) -> tuple[int, int]:
@@ -148,6 +154,8 @@ class CoarseWindow:
         The whole coarse grid and the output.
     sigma : float
         Output cells.
+    coherent : ndarray of float32, or None
+        The coarse cells' coherence weights (:class:`CoarseLevel`).
     """
 
     heights: np.ndarray
@@ -155,11 +163,13 @@ class CoarseWindow:
     coarse_shape: tuple[int, int]
     shape: tuple[int, int]
     sigma: float
+    coherent: np.ndarray | None = None
 
     def level(self, box: Box) -> np.ndarray:
         """The level field over ``box``: the coarse terrain interpolated
         (cubic, at output cell centres, as the whole-map pass) and low-passed
-        (:func:`~terrasynth_core.synthesis.landform.landform_lowpass`).
+        (:func:`~terrasynth_core.synthesis.landform.landform_lowpass`, with
+        the coherence weights interpolated alike).
 
         Returns
         -------
@@ -177,8 +187,10 @@ class CoarseWindow:
         x = (np.arange(b0, b1) + 0.5) * self.coarse_shape[1] / cols - 0.5 - self.origin[1]
         yy, xx = np.meshgrid(y, x, indexing="ij")
         up = ndimage.map_coordinates(self.heights.astype(np.float64), [yy, xx], order=3, mode="nearest")
+        weight = None if self.coherent is None else ndimage.map_coordinates(
+            self.coherent.astype(np.float64), [yy, xx], order=3, mode="nearest")
         del yy, xx
-        level = landform_lowpass(up, self.sigma)
+        level = landform_lowpass(up, self.sigma, weight)
         return level[r0 - a0:r1 - a0, c0 - b0:c1 - b0]
 
 
@@ -226,4 +238,5 @@ def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap
     # carry the coarse terrain out of the examples' heights.
     sigma = split_sigma(params.patch_size)
     heights = fitted_to_examples(result.heights, probe.layout, factor, sigma, result.sketch_features)
-    return CoarseLevel(np.asarray(heights, np.float32), tuple(shape), sigma, factor), notes
+    coherent = coherence(result.sketch_features, params.patch_size, factor)
+    return CoarseLevel(np.asarray(heights, np.float32), tuple(shape), sigma, factor, coherent), notes

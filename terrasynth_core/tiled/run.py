@@ -373,10 +373,12 @@ def _landform(client, store: TileStore, examples, sketch, shape, params) -> tupl
         info = dict(notes=notes)
         if coarse is not None:
             info.update(sigma=coarse.sigma, factor=coarse.factor)
-        store.save_coarse(None if coarse is None else coarse.heights, info)
+        store.save_coarse(None if coarse is None else coarse.heights, info,
+                          coherent=None if coarse is None else coarse.coherent)
         return coarse, notes
-    heights, info = kept
-    coarse = None if heights is None else CoarseLevel(heights, tuple(shape), float(info["sigma"]), int(info["factor"]))
+    heights, coherent, info = kept
+    coarse = None if heights is None else CoarseLevel(heights, tuple(shape), float(info["sigma"]), int(info["factor"]),
+                                                      coherent)
     return coarse, list(info.get("notes", []))
 
 

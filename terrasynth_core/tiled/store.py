@@ -33,7 +33,7 @@ __all__ = ["STORE_FORMAT", "TileStore", "compose", "run_digest", "store_path"]
 #: ``run.json``'s ``"format"``: a folder without it is not a tile store.
 STORE_FORMAT = "terrasynth-tiles"
 #: Bumped when what a tile holds changes meaning.
-STORE_VERSION = 1
+STORE_VERSION = 2
 
 
 def store_path(out: Path) -> Path:
@@ -133,7 +133,7 @@ class TileStore:
 
     def _clear(self) -> None:
         for path in [*self.folder.glob("tile_*.npy"), self.folder / "coarse.json", self.folder / "coarse.npy",
-                     self.folder / "run.json"]:
+                     self.folder / "coherent.npy", self.folder / "run.json"]:
             path.unlink(missing_ok=True)
 
     def _write_json(self, path: Path, data: dict) -> None:
@@ -161,22 +161,29 @@ class TileStore:
             np.save(f, np.ascontiguousarray(array, dtype=np.float32), allow_pickle=False)
 
     # -- the landform pass ---------------------------------------------------------------
-    def load_coarse(self) -> tuple[np.ndarray | None, dict] | None:
+    def load_coarse(self) -> tuple[np.ndarray | None, np.ndarray | None, dict] | None:
         """The landform pass as kept: its coarse terrain (None when the pass
-        did not serve) and its description; None when not kept yet."""
+        did not serve), its coherence weights (None without strokes) and its
+        description; None when not kept yet."""
         info = self.folder / "coarse.json"
         if not info.exists():
             return None
         described = json.loads(info.read_text())
         heights = np.load(self.folder / "coarse.npy", allow_pickle=False) if described.get("heights") else None
-        return heights, described
+        coherent = (np.load(self.folder / "coherent.npy", allow_pickle=False) if described.get("coherent")
+                    else None)
+        return heights, coherent, described
 
-    def save_coarse(self, heights: np.ndarray | None, info: dict) -> None:
-        """Keep the landform pass (``heights`` None: the pass did not serve)."""
+    def save_coarse(self, heights: np.ndarray | None, info: dict, *, coherent: np.ndarray | None = None) -> None:
+        """Keep the landform pass (``heights`` None: the pass did not serve;
+        ``coherent``: its coherence weights, if any)."""
         if heights is not None:
             self._save_array(self.folder / "coarse.npy", heights)
+        if coherent is not None:
+            self._save_array(self.folder / "coherent.npy", coherent)
         # The description last: it says the pass is complete.
-        self._write_json(self.folder / "coarse.json", dict(info, heights=heights is not None))
+        self._write_json(self.folder / "coarse.json",
+                         dict(info, heights=heights is not None, coherent=coherent is not None))
 
     def close(self) -> None:
         """Let another run use the store."""

@@ -78,8 +78,8 @@ CASES = {
 #: indexed fill search and the narrower last drainage pass, and with the
 #: framed feature warps and prominence read along the feature line.
 GOLDEN = {
-    "y_junction": "cd1d08ca827d794a7a171c5556b3212ffe20daea990ad70740ffdbdd2a588005",
-    "ring_cross_raster": "ab9f1ee414e133696e92dc16b4333fbb5f0dc9361b383f5755d75382e1cfd4e3",
+    "y_junction": "1d627293bd67b61136bdade2ec4e14d98066a12d6b3ddc1e1b6e098deefd6998",
+    "ring_cross_raster": "e5aad355cd4082b183c5db6bd9885f18486f3b718aa703084ea6fa3dd4f7c2e5",
     "styles_stamp_water_pin": "947806070207149ee269d5f33ef2d1ce528e4c3878a8f762c5195b48a113e107",
 }
 

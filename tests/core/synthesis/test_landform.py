@@ -10,11 +10,14 @@ from scipy import ndimage
 from terrasynth_core.examples import builtin_example
 from terrasynth_core.features import read_sketch
 from terrasynth_core.features.network import graph_mask
-from terrasynth_core.features.sketch import sketch_features
+from terrasynth_core.features.sketch import SketchMap, sketch_features
 from terrasynth_core.synthesis import Session, SynthesisParams
 from terrasynth_core.synthesis.landform import (
+    COHERENT_REACH,
+    COHERENT_SHARE,
     FACTORS,
     coarse_factor,
+    coherence,
     coarse_patch,
     detail_above,
     landform_lowpass,
@@ -50,6 +53,36 @@ def test_detail_and_level_bands_add_up_to_the_example_power():
     plain = ndimage.gaussian_filter(noise.astype(np.float64), sigma, mode="reflect")
     assert high.var() + plain.var() < 0.97 * noise.var()
     assert abs(float(high.mean())) < 0.01 * noise.std()
+
+
+def test_about_the_strokes_aligned_bands_add_up_to_the_landform_in_amplitude():
+    # A ridge the coarse pass put on a stroke and a feature patch put there
+    # again: the same landform in both bands.  With the power-complementary
+    # level the two add to more than the landform (l + 1 - g > 1); with
+    # full coherence they add to it exactly.
+    cols = np.arange(512, dtype=np.float64)
+    ridge = np.tile(100.0 * np.exp(-0.5 * ((cols - 256) / 12.0) ** 2), (64, 1)).astype(np.float32)
+    sigma = 6.0
+    detail = detail_above(ridge, sigma)
+    independent = landform_lowpass(ridge, sigma) + detail
+    aligned = landform_lowpass(ridge, sigma, np.ones(ridge.shape)) + detail
+    half = landform_lowpass(ridge, sigma, np.full(ridge.shape, 0.5)) + detail
+    assert independent.max() > 1.05 * ridge.max()
+    np.testing.assert_allclose(aligned, ridge, atol=0.01 * float(ridge.max()))
+    assert ridge.max() < half.max() < independent.max()
+
+
+def test_coherence_is_the_share_about_the_strokes_and_nothing_far_away(y_sketch):
+    maps = sketch_features(y_sketch)
+    patch, f = 32, 2
+    weight = coherence(maps, patch, f)
+    assert weight.shape == y_sketch.shape
+    away = ndimage.distance_transform_edt(~(graph_mask(maps.ridges) | graph_mask(maps.valleys))) * f
+    assert weight[away <= COHERENT_REACH * patch].min() == pytest.approx(COHERENT_SHARE)
+    assert weight[away >= 2 * COHERENT_REACH * patch + f].max() == 0.0
+    blank = np.zeros((64, 64), bool)
+    assert coherence(sketch_features(SketchMap(blank, blank)), patch, f) is None
+    assert coherence(None, patch, f) is None
 
 
 def test_both_bands_are_local_and_exact_on_planes():

@@ -111,7 +111,11 @@ def test_sketch_windows_cut_one_scaled_sketch(sketch):
 
 def test_level_windows_agree_where_they_overlap():
     rng = np.random.default_rng(0)
-    coarse = CoarseLevel(rng.normal(500, 80, (64, 64)).astype(np.float32), (512, 512), sigma=6.4, factor=8)
+    # The coherence weights of a stroke down the middle, interpolated alike.
+    coherent = np.zeros((64, 64), np.float32)
+    coherent[:, 28:36] = 0.5
+    coarse = CoarseLevel(rng.normal(500, 80, (64, 64)).astype(np.float32), (512, 512), sigma=6.4, factor=8,
+                         coherent=coherent)
     a, b = (0, 200, 100, 300), (150, 400, 250, 512)
     la = coarse.window(a).level(a)
     lb = coarse.window(b).level(b)
