@@ -38,11 +38,12 @@ from terrasynth_core.tiled.measure import border_ratio
 from terrasynth_core.tiled.plan import plan_tiles
 
 
-def _inputs():
+def _inputs(sketch: str | None = None):
+    """The White Mountains and a built-in sketch (default: the app's)."""
     from terrasynth_core.examples import DEFAULT_EXAMPLE, DEFAULT_SKETCH, builtin_example, resource_path
     from terrasynth_core.features import read_sketch
 
-    return builtin_example(DEFAULT_EXAMPLE).load(), read_sketch(resource_path("sketches", DEFAULT_SKETCH))
+    return builtin_example(DEFAULT_EXAMPLE).load(), read_sketch(resource_path("sketches", sketch or DEFAULT_SKETCH))
 
 
 def _library(n: int) -> list:
@@ -63,11 +64,11 @@ def _library(n: int) -> list:
     return out
 
 
-def _baseline(size: int, tile: int, patch: int, seed: int) -> float:
+def _baseline(size: int, tile: int, patch: int, seed: int, sketch: str | None) -> float:
     """The border measure of a whole-map run (no tiles) on the tile grid."""
     from terrasynth_core.synthesis import Session, SynthesisParams
 
-    example, sketch = _inputs()
+    example, sketch = _inputs(sketch)
     params = SynthesisParams(patch_size=patch, seed=seed, drainage=False, workers=1)
     heights = Session([example], sketch, shape=(size, size), params=params).run().heights
     return border_ratio(heights, plan_tiles((size, size), tile, patch_size=patch, seed=seed))
@@ -78,7 +79,7 @@ def _child(args) -> int:
     from terrasynth_core.synthesis import SynthesisParams
     from terrasynth_core.tiled import run_tiled
 
-    example, sketch = _inputs()
+    example, sketch = _inputs(args.sketch)
     examples = [example] if args.library == 1 else _library(args.library)
     # Examples are resampled to one cell size: the Gabon plateau's, so a
     # library's examples are not enlarged.
@@ -127,12 +128,14 @@ class _TreeMemory:
         self._thread.join()
 
 
-def _run(size: int, tile: int, n: int, patch: int, seed: int, folder: Path, library: int = 1) -> dict:
+def _run(size: int, tile: int, n: int, patch: int, seed: int, folder: Path, library: int = 1,
+         sketch: str | None = None) -> dict:
     import rasterio
 
     out = folder / f"tiled_{size}_{n}.tif"
     cmd = [sys.executable, __file__, "--child", "--size", str(size), "--tile", str(tile), "--n", str(n),
-           "--patch", str(patch), "--seed", str(seed), "--out", str(out), "--library", str(library)]
+           "--patch", str(patch), "--seed", str(seed), "--out", str(out), "--library", str(library),
+           *(["--sketch", sketch] if sketch else [])]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
     memory = _TreeMemory(proc.pid)
     stdout, _ = proc.communicate()
@@ -168,6 +171,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--library", type=int, default=1,
                     help="example DEMs: 1 (White Mountains) or N (two built-ins rotated and mirrored, then their "
                          "crops; cells of 92.66 m)")
+    ap.add_argument("--sketch", help="a built-in sketch file (default: the app's Y-junction, ridges only; "
+                                     "s_valley_1000.png has valleys for the drainage)")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--size", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
@@ -179,19 +184,20 @@ def main(argv: list[str] | None = None) -> int:
     counts = [int(n) for n in args.workers.split(",")]
     rows = []
     print(f"{'size':>6} {'tile':>5} {'workers':>7} {'time s':>8} {'speed-up':>8} {'worker MB':>9} "
-          f"{'private':>8} {'tree MB':>8} {'border':>7}", flush=True)
+          f"{'private':>8} {'tree MB':>8} {'border':>7} {'drain s':>7}", flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         for size in sizes:
             first = None
             for n in counts:
-                row = _run(size, args.tile, n, args.patch, args.seed, Path(tmp), args.library)
+                row = _run(size, args.tile, n, args.patch, args.seed, Path(tmp), args.library, args.sketch)
                 first = first or (row["seconds"] if n == 1 else None)
                 row["speed_up"] = None if first is None else first / row["seconds"]
                 rows.append(row)
                 speed = "-" if row["speed_up"] is None else f"{row['speed_up']:.2f}x"
                 print(f"{size:>6} {args.tile:>5} {n:>7} {row['seconds']:>8.1f} {speed:>8} "
                       f"{row['peak_worker_mb']:>9.0f} {row['peak_worker_private_mb']:>8.0f} "
-                      f"{row['peak_tree_mb']:>8.0f} {row['border_ratio']:>7.3f}",
+                      f"{row['peak_tree_mb']:>8.0f} {row['border_ratio']:>7.3f} "
+                      f"{row['timings'].get('drainage', float('nan')):>7.1f}",
                       flush=True)
     by_size = {}
     for r in rows:
@@ -199,7 +205,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.baseline:
         for size in sizes:
             print(f"whole-map run {size}x{size} (no tiles) on the same grid: border "
-                  f"{_baseline(size, args.tile, args.patch, args.seed):.3f}", flush=True)
+                  f"{_baseline(size, args.tile, args.patch, args.seed, args.sketch):.3f}", flush=True)
     for n, peaks in by_size.items():
         if 2048 in peaks and 4096 in peaks:
             print(f"tree memory 4096^2 / 2048^2 with {n} worker(s): {peaks[4096] / peaks[2048]:.2f}x")

@@ -56,18 +56,27 @@ synthesis's job (the ridge's feature patches).
 
 Cells locked by a local re-synthesis never change; cells farther than the
 half-widths from every corrected stroke keep their bytes.
+
+The step reads the heights only along the strokes and keeps each
+correction as its values on the cells it changes (:class:`Correction`), so
+a world-size map drains without being held in memory: a tiled run
+(:mod:`terrasynth_core.tiled.drainage`) reads its finished tiles and adds
+the corrections band by band as it writes the GeoTIFF, and gives the same
+bytes as :func:`apply_drainage` on the whole map.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 from scipy import ndimage, sparse
 from scipy.optimize import isotonic_regression
+from scipy.sparse.csgraph import connected_components
 
 from ..features.graph import FeatureGraph
-from .pins import smooth_correction
+from .pins import smooth_correction_cells
 
 #: Radius of the disc a floor (or crest) is sampled in, in patches.
 FLOOR_RADIUS = 0.1
@@ -85,6 +94,60 @@ STEP = 0.7
 PASSES = 3
 #: The last pass's correction width, as a share of the valley half-width.
 FINAL_WIDTH = 1.0 / 3.0
+
+
+class Surface(Protocol):
+    """Heights the step reads and corrects: an array's, or a tiled run's.
+
+    ``shape``; ``surface[rr, cc]`` the float32 heights at integer cell
+    arrays (any shape); ``add(correction)`` adds a correction to what later
+    reads return.
+    """
+
+    shape: tuple[int, int]
+
+    def __getitem__(self, cells: tuple[np.ndarray, np.ndarray]) -> np.ndarray: ...
+
+    def add(self, correction: "Correction") -> None: ...
+
+
+class Mask(Protocol):
+    """A map of cells (locked, water), read where needed: ``mask.at(rr,
+    cc)`` at integer cell arrays, ``mask.window((r0, r1, c0, c1))`` over a
+    box; both bool."""
+
+    def at(self, rr: np.ndarray, cc: np.ndarray) -> np.ndarray: ...
+
+    def window(self, box: tuple[int, int, int, int]) -> np.ndarray: ...
+
+
+class ArrayMask:
+    """:class:`Mask` over a whole-map array."""
+
+    def __init__(self, mask: np.ndarray):
+        self.mask = np.asarray(mask, bool)
+
+    def at(self, rr: np.ndarray, cc: np.ndarray) -> np.ndarray:
+        return self.mask[rr, cc]
+
+    def window(self, box: tuple[int, int, int, int]) -> np.ndarray:
+        r0, r1, c0, c1 = box
+        return self.mask[r0:r1, c0:c1]
+
+
+class ArraySurface:
+    """:class:`Surface` over a whole-map float32 array, corrected in place."""
+
+    def __init__(self, heights: np.ndarray):
+        self.heights = heights
+        self.shape = heights.shape
+
+    def __getitem__(self, cells):
+        return self.heights[cells]
+
+    def add(self, correction: "Correction") -> None:
+        rows, cols = self.shape
+        self.heights += correction.over((0, rows, 0, cols)).astype(np.float32)
 
 
 def apply_drainage(heights: np.ndarray, valleys: FeatureGraph | None, ridges: FeatureGraph | None, *,
@@ -113,29 +176,57 @@ def apply_drainage(heights: np.ndarray, valleys: FeatureGraph | None, ridges: Fe
     """
     out = np.array(heights, dtype=np.float32, copy=True)
     span = float(np.ptp(out)) if out.size else 0.0
+    drain(ArraySurface(out), valleys, ridges, patch_size=patch_size, span=span,
+          water=None if water is None or not np.any(water) else ArrayMask(water),
+          locked=None if locked is None else ArrayMask(locked))
+    return out
+
+
+def drain(surface: Surface, valleys: FeatureGraph | None, ridges: FeatureGraph | None, *, patch_size: int,
+          span: float, water: Mask | None = None, locked: Mask | None = None) -> None:
+    """:func:`apply_drainage` on any :class:`Surface`: the corrections are
+    added to ``surface`` one after the other (the ridges', then up to
+    :data:`PASSES` of the valleys').
+
+    Parameters
+    ----------
+    surface : Surface
+    valleys, ridges : FeatureGraph or None
+        In the surface's cells.
+    patch_size : int
+    span : float
+        The surface's height span (max - min), metres: sets the least
+        floor gradient and the most a crest is raised.
+    water, locked : Mask, optional
+        Painted water (a valley end touching it is an outlet) and cells that
+        must not change.
+    """
     if span <= 0:
-        return out
-    locked = np.zeros(out.shape, bool) if locked is None else np.asarray(locked, bool)
+        return
     eps = MIN_SLOPE * span
+    shape = surface.shape
     if ridges is not None and ridges.paths:
         r_crest = max(1, int(round(CREST_RADIUS * patch_size)))
         width = max(3.0, RIDGE_HALF_WIDTH * patch_size)
-        pins = _ridge_pins(out, ridges, r_crest, width, eps, RIDGE_MAX_RAISE * span)
-        _correct(out, pins, width, locked, tol=1e-4 * span, pin_zeros=False)
+        pins = _ridge_pins(surface, ridges, r_crest, width, eps, RIDGE_MAX_RAISE * span)
+        correction = _correction(shape, pins, width, locked, tol=1e-4 * span, pin_zeros=False)
+        if correction is not None:
+            surface.add(correction)
     if valleys is not None and valleys.paths:
         r_floor = max(1, int(round(FLOOR_RADIUS * patch_size)))
         width = max(3.0, VALLEY_HALF_WIDTH * patch_size)
         for n in range(PASSES):
-            pins = _valley_pins(out, valleys, r_floor, eps, water)
+            pins = _valley_pins(surface, valleys, r_floor, eps, water)
             # The last pass on the full grid: the coarse solve leaves
             # centimetres, enough for a pit in a floor fitted nearly flat.
             # Centimetres fade out over a third of the width unseen, and the
             # full-grid solve gets a third of the unknowns (4x faster).
             last = n == PASSES - 1
-            if not _correct(out, pins, max(3.0, width * FINAL_WIDTH) if last else width, locked,
-                            tol=1e-5 * span, coarse=not last):
+            correction = _correction(shape, pins, max(3.0, width * FINAL_WIDTH) if last else width, locked,
+                                     tol=1e-5 * span, coarse=not last)
+            if correction is None:
                 break
-    return out
+            surface.add(correction)
 
 
 # -- sampling -------------------------------------------------------------------
@@ -167,7 +258,7 @@ def _normals(points: np.ndarray) -> np.ndarray:
     return np.column_stack([-tangent[:, 1], tangent[:, 0]])
 
 
-def _lowest(h: np.ndarray, points: np.ndarray, radius: int, sign: float = 1.0):
+def _lowest(h: Surface, points: np.ndarray, radius: int, sign: float = 1.0):
     """The lowest height (``sign=-1``: highest) on the cross-section of the
     stroke within ``radius`` of each point, and its cell; ties go to the
     cell nearest the stroke.  A cross-section, not a disc, so a dam
@@ -188,14 +279,12 @@ def _arc_length(points: np.ndarray) -> np.ndarray:
 
 # -- valleys --------------------------------------------------------------------
 
-def _valley_pins(h: np.ndarray, graph: FeatureGraph, radius: int, eps: float,
-                 water: np.ndarray | None) -> list[tuple[np.ndarray, np.ndarray]]:
+def _valley_pins(h: Surface, graph: FeatureGraph, radius: int, eps: float,
+                 water: Mask | None) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per chain of every network: its points and the change that makes its
     floor descend to the outlet."""
     rows, cols = h.shape
-    near_water = None
-    if water is not None and water.any():
-        near_water = ndimage.binary_dilation(water, structure=_disc(radius))
+    disc = _disc(radius)
 
     def floor(points):
         return _lowest(h, points, radius)
@@ -204,9 +293,13 @@ def _valley_pins(h: np.ndarray, graph: FeatureGraph, radius: int, eps: float,
         r, c = node.row, node.col
         if min(r, c, rows - 1 - r, cols - 1 - c) <= radius:
             return True
-        if near_water is not None:
+        if water is not None:
+            # Water within the disc about the node's cell.
             rr, cc = _cells(np.array([[r, c]]), h.shape)
-            return bool(near_water[rr[0], cc[0]])
+            r0, c0 = int(rr[0]) - radius, int(cc[0]) - radius
+            a0, a1 = max(r0, 0), min(r0 + 2 * radius + 1, rows)
+            b0, b1 = max(c0, 0), min(c0 + 2 * radius + 1, cols)
+            return bool((water.window((a0, a1, b0, b1)) & disc[a0 - r0:a1 - r0, b0 - c0:b1 - c0]).any())
         return False
 
     adj: dict[int, list[tuple[int, int]]] = {}
@@ -314,11 +407,10 @@ def _descending_fit(floor: np.ndarray, s: np.ndarray, eps: float, start: float |
 
 # -- ridges ---------------------------------------------------------------------
 
-def _ridge_pins(h: np.ndarray, graph: FeatureGraph, radius: int, width: float,
+def _ridge_pins(h: Surface, graph: FeatureGraph, radius: int, width: float,
                 eps: float, cap: float) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per ridge path: its crest cells and the raise (at most ``cap``) that
     closes its notches."""
-    hf = h.astype(np.float64)
     pins = []
     offsets = np.arange(radius + 1, int(np.ceil(width)) + 1, dtype=float)
     for p in graph.paths:
@@ -332,7 +424,7 @@ def _ridge_pins(h: np.ndarray, graph: FeatureGraph, radius: int, width: float,
             for d in offsets:
                 q = pts + sign * d * normal
                 inside = (q[:, 0] > -0.5) & (q[:, 0] < h.shape[0] - 0.5) & (q[:, 1] > -0.5) & (q[:, 1] < h.shape[1] - 0.5)
-                v = np.where(inside, hf[_cells(q, h.shape)], -np.inf)
+                v = np.where(inside, h[_cells(q, h.shape)].astype(np.float64), -np.inf)
                 side = np.maximum(side, v)
         # A notch: below the crest on both sides along the ridge.
         dam = np.minimum(np.maximum.accumulate(crest), np.maximum.accumulate(crest[::-1])[::-1])
@@ -349,61 +441,203 @@ def _ridge_pins(h: np.ndarray, graph: FeatureGraph, radius: int, width: float,
 
 # -- the correction -------------------------------------------------------------
 
-def _correct(out: np.ndarray, chains: Sequence[tuple[np.ndarray, np.ndarray]], width: float,
-             locked: np.ndarray, *, tol: float, pin_zeros: bool = True, coarse: bool = True) -> bool:
-    """Add to ``out`` (in place) the smooth field that takes each chain's
-    values on its cells and fades to zero ``width`` cells from the changed
-    ones.  False when nothing needed changing.
+class Correction:
+    """A smooth correction: its values on the cells of a grid ``k`` times
+    coarser that it changes, interpolated bilinearly onto the output's
+    cells; zero elsewhere and on locked cells.
+
+    Parameters
+    ----------
+    shape : (rows, cols)
+        The output's cells.
+    k : int
+        The coarse grid's factor (1: the output's own cells).
+    cells : ndarray of int64, shape (n,)
+        Row-major indices on the coarse grid, increasing.
+    values : ndarray of float64, shape (n,)
+        Metres.
+    locked : Mask or None
+        Cells the correction leaves alone.
+    """
+
+    def __init__(self, shape: tuple[int, int], k: int, cells: np.ndarray, values: np.ndarray,
+                 locked: Mask | None):
+        self.shape, self.k = shape, k
+        self.cshape = (-(-shape[0] // k), -(-shape[1] // k))
+        self.cells, self.values, self.locked = cells, values, locked
+
+    def _coarse(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        """The coarse values over coarse rows r0..r1, columns c0..c1."""
+        out = np.zeros((r1 - r0, c1 - c0))
+        rr, cc = np.divmod(self.cells, self.cshape[1])
+        inside = (rr >= r0) & (rr < r1) & (cc >= c0) & (cc < c1)
+        out[rr[inside] - r0, cc[inside] - c0] = self.values[inside]
+        return out
+
+    def over(self, box: tuple[int, int, int, int]) -> np.ndarray:
+        """The correction over ``box`` (output cells), float64 metres."""
+        r0, r1, c0, c1 = box
+        if self.k == 1:
+            field = self._coarse(r0, r1, c0, c1)
+        else:
+            # Bilinear, one axis after the other: two thin sparse matrices
+            # instead of a full grid of coordinates (384 MB at 4000 x 4000),
+            # cut to the box and the coarse cells it reads.
+            wr = _linear_weights(self.shape[0], self.cshape[0], self.k)[r0:r1]
+            wc = _linear_weights(self.shape[1], self.cshape[1], self.k)[c0:c1]
+            q0, q1 = int(wr.indices.min()), int(wr.indices.max()) + 1
+            p0, p1 = int(wc.indices.min()), int(wc.indices.max()) + 1
+            field = wr[:, q0:q1] @ self._coarse(q0, q1, p0, p1) @ wc[:, p0:p1].T
+        if self.locked is not None:
+            field[self.locked.window(box)] = 0.0
+        return field
+
+    def at(self, rr: np.ndarray, cc: np.ndarray) -> np.ndarray:
+        """The correction at cells ``rr, cc`` (integer arrays of one shape),
+        float64 metres: what :meth:`over` gives there, to the bit."""
+        rr, cc = np.asarray(rr, np.int64), np.asarray(cc, np.int64)
+
+        def value(a, b):
+            q = a * self.cshape[1] + b
+            at = np.minimum(np.searchsorted(self.cells, q), max(len(self.cells) - 1, 0))
+            hit = self.cells[at] == q if len(self.cells) else np.zeros(q.shape, bool)
+            return np.where(hit, self.values[at] if len(self.cells) else 0.0, 0.0)
+
+        if self.k == 1:
+            out = value(rr, cc)
+        else:
+            lr, hr, tr = _linear_taps(rr, self.cshape[0], self.k)
+            lc, hc, tc = _linear_taps(cc, self.cshape[1], self.k)
+            # As the sparse products sum: rows first, then columns, each tap
+            # in order (low, then high).
+            low = (1.0 - tr) * value(lr, lc) + tr * value(hr, lc)
+            high = (1.0 - tr) * value(lr, hc) + tr * value(hr, hc)
+            out = (1.0 - tc) * low + tc * high
+        if self.locked is not None:
+            out = np.where(self.locked.at(rr, cc), 0.0, out)
+        return out
+
+
+def _correction(shape: tuple[int, int], chains: Sequence[tuple[np.ndarray, np.ndarray]], width: float,
+                locked: Mask | None, *, tol: float, pin_zeros: bool = True, coarse: bool = True) -> Correction | None:
+    """The smooth field that takes each chain's values on its cells and
+    fades to zero ``width`` cells from the changed ones (None when nothing
+    needs changing).
 
     The field is smooth on the scale of ``width``, so it is solved on a grid
     coarser by ``width // 8`` (3 for an 80-cell patch: a ninth of the
     unknowns, a twentieth of the time) and interpolated bilinearly; cells
     whose coarse neighbours are all outside the solve get exactly zero.
-    ``pin_zeros`` False leaves unchanged cells free instead of holding them;
-    ``coarse`` False solves on the full grid.
+    Only the cells within ``width`` of a changed one are solved for, as a
+    list (a long valley's band, not its bounding box).  ``pin_zeros`` False
+    leaves unchanged cells free instead of holding them; ``coarse`` False
+    solves on the full grid.
     """
-    shape = out.shape
     k = max(1, int(width // 8)) if coarse else 1
     cshape = (-(-shape[0] // k), -(-shape[1] // k))
-    total = np.zeros(cshape)
-    count = np.zeros(cshape)
-    for pts, change in chains:
+    index, change = [], []
+    for pts, ch in chains:
         r, c = _cells(pts, shape)
-        keep = ~locked[r, c] & (pin_zeros | (change != 0))
-        np.add.at(total, (r[keep] // k, c[keep] // k), change[keep])
-        np.add.at(count, (r[keep] // k, c[keep] // k), 1.0)
-    padded = np.zeros((cshape[0] * k, cshape[1] * k), bool)
-    padded[:shape[0], :shape[1]] = locked
-    coarse_locked = padded.reshape(cshape[0], k, cshape[1], k).any(axis=(1, 3))
-    pinned = (count > 0) & ~coarse_locked
-    value = np.divide(total, count, out=np.zeros(cshape), where=count > 0)
+        keep = pin_zeros | (ch != 0)
+        if locked is not None:
+            keep = keep & ~locked.at(r, c)
+        index.append((r[keep] // k) * cshape[1] + c[keep] // k)
+        change.append(ch[keep])
+    if not index:
+        return None
+    # Each coarse cell's pin: the mean of the changes that fall in it.
+    cells, inverse = np.unique(np.concatenate(index), return_inverse=True)
+    total, count = np.zeros(len(cells)), np.zeros(len(cells))
+    np.add.at(total, inverse, np.concatenate(change))
+    np.add.at(count, inverse, 1.0)
+    value = total / np.maximum(count, 1.0)
+    pinned = ~_coarse_locked(cells, cshape, k, shape, locked)
     active = pinned & (np.abs(value) > tol)
     if not active.any():
-        return False
-    region = (ndimage.distance_transform_edt(~active) < width / k) & ~coarse_locked
-    labels, _ = ndimage.label(region)
-    field = np.zeros(cshape)
-    for g, box in enumerate(ndimage.find_objects(labels), start=1):
-        free = labels[box] == g
-        sub_pins = pinned[box] & free
-        rr, cc = np.nonzero(sub_pins)
-        vals = value[box][sub_pins]
-        field[box] += smooth_correction(free, list(zip(rr.tolist(), cc.tolist(), vals.tolist())))
-    if k > 1:
-        # Bilinear, one axis after the other: two thin sparse matrices
-        # instead of a full grid of coordinates (384 MB at 4000 x 4000).
-        field = _linear_weights(shape[0], cshape[0], k) @ field @ _linear_weights(shape[1], cshape[1], k).T
-    field[locked] = 0.0
-    out += field.astype(np.float32)
-    return True
+        return None
+    region = _within(cells[active], width / k, cshape)
+    region = region[~_coarse_locked(region, cshape, k, shape, locked)]
+    field = np.zeros(len(region))
+    at = np.minimum(np.searchsorted(cells, region), len(cells) - 1)
+    is_pin = (cells[at] == region) & pinned[at]
+    for members in _components(region, cshape):
+        rr, cc = np.divmod(region[members], cshape[1])
+        r0, c0 = int(rr.min()), int(cc.min())
+        box = (int(rr.max()) + 1 - r0, int(cc.max()) + 1 - c0)
+        # Solved within the component's bounding box: the Laplacian rows
+        # stop at its edge.
+        field[members] = smooth_correction_cells(box, (rr - r0) * box[1] + (cc - c0), is_pin[members],
+                                                 value[at[members]])
+    return Correction(shape, k, region, field, locked)
+
+
+def _coarse_locked(cells: np.ndarray, cshape: tuple[int, int], k: int, shape: tuple[int, int],
+                   locked: Mask | None) -> np.ndarray:
+    """Whether each coarse cell holds a locked cell."""
+    if locked is None or len(cells) == 0:
+        return np.zeros(len(cells), bool)
+    r, c = np.divmod(cells, cshape[1])
+    out = np.zeros(len(cells), bool)
+    for dr in range(k):
+        for dc in range(k):
+            out |= locked.at(np.minimum(r * k + dr, shape[0] - 1), np.minimum(c * k + dc, shape[1] - 1))
+    return out
+
+
+#: Cells of :func:`_within`'s candidates made at a time (bounds its memory).
+_WITHIN_CHUNK = 1 << 22
+
+
+def _within(cells: np.ndarray, radius: float, cshape: tuple[int, int]) -> np.ndarray:
+    """The grid cells closer than ``radius`` (cell centres, Euclidean) to
+    one of ``cells``, row-major indices, increasing."""
+    reach = int(np.ceil(radius))
+    dr, dc = np.mgrid[-reach:reach + 1, -reach:reach + 1]
+    near = np.sqrt((dr * dr + dc * dc).astype(np.float64)) < radius
+    dr, dc = dr[near], dc[near]
+    r, c = np.divmod(cells, cshape[1])
+    found = []
+    step = max(1, _WITHIN_CHUNK // len(dr))
+    for i in range(0, len(cells), step):
+        rr = r[i:i + step, None] + dr[None, :]
+        cc = c[i:i + step, None] + dc[None, :]
+        inside = (rr >= 0) & (rr < cshape[0]) & (cc >= 0) & (cc < cshape[1])
+        found.append(np.unique(rr[inside] * cshape[1] + cc[inside]))
+    return np.unique(np.concatenate(found))
+
+
+def _components(cells: np.ndarray, cshape: tuple[int, int]) -> list[np.ndarray]:
+    """The 4-connected groups of ``cells`` (increasing row-major indices),
+    each as positions into ``cells``."""
+    n = len(cells)
+    r, c = np.divmod(cells, cshape[1])
+    edges_a, edges_b = [], []
+    for step, same_row in ((1, True), (cshape[1], False)):
+        q = cells + step
+        at = np.minimum(np.searchsorted(cells, q), n - 1)
+        link = (cells[at] == q) & ((c + 1 < cshape[1]) if same_row else (r + 1 < cshape[0]))
+        edges_a.append(np.flatnonzero(link))
+        edges_b.append(at[link])
+    a, b = np.concatenate(edges_a), np.concatenate(edges_b)
+    graph = sparse.coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n))
+    _, labels = connected_components(graph, directed=False)
+    order = np.argsort(labels, kind="stable")
+    return np.split(order, np.flatnonzero(np.diff(labels[order])) + 1)
+
+
+def _linear_taps(x: np.ndarray, m: int, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cells ``x`` on a grid of ``m`` coarse cells of ``k`` cells each: the
+    low and high coarse cells and the high one's weight (as
+    :func:`_linear_weights`)."""
+    t = np.clip((x + 0.5) / k - 0.5, 0.0, m - 1)
+    lo = np.minimum(np.floor(t).astype(np.int64), max(m - 2, 0))
+    return lo, np.minimum(lo + 1, m - 1), t - lo
 
 
 def _linear_weights(n: int, m: int, k: int) -> sparse.csr_matrix:
     """Linear interpolation from ``m`` coarse cells of ``k`` cells each onto
     ``n`` cells (centres aligned, clamped at the ends), shape (n, m)."""
-    x = np.clip((np.arange(n) + 0.5) / k - 0.5, 0.0, m - 1)
-    lo = np.minimum(np.floor(x).astype(np.int64), max(m - 2, 0))
-    t = x - lo
+    lo, hi, t = _linear_taps(np.arange(n), m, k)
     rows = np.repeat(np.arange(n), 2)
-    cols = np.stack([lo, np.minimum(lo + 1, m - 1)], axis=1).ravel()
+    cols = np.stack([lo, hi], axis=1).ravel()
     return sparse.csr_matrix((np.stack([1.0 - t, t], axis=1).ravel(), (rows, cols)), shape=(n, m))

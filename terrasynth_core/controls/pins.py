@@ -158,7 +158,8 @@ def smooth_correction(free: np.ndarray, pins: list[tuple[int, int, float]]) -> n
     4-neighbours, with ``d = 0`` on cells outside ``free`` (so the field
     leaves the free area with zero value and, through the Laplacian rows
     just outside, zero slope).  Also the drainage step's solver
-    (:mod:`.drainage`), with the stroke centrelines as its pins.
+    (:mod:`.drainage`, through :func:`smooth_correction_cells`), with the
+    stroke centrelines as its pins.
 
     Parameters
     ----------
@@ -166,6 +167,10 @@ def smooth_correction(free: np.ndarray, pins: list[tuple[int, int, float]]) -> n
         Cells that may change.
     pins : list of (row, col, value)
         Cells of ``free`` whose value is set; no cell twice.
+
+    Returns
+    -------
+    ndarray of float64, shape (rows, cols)
     """
     shape = free.shape
     pinned = np.zeros(shape, bool)
@@ -173,41 +178,78 @@ def smooth_correction(free: np.ndarray, pins: list[tuple[int, int, float]]) -> n
     for r, c, v in pins:
         pinned[r, c] = True
         value[r, c] = v
-    unknown = free & ~pinned
+    out = value.copy()
+    cells = np.flatnonzero(free)
+    out.ravel()[cells] = smooth_correction_cells(shape, cells, pinned.ravel()[cells], value.ravel()[cells])
+    return out
+
+
+def smooth_correction_cells(shape: tuple[int, int], cells: np.ndarray, pinned: np.ndarray,
+                            values: np.ndarray) -> np.ndarray:
+    """:func:`smooth_correction` on a list of cells instead of a mask: what
+    a long, thin region (a valley's band across a world-size map) needs,
+    whose bounding box would not fit in memory.
+
+    Parameters
+    ----------
+    shape : (rows, cols)
+        The box the cells lie in: the Laplacian rows stop at its edge.
+    cells : ndarray of int64, shape (n,)
+        The free cells' row-major indices in ``shape``, increasing.
+    pinned : ndarray of bool, shape (n,)
+        Which of them are set.
+    values : ndarray of float, shape (n,)
+        Their values where set (the rest are not read).
+
+    Returns
+    -------
+    ndarray of float64, shape (n,)
+        The field on ``cells``.
+    """
+    rows, cols = shape
+    pinned = np.asarray(pinned, bool)
+    out = np.where(pinned, np.asarray(values, np.float64), 0.0)
+    unknown = ~pinned
     n = int(unknown.sum())
     if n == 0:
-        return value
-    # Unknowns first, then pinned cells (known values), then the zero
-    # border, which needs no columns at all.
-    index = np.full(shape, -1, dtype=np.int64)
-    index[unknown] = np.arange(n)
-    n_pin = int(pinned.sum())
-    index[pinned] = n + np.arange(n_pin)
-    rows_mask = ndimage.binary_dilation(free)
-    eq = np.full(shape, -1, dtype=np.int64)
-    eq[rows_mask] = np.arange(int(rows_mask.sum()))
+        return out
+    # Unknowns first, then pinned cells (known values), both row-major;
+    # cells off the list are the zero border, which needs no columns.
+    column = np.empty(len(cells), np.int64)
+    column[unknown] = np.arange(n)
+    n_pin = len(cells) - n
+    column[pinned] = n + np.arange(n_pin)
+    r, c = np.divmod(cells, cols)
+    # One Laplacian row per free cell and per 4-neighbour of one in the box,
+    # row-major.
+    around = [cells]
+    for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+        rr, cc = r + dr, c + dc
+        inside = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
+        around.append(rr[inside] * cols + cc[inside])
+    equations = np.unique(np.concatenate(around))
+    er, ec = np.divmod(equations, cols)
     # 5-point Laplacian rows: -4 at the cell, +1 at each neighbour that has
     # a column (unknown or pinned); zero-border cells drop out.
-    padded = np.pad(index, 1, constant_values=-1)
-    centre = padded[1:-1, 1:-1]
     entries_r, entries_c, entries_v = [], [], []
     for dr, dc, w in ((0, 0, -4.0), (-1, 0, 1.0), (1, 0, 1.0), (0, -1, 1.0), (0, 1, 1.0)):
-        col = padded[1 + dr:1 + dr + shape[0], 1 + dc:1 + dc + shape[1]] if (dr or dc) else centre
-        use = rows_mask & (col >= 0)
-        entries_r.append(eq[use])
-        entries_c.append(col[use])
+        nr, nc = er + dr, ec + dc
+        inside = (nr >= 0) & (nr < rows) & (nc >= 0) & (nc < cols)
+        q = np.where(inside, nr * cols + nc, -1)
+        at = np.minimum(np.searchsorted(cells, q), len(cells) - 1)
+        use = inside & (cells[at] == q)
+        entries_r.append(np.flatnonzero(use))
+        entries_c.append(column[at[use]])
         entries_v.append(np.full(int(use.sum()), w))
     A = sparse.csr_matrix((np.concatenate(entries_v), (np.concatenate(entries_r), np.concatenate(entries_c))),
-                          shape=(int(rows_mask.sum()), n + n_pin))
+                          shape=(len(equations), n + n_pin))
     A_u, A_p = A[:, :n], A[:, n:]
-    known = value[pinned] if n_pin else np.zeros(0)
-    # Order of pinned columns follows index[pinned] (row-major), as does value[pinned].
+    known = out[pinned] if n_pin else np.zeros(0)
     rhs = -(A_u.T @ (A_p @ known))
     # The normal equations are symmetric positive definite: a symmetric
     # fill-reducing order with diagonal pivots (a quarter faster than
     # spsolve's default column order on an 89,000-cell drainage solve).
     x = splu((A_u.T @ A_u).tocsc(), permc_spec="MMD_AT_PLUS_A",
              options={"SymmetricMode": True, "DiagPivotThresh": 0.0}).solve(rhs)
-    out = value.copy()
     out[unknown] = x
     return out

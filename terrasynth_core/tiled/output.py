@@ -45,7 +45,7 @@ class Written:
 
 
 def write_geotiff_from_tiles(store: TileStore, plan: TilePlan, out: Path, *, cell_size: float | None,
-                             georef: GeoReference | None) -> Written:
+                             georef: GeoReference | None, adjust=None) -> Written:
     """Write the finished tiles of ``plan`` as one GeoTIFF at ``out``.
 
     Parameters
@@ -59,6 +59,10 @@ def write_geotiff_from_tiles(store: TileStore, plan: TilePlan, out: Path, *, cel
         Metres (None: unknown, written without placement).
     georef : GeoReference or None
         The output's placement on the map.
+    adjust : callable, optional
+        ``adjust(box, heights)`` returns the heights to write over ``box``
+        (output cells) given the tiles' (the drainage's corrections,
+        :meth:`.drainage.TiledSurface.corrected`).
 
     Returns
     -------
@@ -84,6 +88,8 @@ def write_geotiff_from_tiles(store: TileStore, plan: TilePlan, out: Path, *, cel
         with rasterio.open(tmp, "w", **profile) as ds:
             for b0 in range(0, rows, BLOCK):
                 band = _band(store, plan, b0, min(b0 + BLOCK, rows))
+                if adjust is not None:
+                    band = adjust((b0, b0 + band.shape[0], 0, cols), band)
                 lowest, highest = min(lowest, float(band.min())), max(highest, float(band.max()))
                 ds.write(band, 1, window=Window(0, b0, cols, band.shape[0]))
             ds.update_tags(**tags)

@@ -36,6 +36,7 @@ from ..io.resample import output_georeference
 from ..synthesis.params import SynthesisParams
 from ..synthesis.session import Session, with_patch_size
 from .controls import MapControls, TileControls, map_controls
+from .drainage import drain_tiles
 from .inputs import CoarseLevel, coarse_level, sketch_window
 from .library import library_examples
 from .output import write_geotiff_from_tiles
@@ -191,7 +192,8 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
         The ``.tif``/``.tiff`` to write; its tile store is ``OUT.tiles``.
     params : SynthesisParams
         As for a whole-map run; ``workers`` is ignored (one process per
-        Dask worker) and drainage is not applied (it needs the whole map).
+        Dask worker).  Drainage, which needs the whole map's strokes, runs
+        once the tiles are finished (:mod:`.drainage`).
     workers : int, optional
         Worker processes of the local cluster (default: one per core).
         Not used with ``scheduler`` or ``client``.
@@ -259,9 +261,6 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
     probe = Session(examples, None, shape=(side, side), params=_quiet(params),
                     controls=Controls(styles=styles, style_map=np.zeros((side, side), np.int16)) if styles else None)
     notes = [*size_notes, *(w for w in probe.warnings if "no strokes" not in w)]
-    if params.drainage:
-        notes.append("drainage is not applied to a tiled run (it needs the whole map's streams): the heights are "
-                     "as synthesized")
     mapped = map_controls(controls, examples, (rows, cols), plan, params, probe.layout)
     if styles and params.landform:
         notes.append("landform pass not used with style regions in a tiled run: each region is built on its own "
@@ -312,10 +311,20 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, mapped: MapControls,
     finally:
         if own is not None:
             _close(client, own)
+    adjust = None
+    if params.drainage and sketch is not None and sketch.has_strokes:
+        # The whole map's valleys drain to their outlets, tiles away: read
+        # along the strokes from the finished tiles, added as they are written.
+        t = time.perf_counter()
+        drained, drain_notes = drain_tiles(store, plan, sketch, patch_size=params.patch_size, water=mapped.water,
+                                           pins=mapped.pins)
+        notes.extend(drain_notes)
+        adjust = drained.corrected
+        timings["drainage"] = time.perf_counter() - t
     t = time.perf_counter()
     placed = examples[:mapped.n_plain + len(mapped.styles)]  # the stamps do not place the output
     georef = None if cell is None else output_georeference(placed, plan.shape, cell)
-    written = write_geotiff_from_tiles(store, plan, out, cell_size=cell, georef=georef)
+    written = write_geotiff_from_tiles(store, plan, out, cell_size=cell, georef=georef, adjust=adjust)
     timings["write"] = time.perf_counter() - t
     return timings, n_workers, written
 

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import tracemalloc
+
 import numpy as np
 import pytest
 
-from terrasynth_core.controls.drainage import _descending_fit, apply_drainage
+from terrasynth_core.controls.drainage import _descending_fit, apply_drainage, drain
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.features.graph import FeatureGraph, FeatureNode, FeaturePath
 from terrasynth_core.synthesis import SynthesisParams
@@ -173,3 +175,80 @@ def test_no_strokes_no_change_and_the_switch_is_validated():
     assert SynthesisParams().drainage is True
     with pytest.raises(ParamsError, match="drainage"):
         SynthesisParams(drainage="yes")
+
+
+# -- the step on a map it does not hold ------------------------------------------------
+class _PlaneSurface:
+    """A drainage surface computed where read (never held): a valley along
+    the diagonal of a ``side`` x ``side`` map, falling to the far corner,
+    with a dam across it half-way."""
+
+    def __init__(self, side):
+        self.shape = (side, side)
+        self.side = side
+        self.corrections = []
+
+    def base(self, rr, cc):
+        r, c = rr.astype(np.float64), cc.astype(np.float64)
+        across = np.abs(r - c) / np.sqrt(2.0)
+        along = (r + c) / 2.0
+        h = 100.0 + 1.5 * across + 0.05 * (self.side - along)
+        h += 12.0 * np.exp(-((along - self.side / 2) ** 2) / 50.0) * np.exp(-(across ** 2) / 800.0)
+        return h.astype(np.float32)
+
+    def __getitem__(self, cells):
+        rr, cc = (np.asarray(a) for a in cells)
+        out = self.base(rr, cc)
+        for corr in self.corrections:
+            out = out + corr.at(rr, cc).astype(np.float32)
+        return out
+
+    def add(self, correction):
+        self.corrections.append(correction)
+
+
+def test_a_correction_read_cell_by_cell_is_its_field_to_the_bit():
+    side = 600
+    surface = _PlaneSurface(side)
+    diagonal = _graph("valley", [(5, 5), (side - 1, side - 1)], [(0, 1)])
+    diagonal = FeatureGraph("valley", (side, side), diagonal.nodes, diagonal.paths)
+    r, c = np.mgrid[0:side, 0:side]
+    base = surface.base(r, c)
+    drain(surface, diagonal, None, patch_size=PATCH, span=float(np.ptp(base)))
+    assert len(surface.corrections) >= 2  # a coarse pass and the fine one
+    rng = np.random.default_rng(0)
+    box = (200, 330, 180, 420)
+    for corr in surface.corrections:
+        field = corr.over(box)
+        assert np.abs(field).max() > 0.01
+        rr, cc = rng.integers(box[0], box[1], 500), rng.integers(box[2], box[3], 500)
+        assert np.array_equal(corr.at(rr, cc), field[rr - box[0], cc - box[2]])
+    # The whole-map step on the same heights gives the same bytes.
+    whole = apply_drainage(base, diagonal, None, patch_size=PATCH)
+    lazy = base.copy()
+    for corr in surface.corrections:
+        lazy += corr.over((0, side, 0, side)).astype(np.float32)
+    assert np.array_equal(whole, lazy)
+
+
+def test_a_world_size_map_drains_in_memory_of_its_strokes_not_its_area():
+    # 20000 x 20000 cells (1.6 GB as float32): the step reads the heights
+    # along the diagonal valley and keeps its corrections on the band it
+    # changes.
+    side = 20_000
+    surface = _PlaneSurface(side)
+    diagonal = _graph("valley", [(5, 5), (side - 1, side - 1)], [(0, 1)])
+    diagonal = FeatureGraph("valley", (side, side), diagonal.nodes, diagonal.paths)
+    tracemalloc.start()
+    try:
+        drain(surface, diagonal, None, patch_size=PATCH, span=400.0)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 400e6  # a quarter of the map as float32
+    cells = sum(len(c.cells) for c in surface.corrections)
+    assert 0 < cells < 0.01 * side * side
+    # The dam half-way is cut: the floor descends along the diagonal.
+    along = np.arange(100, side - 100, 7)
+    floor = surface[along, along].astype(np.float64)
+    assert np.all(np.diff(floor) <= 1e-3)

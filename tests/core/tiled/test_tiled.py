@@ -3,6 +3,7 @@ cluster against one worker, the border measure, resume and stale tiles."""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 import signal
@@ -311,3 +312,39 @@ def test_a_bad_style_is_named_before_an_automatic_patch_size_reads_it(white_moun
     with pytest.raises(ParamsError, match="style 1 must be a Style"):
         run_tiled([white_mountains], None, shape=(256, 256), tile=128, out=tmp_path / "t.tif",
                   params=SynthesisParams(), controls=Controls(styles=("not a style",)))
+
+
+def test_a_tiled_run_drains_the_whole_map_as_a_whole_map_step_would(one_worker, white_mountains, sketch_dir,
+                                                                   tmp_path):
+    """The S-valley across 2 x 2 tiles: drained after the tiles, the map is
+    what the whole-map drainage step makes of the same tiles, to the bit."""
+    from terrasynth_core.controls.drainage import apply_drainage
+    from terrasynth_core.tiled.drainage import map_strokes
+
+    s_valley = read_sketch(sketch_dir / "s_valley_1000.png")
+    params = SynthesisParams(patch_size=32, k=2, seed=5)
+    drained = run_tiled([white_mountains], s_valley, shape=(256, 256), tile=128, out=tmp_path / "drained.tif",
+                        params=params, client=one_worker)
+    assert "drainage" in drained.timings and not any("drainage" in n for n in drained.notes)
+    run_tiled([white_mountains], s_valley, shape=(256, 256), tile=128, out=tmp_path / "as_made.tif",
+              params=dataclasses.replace(params, drainage=False), client=one_worker)
+    heights, as_made = _read(tmp_path / "drained.tif"), _read(tmp_path / "as_made.tif")
+    maps = map_strokes(s_valley, (256, 256))
+    assert maps.valleys.paths and maps.ridges.paths
+    expected = apply_drainage(as_made, maps.valleys, maps.ridges, patch_size=32)
+    assert np.array_equal(heights, expected)
+    assert np.abs(heights - as_made).max() > 0.1  # the step changed something
+
+
+def test_map_strokes_are_the_painted_strokes_scaled_cell_centre_to_cell_centre(sketch):
+    from terrasynth_core.features.sketch import sketch_features
+    from terrasynth_core.tiled.drainage import map_strokes
+
+    painted = sketch_features(sketch)
+    scaled = map_strokes(sketch, (1024, 2048))
+    assert scaled.ridges.shape == (1024, 2048)
+    factor = np.array([1024 / sketch.shape[0], 2048 / sketch.shape[1]])
+    for a, b in zip(painted.ridges.paths, scaled.ridges.paths):
+        np.testing.assert_allclose(b.points, (a.points + 0.5) * factor - 0.5)
+    assert map_strokes(sketch, sketch.shape).ridges.paths[0].points.tolist() == \
+        painted.ridges.paths[0].points.tolist()

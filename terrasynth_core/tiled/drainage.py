@@ -1,0 +1,170 @@
+"""Drainage in a tiled run: the whole map's painted valleys made to drain
+and its ridges to divide once the tiles are finished, without holding the
+map.
+
+A tile cannot drain its valleys alone: a valley's floor must descend all
+the way to its outlet, tiles away.  So the step
+(:mod:`terrasynth_core.controls.drainage`) runs after the tiles on the
+whole map's strokes.  It reads the heights along them from the tiles on
+disk (memory-mapped, :class:`TiledSurface`), solves each valley's profile
+and each correction on the cells it changes (a band along the strokes),
+and the GeoTIFF writer adds the corrections band of rows by band of rows
+(:meth:`TiledSurface.corrected`).  The heights are those
+:func:`~terrasynth_core.controls.drainage.apply_drainage` gives on the
+composed map, to the bit, in memory that grows with the strokes' length,
+not the map's area.
+
+Unlike a whole-map run's finish, it comes after the tiles' own finishing
+(their knee into the examples' range, water and pins): painted water is
+held still (its cells are locked, and a valley ending in it has its
+outlet there); a pin within reach of a corrected stroke moves with it and
+the run says so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..controls.drainage import Correction, drain
+from ..features.graph import FeatureGraph, FeatureMaps, FeatureNode, FeaturePath
+from ..features.sketch import SketchMap, sketch_features
+from .controls import window_nearest
+from .plan import TilePlan
+from .store import TileStore, compose
+
+__all__ = ["PaintedMask", "TiledSurface", "drain_tiles", "map_strokes"]
+
+#: Rows of the map composed at a time when its height span is read.
+SPAN_ROWS = 512
+
+
+class TiledSurface:
+    """The finished tiles of a run, read cell by cell where the drainage
+    step asks (:class:`~terrasynth_core.controls.drainage.Surface`), with
+    the corrections it adds.
+
+    Parameters
+    ----------
+    store : TileStore
+        Holding every tile of ``plan``.
+    plan : TilePlan
+    """
+
+    def __init__(self, store: TileStore, plan: TilePlan):
+        self.store, self.plan = store, plan
+        self.shape = tuple(plan.shape)
+        self.corrections: list[Correction] = []
+
+    def __getitem__(self, cells: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        rr, cc = (np.asarray(a, np.int64) for a in cells)
+        shape = rr.shape
+        rr, cc = rr.ravel(), cc.ravel()
+        out = np.zeros(rr.shape, np.float32)
+        for tile in self.plan.tiles:  # in phase order: later phases paint over earlier ones (as compose)
+            a0, a1, b0, b1 = tile.region
+            inside = (rr >= a0) & (rr < a1) & (cc >= b0) & (cc < b1)
+            if inside.any():
+                made = self.store.load(tile.key, mmap=True)
+                out[inside] = made[rr[inside] - a0, cc[inside] - b0]
+        for correction in self.corrections:
+            out += correction.at(rr, cc).astype(np.float32)
+        return out.reshape(shape)
+
+    def add(self, correction: Correction) -> None:
+        self.corrections.append(correction)
+
+    def corrected(self, box: tuple[int, int, int, int], heights: np.ndarray) -> np.ndarray:
+        """``heights`` (the tiles over ``box``, float32) with the
+        corrections added, in place and returned."""
+        for correction in self.corrections:
+            heights += correction.over(box).astype(np.float32)
+        return heights
+
+    def span(self) -> float:
+        """The composed map's height span (max - min), metres, read
+        :data:`SPAN_ROWS` rows at a time."""
+        rows, cols = self.shape
+        lowest, highest = np.float32(np.inf), np.float32(-np.inf)
+        for r0 in range(0, rows, SPAN_ROWS):
+            band = compose(self.store, self.plan, (r0, min(r0 + SPAN_ROWS, rows), 0, cols))
+            lowest, highest = min(lowest, band.min()), max(highest, band.max())
+        return float(highest - lowest)  # float32, as np.ptp of the whole map
+
+
+class PaintedMask:
+    """A mask as painted, read at output cells by nearest cell (as the
+    tiles read it, :func:`~.controls.window_nearest`): a
+    :class:`~terrasynth_core.controls.drainage.Mask`."""
+
+    def __init__(self, painted: np.ndarray, shape: tuple[int, int]):
+        self.painted = np.asarray(painted, bool)
+        self.shape = tuple(shape)
+
+    def at(self, rr: np.ndarray, cc: np.ndarray) -> np.ndarray:
+        h, w = self.painted.shape
+        r = np.minimum(((np.asarray(rr) + 0.5) * h / self.shape[0]).astype(int), h - 1)
+        c = np.minimum(((np.asarray(cc) + 0.5) * w / self.shape[1]).astype(int), w - 1)
+        return self.painted[r, c]
+
+    def window(self, box: tuple[int, int, int, int]) -> np.ndarray:
+        return window_nearest(self.painted, self.shape, box)
+
+
+def map_strokes(sketch: SketchMap, shape: tuple[int, int]) -> FeatureMaps:
+    """The sketch's ridge and valley networks in output cells.
+
+    Traced at the sketch's own size (a world-size map's strokes are not
+    traced cell by cell) and scaled, cell centre to cell centre.
+    """
+    maps = sketch_features(sketch)
+    if tuple(sketch.shape) == tuple(shape):
+        return maps
+    sr, sc = shape[0] / sketch.shape[0], shape[1] / sketch.shape[1]
+
+    def scaled(graph: FeatureGraph) -> FeatureGraph:
+        nodes = tuple(FeatureNode(n.id, (n.row + 0.5) * sr - 0.5, (n.col + 0.5) * sc - 0.5, n.type, n.degree)
+                      for n in graph.nodes)
+        paths = tuple(FeaturePath(p.start, p.end, (np.asarray(p.points, float) + 0.5) * (sr, sc) - 0.5)
+                      for p in graph.paths)
+        return FeatureGraph(graph.kind, tuple(shape), nodes, paths)
+
+    return FeatureMaps(scaled(maps.ridges), scaled(maps.valleys))
+
+
+def drain_tiles(store: TileStore, plan: TilePlan, sketch: SketchMap, *, patch_size: int, water=None,
+                pins=()) -> tuple[TiledSurface, list[str]]:
+    """Drain the whole map of a finished tiled run.
+
+    Parameters
+    ----------
+    store : TileStore
+        Holding every tile of ``plan``.
+    plan : TilePlan
+    sketch : SketchMap
+        As painted, any size (scaled to the output).
+    patch_size : int
+        The run's.
+    water : Water, optional
+        Painted water (its mask as painted): held still, and an outlet.
+    pins : sequence of Pin
+        In output cells: those the drainage moves are named in the notes.
+
+    Returns
+    -------
+    surface : TiledSurface
+        The tiles and their corrections (:meth:`TiledSurface.corrected`
+        gives the drained heights over any box).
+    notes : list of str
+        For the run's warnings.
+    """
+    surface = TiledSurface(store, plan)
+    maps = map_strokes(sketch, plan.shape)
+    mask = None if water is None or not np.any(water.mask) else PaintedMask(water.mask, plan.shape)
+    drain(surface, maps.valleys, maps.ridges, patch_size=patch_size, span=surface.span(), water=mask, locked=mask)
+    notes = []
+    for p in pins:
+        moved = sum(float(c.at(np.array([p.row]), np.array([p.col]))[0]) for c in surface.corrections)
+        if abs(moved) >= 0.01:
+            notes.append(f"the pin at row {p.row}, col {p.col} moved {moved:+.2f} m with the drainage, which a "
+                         "tiled run applies after the tiles: move it off the stroke or turn drainage off")
+    return surface, notes
