@@ -69,7 +69,7 @@ def _baseline(size: int, tile: int, patch: int, seed: int, sketch: str | None) -
     from terrasynth_core.synthesis import Session, SynthesisParams
 
     example, sketch = _inputs(sketch)
-    params = SynthesisParams(patch_size=patch, seed=seed, drainage=False, workers=1)
+    params = SynthesisParams(patch_size=patch, seed=seed, workers=1)  # drained, as the tiled run
     heights = Session([example], sketch, shape=(size, size), params=params).run().heights
     return border_ratio(heights, plan_tiles((size, size), tile, patch_size=patch, seed=seed))
 

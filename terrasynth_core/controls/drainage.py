@@ -32,7 +32,7 @@ across it), so this finish step makes it so:
 4. **Smooth correction.**  The change ``fit - floor`` is pinned on the
    floor cells (the lowest cell of each sample's cross-section: the
    thalweg, on or next to the centreline) and spread by the pins' solver
-   (:func:`.pins.smooth_correction`: least squared Laplacian, zero with zero
+   (:func:`.pins.smooth_correction_cells`: least squared Laplacian, zero with zero
    slope at a valley half-width, a third of a patch), solved on a grid three
    times coarser (the field is smooth on that scale) and interpolated: a
    broad, smooth lowering or raising of the valley with its own detail
@@ -76,7 +76,7 @@ from scipy.optimize import isotonic_regression
 from scipy.sparse.csgraph import connected_components
 
 from ..features.graph import FeatureGraph
-from .pins import smooth_correction_cells
+from .pins import positions, smooth_correction_cells
 
 #: Radius of the disc a floor (or crest) is sampled in, in patches.
 FLOOR_RADIUS = 0.1
@@ -465,27 +465,36 @@ class Correction:
         self.shape, self.k = shape, k
         self.cshape = (-(-shape[0] // k), -(-shape[1] // k))
         self.cells, self.values, self.locked = cells, values, locked
+        # The coarse rows it spans (``cells`` are row-major, increasing).
+        self.rows = (int(cells[0] // self.cshape[1]), int(cells[-1] // self.cshape[1]) + 1)
 
     def _coarse(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         """The coarse values over coarse rows r0..r1, columns c0..c1."""
         out = np.zeros((r1 - r0, c1 - c0))
-        rr, cc = np.divmod(self.cells, self.cshape[1])
-        inside = (rr >= r0) & (rr < r1) & (cc >= c0) & (cc < c1)
-        out[rr[inside] - r0, cc[inside] - c0] = self.values[inside]
+        width = self.cshape[1]
+        a, b = np.searchsorted(self.cells, [r0 * width, r1 * width])  # the cells of those rows
+        rr, cc = np.divmod(self.cells[a:b], width)
+        inside = (cc >= c0) & (cc < c1)
+        out[rr[inside] - r0, cc[inside] - c0] = self.values[a:b][inside]
         return out
 
     def over(self, box: tuple[int, int, int, int]) -> np.ndarray:
         """The correction over ``box`` (output cells), float64 metres."""
         r0, r1, c0, c1 = box
         if self.k == 1:
-            field = self._coarse(r0, r1, c0, c1)
+            q0, q1 = r0, r1
         else:
             # Bilinear, one axis after the other: two thin sparse matrices
             # instead of a full grid of coordinates (384 MB at 4000 x 4000),
             # cut to the box and the coarse cells it reads.
             wr = _linear_weights(self.shape[0], self.cshape[0], self.k)[r0:r1]
-            wc = _linear_weights(self.shape[1], self.cshape[1], self.k)[c0:c1]
             q0, q1 = int(wr.indices.min()), int(wr.indices.max()) + 1
+        if q1 <= self.rows[0] or q0 >= self.rows[1]:
+            return np.zeros((r1 - r0, c1 - c0))  # a box the correction does not reach (a band of the map)
+        if self.k == 1:
+            field = self._coarse(r0, r1, c0, c1)
+        else:
+            wc = _linear_weights(self.shape[1], self.cshape[1], self.k)[c0:c1]
             p0, p1 = int(wc.indices.min()), int(wc.indices.max()) + 1
             field = wr[:, q0:q1] @ self._coarse(q0, q1, p0, p1) @ wc[:, p0:p1].T
         if self.locked is not None:
@@ -498,10 +507,8 @@ class Correction:
         rr, cc = np.asarray(rr, np.int64), np.asarray(cc, np.int64)
 
         def value(a, b):
-            q = a * self.cshape[1] + b
-            at = np.minimum(np.searchsorted(self.cells, q), max(len(self.cells) - 1, 0))
-            hit = self.cells[at] == q if len(self.cells) else np.zeros(q.shape, bool)
-            return np.where(hit, self.values[at] if len(self.cells) else 0.0, 0.0)
+            at, found = positions(self.cells, a * self.cshape[1] + b)
+            return np.where(found, self.values[at], 0.0)
 
         if self.k == 1:
             out = value(rr, cc)
@@ -558,15 +565,15 @@ def _correction(shape: tuple[int, int], chains: Sequence[tuple[np.ndarray, np.nd
     region = _within(cells[active], width / k, cshape)
     region = region[~_coarse_locked(region, cshape, k, shape, locked)]
     field = np.zeros(len(region))
-    at = np.minimum(np.searchsorted(cells, region), len(cells) - 1)
-    is_pin = (cells[at] == region) & pinned[at]
+    at, found = positions(cells, region)
+    is_pin = found & pinned[at]
     for members in _components(region, cshape):
         rr, cc = np.divmod(region[members], cshape[1])
         r0, c0 = int(rr.min()), int(cc.min())
         box = (int(rr.max()) + 1 - r0, int(cc.max()) + 1 - c0)
         # Solved within the component's bounding box: the Laplacian rows
-        # stop at its edge.
-        field[members] = smooth_correction_cells(box, (rr - r0) * box[1] + (cc - c0), is_pin[members],
+        # stop at its edge.  (Added to zeros, as the dense field was.)
+        field[members] += smooth_correction_cells(box, (rr - r0) * box[1] + (cc - c0), is_pin[members],
                                                  value[at[members]])
     return Correction(shape, k, region, field, locked)
 
@@ -613,9 +620,8 @@ def _components(cells: np.ndarray, cshape: tuple[int, int]) -> list[np.ndarray]:
     r, c = np.divmod(cells, cshape[1])
     edges_a, edges_b = [], []
     for step, same_row in ((1, True), (cshape[1], False)):
-        q = cells + step
-        at = np.minimum(np.searchsorted(cells, q), n - 1)
-        link = (cells[at] == q) & ((c + 1 < cshape[1]) if same_row else (r + 1 < cshape[0]))
+        at, found = positions(cells, cells + step)
+        link = found & ((c + 1 < cshape[1]) if same_row else (r + 1 < cshape[0]))
         edges_a.append(np.flatnonzero(link))
         edges_b.append(at[link])
     a, b = np.concatenate(edges_a), np.concatenate(edges_b)

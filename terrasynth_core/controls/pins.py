@@ -184,6 +184,20 @@ def smooth_correction(free: np.ndarray, pins: list[tuple[int, int, float]]) -> n
     return out
 
 
+def positions(cells: np.ndarray, wanted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where each of ``wanted`` is in ``cells`` (increasing, not empty),
+    and whether it is there at all.
+
+    Returns
+    -------
+    at : ndarray of int64, the shape of ``wanted``
+        Its position (meaningless where not found).
+    found : ndarray of bool, the shape of ``wanted``
+    """
+    at = np.minimum(np.searchsorted(cells, wanted), len(cells) - 1)
+    return at, cells[at] == wanted
+
+
 def smooth_correction_cells(shape: tuple[int, int], cells: np.ndarray, pinned: np.ndarray,
                             values: np.ndarray) -> np.ndarray:
     """:func:`smooth_correction` on a list of cells instead of a mask: what
@@ -235,9 +249,8 @@ def smooth_correction_cells(shape: tuple[int, int], cells: np.ndarray, pinned: n
     for dr, dc, w in ((0, 0, -4.0), (-1, 0, 1.0), (1, 0, 1.0), (0, -1, 1.0), (0, 1, 1.0)):
         nr, nc = er + dr, ec + dc
         inside = (nr >= 0) & (nr < rows) & (nc >= 0) & (nc < cols)
-        q = np.where(inside, nr * cols + nc, -1)
-        at = np.minimum(np.searchsorted(cells, q), len(cells) - 1)
-        use = inside & (cells[at] == q)
+        at, found = positions(cells, np.where(inside, nr * cols + nc, -1))
+        use = inside & found
         entries_r.append(np.flatnonzero(use))
         entries_c.append(column[at[use]])
         entries_v.append(np.full(int(use.sum()), w))

@@ -199,9 +199,15 @@ def window_nearest(painted: np.ndarray, shape: tuple[int, int], box: Box) -> np.
     by nearest cell, as :func:`~terrasynth_core.features.sketch.resize_nearest`
     scales the whole map (each cell takes the painted pixel under its centre)."""
     r0, r1, c0, c1 = box
-    rows = np.minimum(((np.arange(r0, r1) + 0.5) * painted.shape[0] / shape[0]).astype(int), painted.shape[0] - 1)
-    cols = np.minimum(((np.arange(c0, c1) + 0.5) * painted.shape[1] / shape[1]).astype(int), painted.shape[1] - 1)
+    rows = painted_index(np.arange(r0, r1), painted.shape[0], shape[0])
+    cols = painted_index(np.arange(c0, c1), painted.shape[1], shape[1])
     return painted[np.ix_(rows, cols)]
+
+
+def painted_index(cells: np.ndarray, painted: int, size: int) -> np.ndarray:
+    """The painted pixel under each output cell's centre, along one axis of
+    ``size`` output cells and ``painted`` pixels."""
+    return np.minimum(((np.asarray(cells) + 0.5) * painted / size).astype(int), painted - 1)
 
 
 def _same_aspect(name: str, arr: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

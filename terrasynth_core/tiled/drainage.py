@@ -15,20 +15,24 @@ composed map, to the bit, in memory that grows with the strokes' length,
 not the map's area.
 
 Unlike a whole-map run's finish, it comes after the tiles' own finishing
-(their knee into the examples' range, water and pins): painted water is
-held still (its cells are locked, and a valley ending in it has its
-outlet there); a pin within reach of a corrected stroke moves with it and
-the run says so.
+(their knee into the examples' range, water and pins): painted water and
+its banks are held still (locked; a valley ending in water has its outlet
+there); a pin within reach of a corrected stroke moves with it and the run
+says so; a floor the step lowers may end a little below the examples'
+range.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from scipy import ndimage
 
 from ..controls.drainage import Correction, drain
 from ..features.graph import FeatureGraph, FeatureMaps, FeatureNode, FeaturePath
 from ..features.sketch import SketchMap, sketch_features
-from .controls import window_nearest
+from .controls import painted_index, window_nearest
 from .plan import TilePlan
 from .store import TileStore, compose
 
@@ -36,6 +40,10 @@ __all__ = ["PaintedMask", "TiledSurface", "drain_tiles", "map_strokes"]
 
 #: Rows of the map composed at a time when its height span is read.
 SPAN_ROWS = 512
+
+#: Most cells the strokes are traced on (:func:`map_strokes`): a larger
+#: output is traced on a grid a whole factor coarser, and scaled.
+TRACE_CELLS = 4096 * 4096
 
 
 class TiledSurface:
@@ -60,12 +68,24 @@ class TiledSurface:
         shape = rr.shape
         rr, cc = rr.ravel(), cc.ravel()
         out = np.zeros(rr.shape, np.float32)
+        # Each cell lies in its own tile's box; a tile's region reaches
+        # less than a tile into its neighbours', so only the cells of the
+        # nine boxes about a tile are looked at for it.
+        n_rows, n_cols = len(self.plan.row_edges) - 1, len(self.plan.col_edges) - 1
+        box_of = ((np.searchsorted(self.plan.row_edges, rr, side="right") - 1) * n_cols
+                  + np.searchsorted(self.plan.col_edges, cc, side="right") - 1)
+        order = np.argsort(box_of, kind="stable")
+        starts = np.searchsorted(box_of[order], np.arange(n_rows * n_cols + 1))
         for tile in self.plan.tiles:  # in phase order: later phases paint over earlier ones (as compose)
+            i, j = tile.key
+            near = np.concatenate([order[starts[a * n_cols + c]:starts[a * n_cols + c + 1]]
+                                   for a in range(max(i - 1, 0), min(i + 2, n_rows))
+                                   for c in range(max(j - 1, 0), min(j + 2, n_cols))])
             a0, a1, b0, b1 = tile.region
-            inside = (rr >= a0) & (rr < a1) & (cc >= b0) & (cc < b1)
-            if inside.any():
+            near = near[(rr[near] >= a0) & (rr[near] < a1) & (cc[near] >= b0) & (cc[near] < b1)]
+            if len(near):
                 made = self.store.load(tile.key, mmap=True)
-                out[inside] = made[rr[inside] - a0, cc[inside] - b0]
+                out[near] = made[rr[near] - a0, cc[near] - b0]
         for correction in self.corrections:
             out += correction.at(rr, cc).astype(np.float32)
         return out.reshape(shape)
@@ -102,9 +122,7 @@ class PaintedMask:
 
     def at(self, rr: np.ndarray, cc: np.ndarray) -> np.ndarray:
         h, w = self.painted.shape
-        r = np.minimum(((np.asarray(rr) + 0.5) * h / self.shape[0]).astype(int), h - 1)
-        c = np.minimum(((np.asarray(cc) + 0.5) * w / self.shape[1]).astype(int), w - 1)
-        return self.painted[r, c]
+        return self.painted[painted_index(rr, h, self.shape[0]), painted_index(cc, w, self.shape[1])]
 
     def window(self, box: tuple[int, int, int, int]) -> np.ndarray:
         return window_nearest(self.painted, self.shape, box)
@@ -113,13 +131,20 @@ class PaintedMask:
 def map_strokes(sketch: SketchMap, shape: tuple[int, int]) -> FeatureMaps:
     """The sketch's ridge and valley networks in output cells.
 
-    Traced at the sketch's own size (a world-size map's strokes are not
-    traced cell by cell) and scaled, cell centre to cell centre.
+    Traced on the sketch scaled to the output, as the tiles trace theirs
+    (so the step finds the valleys the tiles built: a stroke painted two
+    pixels wide and traced at the painted size would lie half a painted
+    pixel off their centreline); an output over :data:`TRACE_CELLS` is
+    traced on a grid a whole factor coarser and the lines scaled, cell
+    centre to cell centre (off by at most half that factor).
     """
-    maps = sketch_features(sketch)
-    if tuple(sketch.shape) == tuple(shape):
+    rows, cols = shape
+    f = max(1, math.ceil(math.sqrt(rows * cols / TRACE_CELLS)))
+    grid = (-(-rows // f), -(-cols // f))
+    maps = sketch_features(sketch.resized(grid))
+    if grid == (rows, cols):
         return maps
-    sr, sc = shape[0] / sketch.shape[0], shape[1] / sketch.shape[1]
+    sr, sc = rows / grid[0], cols / grid[1]
 
     def scaled(graph: FeatureGraph) -> FeatureGraph:
         nodes = tuple(FeatureNode(n.id, (n.row + 0.5) * sr - 0.5, (n.col + 0.5) * sc - 0.5, n.type, n.degree)
@@ -159,8 +184,15 @@ def drain_tiles(store: TileStore, plan: TilePlan, sketch: SketchMap, *, patch_si
     """
     surface = TiledSurface(store, plan)
     maps = map_strokes(sketch, plan.shape)
-    mask = None if water is None or not np.any(water.mask) else PaintedMask(water.mask, plan.shape)
-    drain(surface, maps.valleys, maps.ridges, patch_size=patch_size, span=surface.span(), water=mask, locked=mask)
+    painted = None if water is None or not np.any(water.mask) else PaintedMask(water.mask, plan.shape)
+    banks = None
+    if painted is not None:
+        # The water and its banks (the tiles shaped them over half a patch)
+        # are held still; the banks widened at the painted size.
+        reach = math.ceil(patch_size / 2 * water.mask.shape[0] / plan.shape[0])
+        banks = PaintedMask(ndimage.binary_dilation(painted.painted, iterations=reach), plan.shape)
+    drain(surface, maps.valleys, maps.ridges, patch_size=patch_size, span=surface.span(), water=painted,
+          locked=banks)
     notes = []
     for p in pins:
         moved = sum(float(c.at(np.array([p.row]), np.array([p.col]))[0]) for c in surface.corrections)

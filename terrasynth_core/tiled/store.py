@@ -66,7 +66,10 @@ def run_digest(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap |
         64 hex digits.
     """
     h = hashlib.sha256()
-    described = {"version": __version__, "store": STORE_VERSION, "params": params.to_dict(),
+    # Drainage is not in it: it runs after the tiles (.drainage), whose
+    # heights do not depend on it.
+    described = {"version": __version__, "store": STORE_VERSION,
+                 "params": {k: v for k, v in params.to_dict().items() if k != "drainage"},
                  "shape": list(plan.shape), "tile": plan.tile, "context": plan.context, "band": plan.band,
                  "rows": list(plan.row_edges), "cols": list(plan.col_edges), "examples": []}
     for ex in examples:

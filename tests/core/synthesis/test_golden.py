@@ -76,7 +76,9 @@ CASES = {
 #: water shaping lifting the inner half of a bank fully to the shore, and
 #: with issue 11 ("Speed"): the fill in waves of independent windows, the
 #: indexed fill search and the narrower last drainage pass, and with the
-#: framed feature warps and prominence read along the feature line.
+#: framed feature warps and prominence read along the feature line, and
+#: with the level about the strokes moved toward amplitude-complementary
+#: (landform.coherence; the styles case has no landform pass and kept its).
 GOLDEN = {
     "y_junction": "1d627293bd67b61136bdade2ec4e14d98066a12d6b3ddc1e1b6e098deefd6998",
     "ring_cross_raster": "e5aad355cd4082b183c5db6bd9885f18486f3b718aa703084ea6fa3dd4f7c2e5",

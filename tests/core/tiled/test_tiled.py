@@ -14,6 +14,7 @@ import textwrap
 import numpy as np
 import pytest
 import rasterio
+from scipy import ndimage
 from distributed import Client, LocalCluster
 
 from terrasynth_core.cli.main import EXIT_BAD_INPUT
@@ -24,7 +25,7 @@ from terrasynth_core.synthesis import Controls, SynthesisParams
 from terrasynth_core.tiled import TileFinished, check_scheduler, plan_tiles, run_tiled
 from terrasynth_core.tiled.inputs import CoarseLevel, sketch_window
 from terrasynth_core.tiled.measure import border_ratio
-from terrasynth_core.tiled.store import store_path
+from terrasynth_core.tiled.store import run_digest, store_path
 
 P = SynthesisParams(patch_size=32, k=2, seed=7)
 SHAPE = (384, 384)
@@ -334,17 +335,56 @@ def test_a_tiled_run_drains_the_whole_map_as_a_whole_map_step_would(one_worker, 
     expected = apply_drainage(as_made, maps.valleys, maps.ridges, patch_size=32)
     assert np.array_equal(heights, expected)
     assert np.abs(heights - as_made).max() > 0.1  # the step changed something
+    # Toggling drainage keeps the tiles: it runs after them.
+    assert run_digest([white_mountains], s_valley, params, plan_tiles((256, 256), 128, patch_size=32, seed=5)) == \
+        run_digest([white_mountains], s_valley, dataclasses.replace(params, drainage=False),
+                   plan_tiles((256, 256), 128, patch_size=32, seed=5))
 
 
-def test_map_strokes_are_the_painted_strokes_scaled_cell_centre_to_cell_centre(sketch):
+def test_tiled_drainage_holds_painted_water_and_its_banks_and_names_a_pin_it_moves(one_worker, white_mountains,
+                                                                                  sketch_dir, tmp_path):
+    """Water painted at another size than the output where the S-valley
+    ends: an outlet, and locked with its banks; a pin on the valley is
+    named in the notes."""
+    from terrasynth_core.controls.drainage import apply_drainage
+    from terrasynth_core.controls.pins import Pin
+    from terrasynth_core.synthesis import Water
+    from terrasynth_core.tiled.drainage import PaintedMask, map_strokes
+
+    s_valley = read_sketch(sketch_dir / "s_valley_1000.png")
+    maps = map_strokes(s_valley, (256, 256))
+    end = next(n for n in maps.valleys.nodes if n.degree == 1)
+    rr, cc = np.mgrid[0:100, 0:100]
+    painted = np.hypot(rr - end.row * 100 / 256, cc - end.col * 100 / 256) < 8  # a lake at one end of the valley
+    mid = maps.valleys.paths[0].points[len(maps.valleys.paths[0].points) // 2]
+    pin = Pin(int(round(mid[0])), int(round(mid[1])), 900.0)
+    controls = Controls(water=Water(painted, 300.0), pins=(pin,))
+    params = SynthesisParams(patch_size=32, k=2, seed=5)
+    drained = run_tiled([white_mountains], s_valley, shape=(256, 256), tile=128, out=tmp_path / "drained.tif",
+                        params=params, client=one_worker, controls=controls)
+    run_tiled([white_mountains], s_valley, shape=(256, 256), tile=128, out=tmp_path / "as_made.tif",
+              params=dataclasses.replace(params, drainage=False), client=one_worker, controls=controls)
+    heights, as_made = _read(tmp_path / "drained.tif"), _read(tmp_path / "as_made.tif")
+    water = PaintedMask(painted, (256, 256)).window((0, 256, 0, 256))
+    banks = PaintedMask(ndimage.binary_dilation(painted, iterations=7), (256, 256)).window((0, 256, 0, 256))
+    expected = apply_drainage(as_made, maps.valleys, maps.ridges, patch_size=32, water=water, locked=banks)
+    assert np.array_equal(heights, expected)
+    assert np.array_equal(heights[banks], as_made[banks])  # water and banks held still
+    assert any(f"pin at row {pin.row}, col {pin.col} moved" in n for n in drained.notes)
+
+
+def test_map_strokes_are_traced_as_the_tiles_trace_theirs_and_scaled_beyond_a_size(sketch, monkeypatch):
     from terrasynth_core.features.sketch import sketch_features
-    from terrasynth_core.tiled.drainage import map_strokes
+    from terrasynth_core.tiled import drainage
 
-    painted = sketch_features(sketch)
-    scaled = map_strokes(sketch, (1024, 2048))
-    assert scaled.ridges.shape == (1024, 2048)
-    factor = np.array([1024 / sketch.shape[0], 2048 / sketch.shape[1]])
-    for a, b in zip(painted.ridges.paths, scaled.ridges.paths):
-        np.testing.assert_allclose(b.points, (a.points + 0.5) * factor - 0.5)
-    assert map_strokes(sketch, sketch.shape).ridges.paths[0].points.tolist() == \
-        painted.ridges.paths[0].points.tolist()
+    # Up to TRACE_CELLS, on the sketch scaled to the output (as the tiles).
+    direct = drainage.map_strokes(sketch, (300, 600))
+    traced = sketch_features(sketch.resized((300, 600)))
+    assert [p.points.tolist() for p in direct.ridges.paths] == [p.points.tolist() for p in traced.ridges.paths]
+    # Beyond it, on a grid a whole factor coarser, scaled cell centre to cell centre.
+    monkeypatch.setattr(drainage, "TRACE_CELLS", 150 * 300)
+    scaled = drainage.map_strokes(sketch, (300, 600))
+    small = sketch_features(sketch.resized((150, 300)))
+    assert scaled.ridges.shape == (300, 600)
+    for a, b in zip(small.ridges.paths, scaled.ridges.paths):
+        np.testing.assert_allclose(b.points, (a.points + 0.5) * 2.0 - 0.5)
