@@ -48,8 +48,9 @@ class LargeRenderDialog(QDialog):
         self.progress = QProgressBar()
         self.progress.setRange(0, 1)
         self.progress.setValue(0)
-        self.status = QLabel("Renders the sketch and examples tiled on Dask to a GeoTIFF (no styles, water, stamps "
-                             "or pins; no drainage). A cancelled render keeps its tiles for the next.", wordWrap=True)
+        self.status = QLabel("Renders the project (sketch, examples, styles, water, stamps and pins) tiled on Dask "
+                             "to a GeoTIFF; valleys drain once the tiles are done. A cancelled render keeps its tiles "
+                             "for the next.", wordWrap=True)
         self.buttons = QDialogButtonBox(QDialogButtonBox.Close)
         self.render_button = self.buttons.addButton("Render", QDialogButtonBox.AcceptRole)
         self.cancel_button = self.buttons.addButton("Cancel render", QDialogButtonBox.ActionRole)
