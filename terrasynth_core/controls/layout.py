@@ -114,17 +114,16 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
         :func:`grounded_examples` of the same examples, controls and cell
         size, when the caller has it already.
     """
-    fields, scales, bases, members, names = [], [], [], [], []
+    # Examples in the grounded order: the plain ones, then each style's.
+    scales, bases, members, names = [], [], [], []
     if plain:
         members.append(list(range(len(plain))))
         names.append("default examples")
-        fields.extend(plain)
         scales.extend([1.0] * len(plain))
         bases.append(None)
     for i, style in enumerate(controls.styles):
-        members.append([len(fields)])
+        members.append([len(plain) + i])
         names.append(style.name or f"style {i + 1}")
-        fields.append(style.example)
         scales.append(float(style.relief_scale))
         bases.append(style.base)
     examples: list[ExampleAnalysis] = []

@@ -229,7 +229,8 @@ class Controls:
         synthesis and the result is mapped onto it exactly afterwards
         (before water and pins, which are in final metres).
     pin_radius : float, optional
-        Cells a pin's correction reaches.  Default one patch size.
+        Cells a pin's correction reaches.  Default one patch size, once the
+        run has one (:meth:`pin_reach`).
     previous : ndarray of float32, shape (rows, cols), optional
         Local re-synthesis: the result to keep ...
     selection : ndarray of bool, shape (rows, cols), optional
@@ -251,6 +252,11 @@ class Controls:
     def resynthesis(self) -> bool:
         return self.selection is not None
 
+    def pin_reach(self, patch_size: int) -> float:
+        """Cells a pin's correction reaches: ``pin_radius``, or the run's
+        patch size when none was given."""
+        return float(patch_size if self.pin_radius is None else self.pin_radius)
+
     def check_kinds(self) -> None:
         """Raise ParamsError unless every style is a Style and every stamp a
         Stamp (what reading their examples needs, before any shape is known)."""
@@ -261,14 +267,14 @@ class Controls:
             if not isinstance(st, Stamp):
                 raise ParamsError(f"stamp {i + 1} must be a Stamp, got {type(st).__name__}")
 
-    def checked(self, shape: tuple[int, int], patch_size: int, n_default: int) -> "Controls":
+    def checked(self, shape: tuple[int, int], n_default: int) -> "Controls":
         """Validated copy for an output ``shape`` (arrays converted, maps
-        fitted to the shape).
+        fitted to the shape).  Needs no patch size: a pin radius not given
+        stays None (:meth:`pin_reach`).
 
         Parameters
         ----------
         shape : (rows, cols)
-        patch_size : int
         n_default : int
             Number of plain examples the session has (for -1 labels).
 
@@ -314,8 +320,8 @@ class Controls:
                 raise ParamsError(f"stamp {i + 1} centre ({r}, {c}) is outside the {shape[0]}x{shape[1]} output")
         pins = check_pins(self.pins, shape)
         height_range = check_height_range(self.height_range)
-        radius = float(patch_size if self.pin_radius is None else self.pin_radius)
-        if not (math.isfinite(radius) and radius > 2):
+        radius = None if self.pin_radius is None else float(self.pin_radius)
+        if radius is not None and not (math.isfinite(radius) and radius > 2):
             raise ParamsError(f"pin radius must be more than 2 cells, got {self.pin_radius}")
         previous = selection = None
         if (self.previous is None) != (self.selection is None):

@@ -121,7 +121,7 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
     held = locked
     if controls.water is not None:
         held = controls.water.mask if locked is None else locked | controls.water.mask
-    heights, pin_errors = apply_pins(heights, controls.pins, radius=controls.pin_radius, locked=held)
+    heights, pin_errors = apply_pins(heights, controls.pins, radius=controls.pin_reach(patch_size), locked=held)
     for e in pin_errors:
         if locked is not None and locked[e.row, e.col]:
             notes.append(f"pin at ({e.row}, {e.col}) is outside the selection: left as it was")

@@ -47,7 +47,6 @@ from ..controls.options import Controls
 from ..controls.pins import Pin, PinError
 from ..controls.water import Water
 from ..errors import ParamsError
-from ..exemplars.patch_size import DEFAULT_PATCH
 from ..features import FeatureMaps, SketchMap, sketch_features
 from ..features.network import mask_box
 from ..heightfield import HeightField
@@ -264,15 +263,12 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
     examples = list(examples or ())
     # The whole map's controls, checked (and their maps fitted) once, so the
     # crop cuts exactly what a whole-map re-synthesis would use.
-    whole = dataclasses.replace(controls, previous=previous, selection=selection).checked(
-        shape, params.patch_size or DEFAULT_PATCH, len(examples))
+    whole = dataclasses.replace(controls, previous=previous, selection=selection).checked(shape, len(examples))
     # An automatic patch size: chosen as a run of the whole map would, for
     # the new strokes (the terrain's own run may have chosen another, for
     # other strokes: pass its ``result.params`` to keep it).
     if params.patch_size is None:
         params, _ = with_patch_size(params, grounded_examples(examples, whole, params.cell_size), sketch, shape)
-        if controls.pin_radius is None:
-            whole = dataclasses.replace(whole, pin_radius=float(params.patch_size))  # (pins reach a patch)
     if sketch is not None and sketch.shape != shape:
         sketch = sketch.resized(shape)
     for name, arr in (("patch ids", previous_patch_id), ("seam mask", previous_seam_mask)):

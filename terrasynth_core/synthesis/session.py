@@ -27,7 +27,7 @@ import scipy
 from ..controls.layout import Grounded, anchors, automatic_patch_size, build_layout, grounded_examples
 from ..controls.options import Controls, check_heights
 from ..errors import ParamsError
-from ..exemplars.patch_size import DEFAULT_PATCH, PATCH_SIZES
+from ..exemplars.patch_size import PATCH_SIZES
 from ..exemplars import cache
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
@@ -115,14 +115,12 @@ class Session:
         rows, cols = (int(v) for v in shape)
         if rows * cols > 64_000_000:
             raise ParamsError(f"output {rows}x{cols} exceeds 64 million cells")
-        # (Checked before the examples are read; the pins' default reach, a
-        # patch, is set once an automatic patch size is chosen.)
-        checked = controls.checked((rows, cols), params.patch_size or DEFAULT_PATCH, len(examples))
+        # (Checked before the examples are read and an automatic patch size
+        # is chosen from them.)
+        checked = controls.checked((rows, cols), len(examples))
         check_heights(examples, checked)
         grounded = grounded_examples(examples, checked, params.cell_size)
         params, size_notes = with_patch_size(params, grounded, sketch, (rows, cols))
-        if controls.pin_radius is None:
-            checked = dataclasses.replace(checked, pin_radius=float(params.patch_size))
         if min(rows, cols) < params.patch_size:
             raise ParamsError(
                 f"output {rows}x{cols} is smaller than a patch ({params.patch_size}): "

@@ -259,14 +259,14 @@ def map_controls(controls: Controls | None, examples: Sequence, shape: tuple[int
             painted = np.zeros((1, 1), np.int16)  # one style everywhere
         painted = _same_aspect("style map", painted, shape)
         # The styles and labels checked as a whole-map run checks them (at the painted size).
-        Controls(styles=controls.styles, style_map=painted).checked(painted.shape, params.patch_size, n_plain)
+        Controls(styles=controls.styles, style_map=painted).checked(painted.shape, n_plain)
         style_map = painted.astype(np.int16)
     elif controls.style_map is not None:
         raise ParamsError("a style map needs styles: give one Style per colour")
     # Pins and stamps checked on the output's grid (no map at its size is
     # made; the styles were checked above), then the pins against the heights.
     checked = Controls(stamps=controls.stamps, pins=controls.pins, pin_radius=controls.pin_radius).checked(
-        shape, params.patch_size, max(n_plain, 1))
+        shape, max(n_plain, 1))
     check_heights(examples, Controls(styles=controls.styles, stamps=checked.stamps, pins=checked.pins))
     bases = group_bases(layout, controls.styles, n_plain)
     water = None
@@ -279,7 +279,7 @@ def map_controls(controls: Controls | None, examples: Sequence, shape: tuple[int
                         for i, st in enumerate(checked.stamps))
     stamps = tuple(dataclasses.replace(st, field=None) for st in checked.stamps)
     return MapControls(n_plain, tuple((float(s.relief_scale), s.base, s.name) for s in controls.styles), style_map,
-                       water, stamps, stamp_tiles, checked.pins, float(checked.pin_radius), bases)
+                       water, stamps, stamp_tiles, checked.pins, checked.pin_reach(params.patch_size), bases)
 
 
 def group_bases(layout, styles: Sequence[Style], n_plain: int) -> np.ndarray:

@@ -20,7 +20,7 @@ def _terrain(seed: int, lo: float, hi: float) -> np.ndarray:
 
 
 def _layout(plain, controls: Controls):
-    return build_layout(plain, controls.checked(SHAPE, PATCH, len(plain)), SHAPE, PATCH)
+    return build_layout(plain, controls.checked(SHAPE, len(plain)), SHAPE, PATCH)
 
 
 def test_groups_are_the_plain_examples_then_one_per_style():
