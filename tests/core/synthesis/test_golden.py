@@ -80,8 +80,8 @@ CASES = {
 #: with the level about the strokes moved toward amplitude-complementary
 #: (landform.coherence; the styles case has no landform pass and kept its).
 GOLDEN = {
-    "y_junction": "1d627293bd67b61136bdade2ec4e14d98066a12d6b3ddc1e1b6e098deefd6998",
-    "ring_cross_raster": "e5aad355cd4082b183c5db6bd9885f18486f3b718aa703084ea6fa3dd4f7c2e5",
+    "y_junction": "23d329ceaadc41df38e65615f6d69a2c1d9fb030bcd84d73b800c056c487e104",
+    "ring_cross_raster": "1d92d5871c04c229b53eb715265fdca392b749ae2ee26ed5c3795e13771232ef",
     "styles_stamp_water_pin": "947806070207149ee269d5f33ef2d1ce528e4c3878a8f762c5195b48a113e107",
 }
 

@@ -168,6 +168,26 @@ def test_fitted_to_examples_raises_the_regions_of_the_drawn_ridges(y_sketch):
     assert pct(drawn) > 0.75
 
 
+def test_fitted_to_examples_lowers_a_valley_drawn_between_close_ridges(sketch_dir):
+    # The S-valley: two ridges flank the valley closer than the regional
+    # scale.  Its valley must be the low of its region, not raised by the
+    # ridges on either side, and the ridges the highs.
+    sketch = read_sketch(sketch_dir / "s_valley_1000.png").resized((256, 256))
+    example = builtin_example("white-mountains").load()
+    session = Session([example], sketch, shape=(256, 256), params=P)
+    sigma, f = split_sigma(P.patch_size), 2
+    rng = np.random.default_rng(5)
+    terrain = (500.0 + 50.0 * ndimage.gaussian_filter(rng.normal(0, 1, (128, 128)), 3, mode="wrap"))
+    strokes = sketch_features(sketch.resized((128, 128)))
+    plain = fitted_to_examples(terrain.astype(np.float32), session.layout, f, sigma)
+    drawn = fitted_to_examples(terrain.astype(np.float32), session.layout, f, sigma, strokes)
+    pct = lambda h, m: float((h[m][:, None] > h.ravel()[None, :]).mean())  # noqa: E731
+    valley, ridge = graph_mask(strokes.valleys), graph_mask(strokes.ridges)
+    assert pct(drawn, valley) < pct(plain, valley) - 0.1
+    assert pct(drawn, valley) < 0.3
+    assert pct(drawn, ridge) > pct(plain, ridge) + 0.1
+
+
 def test_coarse_factor_is_the_largest_the_examples_allow():
     assert coarse_factor(80, 1200) == FACTORS[0]
     # 32-cell patches: coarse patches are at least 24 cells, so 120 cells
