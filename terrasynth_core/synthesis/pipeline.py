@@ -31,7 +31,7 @@ from .feature_patches import Stations, memo_feature_pools, place_feature, place_
 from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
 from .fill_workers import MIN_PARALLEL_WINDOWS, WAVE, FillKit, FillWorkers, warm_up, window_task
 from .finish import finish_heights
-from .landform import landform_from, preview_patch, split_sigma
+from .landform import DRAWN_NOTE, drawn_level, landform_from, preview_patch, split_sigma
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
 
@@ -130,6 +130,13 @@ def landform_stage(state: RunState):
     t = time.perf_counter()
     yield StageStarted("landform", 0)
     coarse, f, note = state.session.coarse_pass()
+    if coarse is None and note is not None:
+        # The examples cannot give landforms (the pass would have run on a
+        # map this size): the drawing gives the regional relief alone.
+        drawn = drawn_level(state.session)
+        if drawn is not None:
+            state.layout = replace(state.layout, level=drawn)
+            note += DRAWN_NOTE
     if note:
         state.warnings.append(note)
     if coarse is not None:

@@ -25,7 +25,8 @@ from scipy import ndimage
 
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
-from ..synthesis.landform import coarse_session_for, coherence, fitted_to_examples, landform_lowpass, split_sigma
+from ..synthesis.landform import (DRAWN_NOTE, coarse_session_for, coherence, drawn_relief, fitted_to_examples,
+                                  landform_lowpass, split_sigma)
 from ..synthesis.params import SynthesisParams
 from ..synthesis.session import Session
 
@@ -101,11 +102,15 @@ class CoarseLevel:
     ----------
     heights : ndarray of float32, shape (R, C)
         The coarse terrain (fitted to the examples' heights as the
-        whole-map pass does), metres.
+        whole-map pass does), metres; or the flat level with the drawing's
+        relief where the pass cannot serve
+        (:func:`~terrasynth_core.synthesis.landform.drawn_relief`).
     shape : (rows, cols)
         The output's size; the coarse grid spans it.
-    sigma : float
-        The landform/detail split's standard deviation, output cells.
+    sigma : float or None
+        The landform/detail split's standard deviation, output cells; None
+        for the drawing's relief (no split: the examples give their whole
+        heights, and the level is the interpolated grid as it is).
     factor : int
         The coarse grid's down-sampling.
     coherent : ndarray of float32, shape (R, C), or None
@@ -116,7 +121,7 @@ class CoarseLevel:
 
     heights: np.ndarray
     shape: tuple[int, int]
-    sigma: float
+    sigma: float | None
     factor: int
     coherent: np.ndarray | None = None
 
@@ -124,7 +129,7 @@ class CoarseLevel:
         """What a tile needs to make the level over ``box`` (output cells):
         the coarse cells under it and its margins."""
         r0, r1, c0, c1 = box
-        pad = int(math.ceil(LOWPASS_MARGIN * self.sigma))
+        pad = 0 if self.sigma is None else int(math.ceil(LOWPASS_MARGIN * self.sigma))
         R, C = self.heights.shape
         q0, q1 = _coarse_span(r0 - pad, r1 + pad, self.shape[0], R)
         p0, p1 = _coarse_span(c0 - pad, c1 + pad, self.shape[1], C)
@@ -152,8 +157,8 @@ class CoarseWindow:
         Its first cell on the coarse grid.
     coarse_shape, shape : (rows, cols)
         The whole coarse grid and the output.
-    sigma : float
-        Output cells.
+    sigma : float or None
+        Output cells (None: no low-pass, see :class:`CoarseLevel`).
     coherent : ndarray of float32, or None
         The coarse cells' coherence weights (:class:`CoarseLevel`).
     """
@@ -162,7 +167,7 @@ class CoarseWindow:
     origin: tuple[int, int]
     coarse_shape: tuple[int, int]
     shape: tuple[int, int]
-    sigma: float
+    sigma: float | None
     coherent: np.ndarray | None = None
 
     def level(self, box: Box) -> np.ndarray:
@@ -177,7 +182,7 @@ class CoarseWindow:
             Metres.
         """
         r0, r1, c0, c1 = box
-        pad = int(math.ceil(LOWPASS_MARGIN * self.sigma))
+        pad = 0 if self.sigma is None else int(math.ceil(LOWPASS_MARGIN * self.sigma))
         rows, cols = self.shape
         a0, a1 = max(r0 - pad, 0), min(r1 + pad, rows)
         b0, b1 = max(c0 - pad, 0), min(c1 + pad, cols)
@@ -190,8 +195,8 @@ class CoarseWindow:
         weight = None if self.coherent is None else ndimage.map_coordinates(
             self.coherent.astype(np.float64), [yy, xx], order=3, mode="nearest")
         del yy, xx
-        level = landform_lowpass(up, self.sigma, weight)
-        return level[r0 - a0:r1 - a0, c0 - b0:c1 - b0]
+        level = up if self.sigma is None else landform_lowpass(up, self.sigma, weight)
+        return level[r0 - a0:r1 - a0, c0 - b0:c1 - b0].astype(np.float32)
 
 
 def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | None, shape: tuple[int, int],
@@ -232,7 +237,14 @@ def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap
                                               sketch, maps)
     notes = [note] if note else []
     if coarse is None:
-        return None, notes
+        # As the whole-map run (landform.drawn_level): where the examples
+        # cannot give landforms, the drawing gives the regional relief.
+        drawn = None if note is None else drawn_relief(sketch, tuple(shape), probe.layout, params.patch_size)
+        if drawn is None or len(probe.layout.members) > 1:
+            return None, notes
+        relief, f = drawn
+        notes[-1] += DRAWN_NOTE
+        return CoarseLevel(np.float32(np.median(probe.layout.level)) + relief, tuple(shape), None, f), notes
     result = coarse.run()
     # As the whole-map pass (landform.landform_from): chained patches may
     # carry the coarse terrain out of the examples' heights.

@@ -386,8 +386,8 @@ def _landform(client, store: TileStore, examples, sketch, shape, params) -> tupl
                           coherent=None if coarse is None else coarse.coherent)
         return coarse, notes
     heights, coherent, info = kept
-    coarse = None if heights is None else CoarseLevel(heights, tuple(shape), float(info["sigma"]), int(info["factor"]),
-                                                      coherent)
+    sigma = None if info.get("sigma") is None else float(info["sigma"])
+    coarse = None if heights is None else CoarseLevel(heights, tuple(shape), sigma, int(info["factor"]), coherent)
     return coarse, list(info.get("notes", []))
 
 

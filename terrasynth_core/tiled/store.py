@@ -33,7 +33,7 @@ __all__ = ["STORE_FORMAT", "TileStore", "compose", "run_digest", "store_path"]
 #: ``run.json``'s ``"format"``: a folder without it is not a tile store.
 STORE_FORMAT = "terrasynth-tiles"
 #: Bumped when what a tile holds changes meaning.
-STORE_VERSION = 2
+STORE_VERSION = 3
 
 
 def store_path(out: Path) -> Path:

@@ -114,11 +114,13 @@ def synthesize_tile(job: TileJob, examples: Sequence[HeightField | np.ndarray]) 
 
 def _level(job: TileJob, crop_shape: tuple[int, int], stamps) -> tuple[np.ndarray, float | None]:
     """The tile's window of the whole map's level field, and the
-    landform/detail split it was made with (None: no landform pass).
+    landform/detail split it was made with (None: no landform pass, or the
+    drawing's relief standing in for it).
 
-    With the landform pass: its window (:mod:`.inputs`); without: the style
-    groups' bases blurred across their borders.  Then bent through the pins
-    within reach and, under the pass, made flat under the tile's stamps
+    With the landform pass or the drawing's relief: its window
+    (:mod:`.inputs`); without: the style groups' bases blurred across their
+    borders.  Then bent through the pins within reach and, under the pass
+    or the drawing's relief, made flat under the tile's stamps
     (``stamps``, in crop cells), as a whole-map run's
     (:func:`~terrasynth_core.synthesis.landform.landform_from`).
     """

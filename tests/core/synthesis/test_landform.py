@@ -20,6 +20,7 @@ from terrasynth_core.synthesis.landform import (
     coherence,
     coarse_patch,
     detail_above,
+    drawn_level,
     landform_lowpass,
     landform_pass,
     FIT_QUANTILES,
@@ -233,6 +234,26 @@ def test_too_small_or_one_landform_examples_skip_it_with_a_reason(helens, y_sket
     assert "landform pass skipped" in note and "60 cells" in note and "larger example" in note
     result = session.run()
     assert any("landform pass skipped" in w for w in result.warnings)
+
+
+def test_without_the_pass_the_drawing_alone_tilts_the_level(helens, sketch_dir):
+    # An example too small for the pass: the level rises about the drawn
+    # ridges and falls about the valley (a smooth tilt, no step), and the
+    # run says so.
+    small = helens.with_heights(helens.heights[:90, :300].copy())
+    sketch = read_sketch(sketch_dir / "s_valley_1000.png").resized((256, 256))
+    session = Session([small], sketch, shape=(256, 256), params=P)
+    assert landform_pass(session)[0] is None
+    level = drawn_level(session)
+    strokes = session.sketch_maps
+    ridge, valley = level[graph_mask(strokes.ridges)].mean(), level[graph_mask(strokes.valleys)].mean()
+    base = float(np.median(session.layout.level))
+    assert valley < base < ridge
+    assert np.abs(np.diff(level, axis=0)).max() < 0.1 * (ridge - valley)  # strokes 45 cells apart
+    result = session.run()
+    assert any("the regional relief follows the drawing alone" in w for w in result.warnings)
+    # Nothing drawn, nothing tilted.
+    assert drawn_level(Session([small], None, shape=(256, 256), params=P)) is None
 
 
 def test_stamps_stand_on_a_flat_level(white_mountains, helens):

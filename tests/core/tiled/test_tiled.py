@@ -125,6 +125,24 @@ def test_level_windows_agree_where_they_overlap():
     np.testing.assert_allclose(la[150:, 150:], lb[:50, :50], atol=1e-3)
 
 
+def test_where_the_pass_cannot_serve_the_drawing_gives_the_level_as_a_whole_map_run(helens, sketch_dir):
+    from terrasynth_core.synthesis import Session
+    from terrasynth_core.synthesis.landform import drawn_level
+    from terrasynth_core.tiled.inputs import coarse_level
+
+    small = helens.with_heights(helens.heights[:90, :300].copy())  # too small for the landform pass
+    sketch = read_sketch(sketch_dir / "s_valley_1000.png")
+    coarse, notes = coarse_level([small], sketch, (256, 256), P)
+    assert coarse is not None and coarse.sigma is None
+    assert any("the regional relief follows the drawing alone" in n for n in notes)
+    whole = drawn_level(Session([small], sketch.resized((256, 256)), shape=(256, 256), params=P))
+    box = (40, 200, 60, 256)
+    tiled = coarse.window(box).level(box)
+    # (The whole-map run traces the strokes on the sketch resized to the
+    # output, the tiled one on the painted sketch resized to the grid.)
+    assert np.abs(tiled - whole[40:200, 60:256]).max() < 0.02 * float(np.ptp(whole))
+
+
 # -- runs -------------------------------------------------------------------------------------
 def test_two_worker_processes_give_the_same_bytes_and_no_seams(reference, white_mountains, sketch, tmp_path):
     result, heights = reference
