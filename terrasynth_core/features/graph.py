@@ -17,7 +17,7 @@ NodeType = Literal["branch", "end"]
 FeatureKind = Literal["ridge", "valley"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class FeatureNode:
     """A branch point or endpoint.
 
@@ -39,7 +39,7 @@ class FeatureNode:
     degree: int
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, slots=True)
 class FeaturePath:
     """A polyline between two nodes.
 

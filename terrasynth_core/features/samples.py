@@ -20,7 +20,7 @@ import numpy as np
 from .graph import FeatureGraph
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, slots=True)
 class FeatureSample:
     """One feature patch centre.
 

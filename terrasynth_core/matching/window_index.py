@@ -449,5 +449,10 @@ class LazyIndexes:
                                        blocks=self._blocks)
                 if self._save:
                     self._save(key, got)
+                    # Read back mapped, as a later run would: the vectors
+                    # just built leave this process's memory (a first run
+                    # on a library builds every example's zones).
+                    stored = self._load(key) if self._load else None
+                    got = got if stored is None else stored
             self._indexes[zone] = got
             return got

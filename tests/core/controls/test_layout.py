@@ -92,3 +92,24 @@ def test_anchors_keep_each_detail_level_spread_by_its_bytes(monkeypatch):
     layout_module.anchors(changed, relief, 32)
     layout_module.anchors(detail, relief, 40)
     assert measured == [32, 32, 32, 40, 40]
+
+
+def test_the_detail_is_made_once_and_kept_in_the_cache(monkeypatch, tmp_path):
+    import terrasynth_core.controls.layout as layout_module
+    from terrasynth_core.memo import Memo
+
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(layout_module, "_DETAILS", Memo(8))
+    heights = _terrain(4, 100, 900)
+    first = _layout([heights], Controls())
+    again = _layout([heights], Controls())
+    d = first.detail[0]
+    expected = ((first.examples[0].heights - np.float32(np.median(first.examples[0].heights))) * np.float32(1.0))
+    assert d.dtype == np.float32 and np.array_equal(d, expected.astype(np.float32))
+    assert not d.flags.writeable
+    assert again.detail[0] is d  # the next session's, not made again
+    # Stored: a process that has not made it reads the same bytes back.
+    monkeypatch.setattr(layout_module, "_DETAILS", Memo(8))
+    fresh = _layout([heights], Controls()).detail[0]
+    assert fresh is not d and np.array_equal(fresh, d)
+    assert any("layout-detail" in p.name for p in tmp_path.iterdir())
