@@ -54,14 +54,19 @@ def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
     # band the patch adds to the level (a valley deep in it stays deep in
     # the output, one deep only at the landform scale is the landform
     # pass's to place); without a split, the example's heights.
-    maps = [standing_map(detail, 2 * radius) if any(ex.samples[k] for k in ("ridge", "valley")) else None
-            for ex, detail in zip(layout.examples, layout.detail)]
+    # Each map (float64, as large as its example) is read and dropped
+    # before the next is made: a library's maps never all in memory.
+    standing: dict = {"ridge": [], "valley": []}
+    for ex, detail in zip(layout.examples, layout.detail):
+        m = standing_map(detail, 2 * radius) if any(ex.samples[k] for k in standing) else None
+        for kind in standing:
+            standing[kind].append(sample_prominence(m, ex.samples[kind], kind))
+        del m
     for kind in ("ridge", "valley"):
-        standing = [sample_prominence(m, ex.samples[kind], kind) for m, ex in zip(maps, layout.examples)]
         for g, members in enumerate(layout.members + [everyone]):
             key = (kind, g if g < len(layout.members) else None)
             pools[key] = FeaturePool([(i, layout.examples[i].samples[kind]) for i in members], radius,
-                                     mirror=mirror, prominence=[standing[i] for i in members])
+                                     mirror=mirror, prominence=[standing[kind][i] for i in members])
     return pools
 
 
