@@ -151,22 +151,29 @@ def test_fitted_to_examples_fits_regional_relief_and_keeps_landforms(y_sketch):
     assert fitted_to_examples(sunk.astype(np.float32), layout, f, sigma).tobytes() == fitted.astype(np.float32).tobytes()
 
 
-def test_fitted_to_examples_raises_the_regions_of_the_drawn_ridges(y_sketch):
-    # A flat-ish coarse terrain under the Y's ridges: the fitted regional
-    # relief stands high about the strokes, and not only where the coarse
-    # terrain happened to stand high.
+def _fitted_with_and_without(sketch, seed: int):
+    """A flat-ish coarse terrain (128 x 128 under a 256 x 256 output) fitted
+    to the White Mountains without and with ``sketch``'s strokes, the
+    strokes, and the height percentile of a mask's cells."""
     example = builtin_example("white-mountains").load()
-    session = Session([example], y_sketch, shape=(256, 256), params=P)
+    session = Session([example], sketch, shape=(256, 256), params=P)
     sigma, f = split_sigma(P.patch_size), 2
-    rng = np.random.default_rng(4)
+    rng = np.random.default_rng(seed)
     terrain = (500.0 + 50.0 * ndimage.gaussian_filter(rng.normal(0, 1, (128, 128)), 3, mode="wrap"))
-    strokes = sketch_features(y_sketch.resized((128, 128)))
-    ridge = graph_mask(strokes.ridges)
+    strokes = sketch_features(sketch.resized((128, 128)))
     plain = fitted_to_examples(terrain.astype(np.float32), session.layout, f, sigma)
     drawn = fitted_to_examples(terrain.astype(np.float32), session.layout, f, sigma, strokes)
-    pct = lambda h: float((h[ridge][:, None] > h.ravel()[None, :]).mean())  # noqa: E731
-    assert pct(drawn) > pct(plain) + 0.1
-    assert pct(drawn) > 0.75
+    pct = lambda h, m: float((h[m][:, None] > h.ravel()[None, :]).mean())  # noqa: E731
+    return plain, drawn, strokes, pct
+
+
+def test_fitted_to_examples_raises_the_regions_of_the_drawn_ridges(y_sketch):
+    # Under the Y's ridges the fitted regional relief stands high about the
+    # strokes, and not only where the coarse terrain happened to stand high.
+    plain, drawn, strokes, pct = _fitted_with_and_without(y_sketch, 4)
+    ridge = graph_mask(strokes.ridges)
+    assert pct(drawn, ridge) > pct(plain, ridge) + 0.1
+    assert pct(drawn, ridge) > 0.75
 
 
 def test_fitted_to_examples_lowers_a_valley_drawn_between_close_ridges(sketch_dir):
@@ -174,15 +181,7 @@ def test_fitted_to_examples_lowers_a_valley_drawn_between_close_ridges(sketch_di
     # scale.  Its valley must be the low of its region, not raised by the
     # ridges on either side, and the ridges the highs.
     sketch = read_sketch(sketch_dir / "s_valley_1000.png").resized((256, 256))
-    example = builtin_example("white-mountains").load()
-    session = Session([example], sketch, shape=(256, 256), params=P)
-    sigma, f = split_sigma(P.patch_size), 2
-    rng = np.random.default_rng(5)
-    terrain = (500.0 + 50.0 * ndimage.gaussian_filter(rng.normal(0, 1, (128, 128)), 3, mode="wrap"))
-    strokes = sketch_features(sketch.resized((128, 128)))
-    plain = fitted_to_examples(terrain.astype(np.float32), session.layout, f, sigma)
-    drawn = fitted_to_examples(terrain.astype(np.float32), session.layout, f, sigma, strokes)
-    pct = lambda h, m: float((h[m][:, None] > h.ravel()[None, :]).mean())  # noqa: E731
+    plain, drawn, strokes, pct = _fitted_with_and_without(sketch, 5)
     valley, ridge = graph_mask(strokes.valleys), graph_mask(strokes.ridges)
     assert pct(drawn, valley) < pct(plain, valley) - 0.1
     assert pct(drawn, valley) < 0.3
