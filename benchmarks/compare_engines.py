@@ -76,7 +76,11 @@ def baseline_worktree(rev: str, tmp: Path):
 
 
 def _size(text: str) -> tuple[int, int]:
-    rows, cols = (int(v) for v in text.lower().split("x"))
+    """``"1000x800"`` (rows x columns) or ``"1000"`` (square)."""
+    parts = text.lower().split("x")
+    if len(parts) not in (1, 2) or not all(p.strip().isdigit() for p in parts):
+        raise SystemExit(f"compare_engines: size {text!r}: expected ROWSxCOLS or N (cells), e.g. 1000x1000")
+    rows, cols = int(parts[0]), int(parts[-1])
     return rows, cols
 
 
