@@ -259,12 +259,7 @@ def _detail(heights: np.ndarray, median: float, scale: float) -> np.ndarray:
 
     def make() -> np.ndarray:
         stored_key = f"layout-detail-{key[0][0].hex()}-{heights.shape[0]}x{heights.shape[1]}-m{key[1]!r}-s{key[2]!r}"
-        detail = cache.load_array(stored_key)
-        if detail is None or detail.shape != heights.shape:
-            made = ((heights - np.float32(median)) * np.float32(scale)).astype(np.float32)
-            cache.save_array(stored_key, made)
-            detail = cache.load_array(stored_key)  # the same bytes, mapped
-            detail = made if detail is None else detail
+        detail = cache.kept_array(stored_key, lambda: (heights - np.float32(median)) * np.float32(scale))
         detail = np.asarray(detail)  # (a plain view of a mapping: no memmap bookkeeping on every slice)
         detail.flags.writeable = False
         return detail

@@ -270,6 +270,42 @@ def save_arrays(key: str, arrays: dict) -> None:
         _write(path, {**arrays, "key": np.array(key)})
 
 
+def kept_array(key: str, make: Callable[[], np.ndarray], *, name: str = "heights",
+               dtype: type = np.float32) -> np.ndarray:
+    """``make()``'s array, made once: read from the file saved under
+    ``key`` when it holds one of ``dtype`` (mapped, read-only), else made,
+    stored and read back mapped, so that a process holds file pages the
+    system can drop rather than its own copy; the array made when the
+    cache is off or the write fails.  ``key`` names everything the array
+    depends on, its shape included.
+
+    Parameters
+    ----------
+    key : str
+    make : callable
+        Gives the array.
+    name : str
+        Its name in the file (``"heights"``, as :func:`save_array` names
+        its grids).
+    dtype : numpy dtype
+        What the array is (a file of another, from an older version, is
+        made again).
+    """
+
+    def read() -> np.ndarray | None:
+        got = load_arrays(key)
+        stored = None if got is None else got.get(name)
+        return stored if isinstance(stored, np.ndarray) and stored.dtype == dtype else None
+
+    stored = read()
+    if stored is not None:
+        return stored
+    made = np.asarray(make(), dtype=dtype)
+    save_arrays(key, {name: made})
+    stored = read()
+    return stored if stored is not None and stored.shape == made.shape else made
+
+
 def _graph_arrays(graph: FeatureGraph) -> dict:
     k = graph.kind
     pts = [p.points for p in graph.paths]

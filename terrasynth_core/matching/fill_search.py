@@ -94,8 +94,9 @@ class _WindowSearch:
         # The example is hashed once for both grids' keys.
         digest = hashlib.sha1(np.ascontiguousarray(example, dtype=np.float32).tobytes()).hexdigest()
         self._centred_key = f"centred-{_grid_key(digest, example.shape)}"
-        self.prior = _stored(f"prior-{_grid_key(digest, example.shape, window, allowed, f)}", "prior",
-                             lambda: roughness_prior(example, window, allowed, f))
+        self.prior = cache.kept_array(f"prior-{_grid_key(digest, example.shape, window, allowed, f)}",
+                                      lambda: roughness_prior(example, window, allowed, f), name="prior",
+                                      dtype=np.float64)
 
     def best(self, target: np.ndarray, filled: np.ndarray, count: int, rng: np.random.Generator
              ) -> list[tuple[tuple[int, int], float, float]]:
@@ -171,8 +172,9 @@ class _WindowSearch:
         """The example minus its mean, float64, flat (made once: moments of
         high terrain lose digits in float32)."""
         if self._flat is None:
-            self._flat = _stored(self._centred_key, "centred",
-                                 lambda: (self.example.astype(np.float64) - float(self.example.mean())).ravel())
+            self._flat = cache.kept_array(
+                self._centred_key, lambda: (self.example.astype(np.float64) - float(self.example.mean())).ravel(),
+                name="centred", dtype=np.float64)
         return self._flat
 
     def scores(self, target: np.ndarray, filled: np.ndarray, positions: np.ndarray) -> np.ndarray:
@@ -361,7 +363,7 @@ class FillSearch(_WindowSearch):
         return self._separated(((int(r) // self.f, int(c) // self.f) for r, c in positions[order]), count)
 
 
-#: Version of the stored search grids (:func:`_stored`): raised when what
+#: Version of the stored search grids (:func:`~terrasynth_core.exemplars.cache.kept_array`): raised when what
 #: they hold changes.
 GRIDS_VERSION = 1
 
@@ -376,21 +378,6 @@ def _grid_key(digest: str, shape: tuple[int, int], window: tuple[int, int] | Non
         h.update(np.ascontiguousarray(allowed, dtype=bool).tobytes())
     h.update(repr((tuple(shape), None if window is None else tuple(window), int(f), GRIDS_VERSION)).encode())
     return h.hexdigest()
-
-
-def _stored(key: str, name: str, make) -> np.ndarray:
-    """The float64 array ``make()`` gives, from the example-analysis disk
-    cache when it holds it (mapped, read-only), else made and stored, then
-    read back mapped; made in memory when the cache is off or fails."""
-    got = cache.load_arrays(key)
-    if got is not None and isinstance(got.get(name), np.ndarray) and got[name].dtype == np.float64:
-        return got[name]
-    made = make()
-    cache.save_arrays(key, {name: made})
-    got = cache.load_arrays(key)
-    if got is not None and isinstance(got.get(name), np.ndarray) and got[name].shape == made.shape:
-        return got[name]
-    return made
 
 
 def _load_index(key: str) -> ZoneIndex | None:

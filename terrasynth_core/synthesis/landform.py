@@ -292,12 +292,9 @@ def drawn_level(session: Session) -> np.ndarray | None:
     Returns
     -------
     ndarray of float32, shape ``session.shape``, or None
-        None with several style groups (each stands on its own flat level,
-        as with the pass) or no strokes.
+        None where :func:`drawn_relief` is.
     """
     lay = session.layout
-    if len(lay.members) > 1:
-        return None
     drawn = drawn_relief(session.sketch, session.shape, lay, session.params.patch_size)
     if drawn is None:
         return None
@@ -324,9 +321,10 @@ def drawn_relief(sketch, shape: tuple[int, int], layout, patch_size: int) -> tup
         Metres about the flat level.
     f : int
         The grid's down-sampling.
-    None without strokes.
+    None without strokes, or with several style groups (each stands on
+    its own flat level, as with the landform pass).
     """
-    if sketch is None or not sketch.has_strokes:
+    if sketch is None or not sketch.has_strokes or len(layout.members) > 1:
         return None
     rows, cols = shape
     reach = 2 * TREND_SIGMA * split_sigma(patch_size)

@@ -286,12 +286,7 @@ def _memo_detail_above(detail: np.ndarray, sigma: float) -> np.ndarray:
     def make() -> np.ndarray:
         stored_key = (f"detail-{key[0][0].hex()}-{detail.shape[0]}x{detail.shape[1]}-s{float(sigma)!r}-"
                       f"{_BAND_CODE}")
-        band = cache.load_array(stored_key)
-        if band is None or band.shape != detail.shape:
-            band = detail_above(detail, sigma)
-            cache.save_array(stored_key, band)
-            stored = cache.load_array(stored_key)  # the same bytes, mapped
-            band = band if stored is None else stored
+        band = cache.kept_array(stored_key, lambda: detail_above(detail, sigma))
         band.flags.writeable = False  # shared by every session that asks
         return band
 

@@ -240,7 +240,7 @@ def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap
         # As the whole-map run (landform.drawn_level): where the examples
         # cannot give landforms, the drawing gives the regional relief.
         drawn = None if note is None else drawn_relief(sketch, tuple(shape), probe.layout, params.patch_size)
-        if drawn is None or len(probe.layout.members) > 1:
+        if drawn is None:
             return None, notes
         relief, f = drawn
         notes[-1] += DRAWN_NOTE

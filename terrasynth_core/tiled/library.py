@@ -72,11 +72,4 @@ def _arrive(heights: np.ndarray, meta: dict) -> LibraryExample:
     the digest of the bytes received, so a damaged or stale file is never
     taken for them) and mapped."""
     heights = np.ascontiguousarray(heights, dtype=np.float32)
-    key = stored_key(heights)
-    mapped = cache.load_array(key)
-    if mapped is None or mapped.shape != heights.shape:
-        cache.save_array(key, heights)
-        mapped = cache.load_array(key)
-    if mapped is not None and mapped.shape == heights.shape:
-        heights = mapped
-    return LibraryExample(heights, **meta)
+    return LibraryExample(cache.kept_array(stored_key(heights), lambda: heights), **meta)
