@@ -23,7 +23,13 @@ side file with its size and BLAKE2b digest; a side file is checked against
 them once per process before it is first used (a damaged one makes the
 entry unreadable: it is rebuilt, never trusted).  Mapped pages are the
 page cache's: resident while used, dropped by the kernel under pressure,
-shared by every process on the machine that maps the same file.
+shared by every process on the machine that maps the same file.  An entry
+from before side files, its large arrays inside, is made again and stored
+anew rather than read into memory.  A stored analysis's feature graphs
+and samples stay arrays (:class:`~terrasynth_core.features.graph.NodeTable`,
+:class:`~terrasynth_core.features.graph.PathTable`,
+:class:`~terrasynth_core.features.samples.SampleTable`): an object per
+node, path or sample is made only when one is asked for.
 """
 
 from __future__ import annotations
@@ -39,9 +45,9 @@ from typing import Callable
 import numpy as np
 
 from ..features import FeatureGraph, FeatureMaps
-from ..features.graph import FeatureNode, FeaturePath
+from ..features.graph import NodeTable, PathTable
 from ..io._common import atomic_outputs, open_new
-from ..features.samples import FeatureSample
+from ..features.samples import FeatureSample, SampleTable
 
 #: Bump when the analysis changes, so old files are not reused.
 CACHE_VERSION = 1
@@ -137,9 +143,18 @@ def _read(key: str, read):
         with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as z:
             if not _same_key(z, key):
                 return None  # another grid's file under this name (or one from before keys)
+            if _large_inside(z):
+                return None  # written before side files: made again, so that it is mapped
             return read(_Entry(z, path))
     except Exception:  # a damaged or foreign file (or a side file missing or changed): recompute
         return None
+
+
+def _large_inside(z) -> bool:
+    """Whether the archive ``z`` holds an array of :data:`SIDE_BYTES` or
+    more itself (an entry from before side files), which would be read
+    into memory rather than mapped."""
+    return any(info.file_size >= SIDE_BYTES for info in z.zip.infolist())
 
 
 class _Entry:
@@ -308,27 +323,22 @@ def kept_array(key: str, make: Callable[[], np.ndarray], *, name: str = "heights
 
 def _graph_arrays(graph: FeatureGraph) -> dict:
     k = graph.kind
-    pts = [p.points for p in graph.paths]
+    pts = graph.path_points()
     return {
-        f"{k}_nodes": np.array([[n.row, n.col] for n in graph.nodes], dtype=float).reshape(-1, 2),
+        f"{k}_nodes": graph.node_positions(),
         f"{k}_node_branch": np.array([n.type == "branch" for n in graph.nodes], dtype=bool),
         f"{k}_node_degree": np.array([n.degree for n in graph.nodes], dtype=np.int32),
-        f"{k}_ends": np.array([[p.start, p.end] for p in graph.paths], dtype=np.int64).reshape(-1, 2),
+        f"{k}_ends": graph.path_ends(),
         f"{k}_counts": np.array([len(p) for p in pts], dtype=np.int64),
         f"{k}_points": np.concatenate(pts) if pts else np.zeros((0, 2)),
     }
 
 
 def _graph_from(z, kind: str, shape) -> FeatureGraph:
-    nodes = tuple(
-        FeatureNode(i, float(r), float(c), "branch" if b else "end", int(d))
-        for i, ((r, c), b, d) in enumerate(zip(z[f"{kind}_nodes"], z[f"{kind}_node_branch"], z[f"{kind}_node_degree"]))
-    )
-    splits = np.cumsum(z[f"{kind}_counts"])[:-1]
-    # Plain views of the (possibly mapped) points: a memmap view per path
-    # would carry its own mapping attributes, ten thousand of them a DEM.
-    points = np.split(np.asarray(z[f"{kind}_points"]), splits) if len(z[f"{kind}_counts"]) else []
-    paths = tuple(FeaturePath(int(a), int(b), p) for (a, b), p in zip(z[f"{kind}_ends"], points))
+    """The stored graph as tables over the (possibly mapped) arrays: no
+    object per node or path is made until one is asked for."""
+    nodes = NodeTable(z[f"{kind}_nodes"], z[f"{kind}_node_branch"], z[f"{kind}_node_degree"])
+    paths = PathTable(z[f"{kind}_ends"], z[f"{kind}_counts"], z[f"{kind}_points"])
     return FeatureGraph(kind, shape, nodes, paths)
 
 
@@ -341,7 +351,5 @@ def _sample_arrays(kind: str, samples: list[FeatureSample]) -> dict:
     }
 
 
-def _samples_from(z, kind: str) -> list[FeatureSample]:
-    degrees = z[f"{kind}_s_degree"]
-    crossings = np.split(np.asarray(z[f"{kind}_s_crossings"]), np.cumsum(degrees)[:-1]) if len(degrees) else []
-    return [FeatureSample(c.copy(), kind, x) for c, x in zip(z[f"{kind}_s_centers"], crossings)]
+def _samples_from(z, kind: str) -> SampleTable:
+    return SampleTable(kind, z[f"{kind}_s_centers"], z[f"{kind}_s_degree"], z[f"{kind}_s_crossings"])

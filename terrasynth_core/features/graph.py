@@ -8,8 +8,9 @@ from one node to another.  The graph is acyclic by construction (a forest).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, overload
 
 import numpy as np
 
@@ -62,6 +63,80 @@ class FeaturePath:
         return float(np.hypot(*np.diff(self.points, axis=0).T).sum())
 
 
+class NodeTable(Sequence):
+    """:attr:`FeatureGraph.nodes` held as arrays (a stored analysis, mapped
+    from its file): a :class:`FeatureNode` is made when asked for, so an
+    example's thousands of nodes are not thousands of objects in every
+    process that holds its analysis.
+
+    Parameters
+    ----------
+    positions : ndarray of float, shape (n, 2)
+        ``(row, col)`` of each node, cells.
+    branch : ndarray of bool, shape (n,)
+        True for a branch point, False for an endpoint.
+    degrees : ndarray of int, shape (n,)
+    """
+
+    __slots__ = ("positions", "branch", "degrees")
+
+    def __init__(self, positions: np.ndarray, branch: np.ndarray, degrees: np.ndarray):
+        self.positions, self.branch, self.degrees = positions, branch, degrees
+
+    def __len__(self) -> int:
+        return len(self.degrees)
+
+    @overload
+    def __getitem__(self, i: int) -> FeatureNode: ...
+    @overload
+    def __getitem__(self, i: slice) -> tuple[FeatureNode, ...]: ...
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return tuple(self[j] for j in range(*i.indices(len(self))))
+        i = range(len(self))[i]  # negative indices, and IndexError past the end
+        r, c = self.positions[i]
+        return FeatureNode(i, float(r), float(c), "branch" if self.branch[i] else "end", int(self.degrees[i]))
+
+
+class PathTable(Sequence):
+    """:attr:`FeatureGraph.paths` held as arrays: every path's points in one
+    array, a :class:`FeaturePath` (its points a view) made when asked for.
+
+    Parameters
+    ----------
+    ends : ndarray of int, shape (m, 2)
+        Start and end node of each path.
+    counts : ndarray of int, shape (m,)
+        Points of each path.
+    points : ndarray of float, shape (sum(counts), 2)
+        The paths' points one after another, ``(row, col)`` cells.
+    """
+
+    __slots__ = ("ends", "offsets", "points")
+
+    def __init__(self, ends: np.ndarray, counts: np.ndarray, points: np.ndarray):
+        self.ends = ends
+        self.offsets = np.concatenate([[0], np.cumsum(counts, dtype=np.int64)])
+        # A plain view: slices of a memmap would each carry its mapping's attributes.
+        self.points = np.asarray(points)
+
+    def __len__(self) -> int:
+        return len(self.ends)
+
+    @overload
+    def __getitem__(self, i: int) -> FeaturePath: ...
+    @overload
+    def __getitem__(self, i: slice) -> tuple[FeaturePath, ...]: ...
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return tuple(self[j] for j in range(*i.indices(len(self))))
+        i = range(len(self))[i]
+        a, b = self.ends[i]
+        return FeaturePath(int(a), int(b), self.points[self.offsets[i]:self.offsets[i + 1]])
+
+
 @dataclass(frozen=True, eq=False)
 class FeatureGraph:
     """Ridges or valleys of one grid as an acyclic graph.
@@ -71,16 +146,53 @@ class FeatureGraph:
     kind : {"ridge", "valley"}
     shape : (rows, cols)
         Shape of the grid the graph was extracted from.
-    nodes : tuple of FeatureNode
-    paths : tuple of FeaturePath
+    nodes : sequence of FeatureNode
+        A tuple, or a :class:`NodeTable` for a stored analysis.
+    paths : sequence of FeaturePath
+        A tuple, or a :class:`PathTable`.
     """
 
     kind: FeatureKind
     shape: tuple[int, int]
-    nodes: tuple[FeatureNode, ...]
-    paths: tuple[FeaturePath, ...]
+    nodes: Sequence[FeatureNode]
+    paths: Sequence[FeaturePath]
 
     # -- queries ----------------------------------------------------------
+    def node_positions(self) -> np.ndarray:
+        """``(row, col)`` of every node, ndarray of float, shape (n, 2), cells."""
+        if isinstance(self.nodes, NodeTable):
+            return np.asarray(self.nodes.positions, dtype=float)
+        return np.array([[n.row, n.col] for n in self.nodes], dtype=float).reshape(-1, 2)
+
+    def path_points(self) -> list[np.ndarray]:
+        """Every path's points, a list of ndarray of float, shape (n_i, 2)."""
+        if isinstance(self.paths, PathTable):
+            pts, off = self.flat_paths()
+            return [pts[a:b] for a, b in zip(off[:-1], off[1:])]
+        return [p.points for p in self.paths]
+
+    def flat_paths(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every path's points one after another, and where each path starts.
+
+        Returns
+        -------
+        points : ndarray of float, shape (n, 2)
+            ``(row, col)`` cells (a stored graph's own array, not a copy).
+        offsets : ndarray of int64, shape (m + 1,)
+            Path ``i`` is ``points[offsets[i]:offsets[i + 1]]``.
+        """
+        if isinstance(self.paths, PathTable):
+            return np.asarray(self.paths.points, dtype=float), self.paths.offsets
+        pts = [np.asarray(p.points, dtype=float) for p in self.paths]
+        offsets = np.concatenate([[0], np.cumsum([len(p) for p in pts], dtype=np.int64)]).astype(np.int64)
+        return (np.concatenate(pts) if pts else np.zeros((0, 2))), offsets
+
+    def path_ends(self) -> np.ndarray:
+        """Start and end node of every path, ndarray of int64, shape (m, 2)."""
+        if isinstance(self.paths, PathTable):
+            return np.asarray(self.paths.ends, dtype=np.int64)
+        return np.array([[p.start, p.end] for p in self.paths], dtype=np.int64).reshape(-1, 2)
+
     def degree(self, node_id: int) -> int:
         return self.nodes[node_id].degree
 

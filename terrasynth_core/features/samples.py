@@ -13,7 +13,9 @@ into a branch.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import overload
 
 import numpy as np
 
@@ -53,6 +55,48 @@ class FeatureSample:
         return np.vstack([[0.0, 0.0], self.crossings - self.center])
 
 
+class SampleTable(Sequence):
+    """An example's samples of one kind held as arrays (a stored analysis,
+    mapped from its file): a :class:`FeatureSample` is made when asked
+    for, so a library's hundreds of thousands of samples are not as many
+    objects in each process that holds the analyses.
+
+    Parameters
+    ----------
+    kind : {"ridge", "valley"}
+    centers : ndarray of float, shape (n, 2)
+        ``(row, col)`` cells.
+    degrees : ndarray of int, shape (n,)
+        Crossings of each sample.
+    crossings : ndarray of float, shape (sum(degrees), 2)
+        The samples' crossings one after another, as
+        :attr:`FeatureSample.crossings` orders them.
+    """
+
+    __slots__ = ("kind", "centers", "degrees", "crossings", "offsets")
+
+    def __init__(self, kind: str, centers: np.ndarray, degrees: np.ndarray, crossings: np.ndarray):
+        self.kind, self.centers, self.degrees = kind, centers, degrees
+        # A plain view: slices of a memmap would each carry its mapping's attributes.
+        self.crossings = np.asarray(crossings)
+        self.offsets = np.concatenate([[0], np.cumsum(degrees, dtype=np.int64)])
+
+    def __len__(self) -> int:
+        return len(self.degrees)
+
+    @overload
+    def __getitem__(self, i: int) -> FeatureSample: ...
+    @overload
+    def __getitem__(self, i: slice) -> list[FeatureSample]: ...
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        i = range(len(self))[i]  # negative indices, and IndexError past the end
+        return FeatureSample(np.array(self.centers[i], dtype=float), self.kind,
+                             self.crossings[self.offsets[i]:self.offsets[i + 1]])
+
+
 class NetworkSampler:
     """Feature samples of one network, at its nodes and along its paths.
 
@@ -68,37 +112,70 @@ class NetworkSampler:
         Also note where each route out crosses this smaller circle first
         (:mod:`.stations`).
 
-    Attributes
-    ----------
-    at_node : list of list of (int, int)
-        Per node, the paths that meet there: (path index, direction away
-        from the node, +1 from the path's start, -1 from its end).
+    Notes
+    -----
+    The network is held as arrays (its points one after another, and per
+    node the paths that meet there), not a list per path and per node: the
+    samplers of a library's examples stay with them between runs.
     """
 
     def __init__(self, graph: FeatureGraph, radius: float, *, station_radius: float | None = None):
         self.graph = graph
         self.radius = float(radius)
         self.station_radius = station_radius
-        self.points = [np.asarray(p.points, dtype=float) for p in graph.paths]
-        self.at_node: list[list[tuple[int, int]]] = [[] for _ in graph.nodes]
-        for i, p in enumerate(graph.paths):
-            self.at_node[p.start].append((i, +1))
-            self.at_node[p.end].append((i, -1))
+        self._flat, self._offsets = graph.flat_paths()
+        ends = graph.path_ends()
+        self._ends = ends
+        # Per node, the paths meeting there, in path order: (path, +1) from
+        # a path's start, (path, -1) from its end (a path from a node to
+        # itself lists both, start first).
+        n_paths = len(ends)
+        at_node = np.concatenate([ends[:, 0], ends[:, 1]])
+        at_path = np.tile(np.arange(n_paths, dtype=np.int64), 2)
+        at_step = np.repeat(np.array([1, -1], dtype=np.int64), n_paths)
+        order = np.lexsort((-at_step, at_path, at_node))
+        self._at_path, self._at_step = at_path[order], at_step[order]
+        self._at_offsets = np.concatenate(
+            [[0], np.cumsum(np.bincount(at_node, minlength=len(graph.nodes)))]).astype(np.int64)
+
+    def points(self, path: int) -> np.ndarray:
+        """Path ``path``'s points, ndarray of float, shape (n, 2), cells (a view)."""
+        return self._flat[self._offsets[path]:self._offsets[path + 1]]
+
+    def flat_points(self) -> np.ndarray:
+        """Every path's points one after another, ndarray of float, shape (n, 2)."""
+        return self._flat
+
+    def locate(self, position: int) -> tuple[int, int]:
+        """``(path, index)`` of point ``position`` of :meth:`flat_points`."""
+        path = int(np.searchsorted(self._offsets, position, side="right")) - 1
+        return path, position - int(self._offsets[path])
+
+    def paths_at(self, node: int) -> list[tuple[int, int]]:
+        """The paths that meet at ``node``: (path index, direction away from
+        the node, +1 from the path's start, -1 from its end)."""
+        a, b = self._at_offsets[node], self._at_offsets[node + 1]
+        return list(zip(self._at_path[a:b].tolist(), self._at_step[a:b].tolist()))
+
+    def degrees(self) -> np.ndarray:
+        """How many path ends meet at each node, ndarray of int, shape (n_nodes,)."""
+        return np.diff(self._at_offsets)
 
     def node_sample(self, node: int) -> FeatureSample | None:
         """The sample centred on node ``node`` (None when nothing leaves the disc)."""
         nd = self.graph.nodes[node]
-        c = np.array([nd.row, nd.col])
+        c = np.array([nd.row, nd.col], dtype=float)
         return _make_sample(c, self.graph.kind, self.crossings_from_node(c, node))
 
     def path_samples(self, path: int, spacing: float, *, reverse: bool = False) -> list[FeatureSample]:
         """Samples every ``spacing`` cells along path ``path``, half a spacing
         clear of both ends, from its start (or from its end with ``reverse``)."""
-        pts = self.points[path][::-1] if reverse else self.points[path]
+        forward = self.points(path)
+        pts = forward[::-1] if reverse else forward
         out = []
         for j in _arc_positions(pts, spacing, spacing / 2):
             idx = len(pts) - 1 - j if reverse else j
-            c = self.points[path][idx]
+            c = forward[idx]
             s = _make_sample(c, self.graph.kind, self.crossings_from_path(c, path, idx))
             if s is not None:
                 out.append(s)
@@ -114,8 +191,8 @@ class NetworkSampler:
         """Each way out of the disc from node ``node``: ``(crossing, station)``
         (the station None without ``station_radius``)."""
         out: list = []
-        for path, direction in self.at_node[node]:
-            self._walk(center, path, 0 if direction > 0 else len(self.points[path]) - 1, direction, node, None,
+        for path, direction in self.paths_at(node):
+            self._walk(center, path, 0 if direction > 0 else len(self.points(path)) - 1, direction, node, None,
                        out, set())
         return out
 
@@ -128,7 +205,7 @@ class NetworkSampler:
         return out
 
     def _walk(self, center, path, index, direction, from_node, station, out, seen):
-        pts = self.points[path]
+        pts = self.points(path)
         seq = pts[index:] if direction > 0 else pts[index::-1]
         # Points are about a cell apart: a route leaves the disc within a
         # few radii of points unless it winds, so look there first.
@@ -153,15 +230,14 @@ class NetworkSampler:
             return
         # The whole rest of the path lies inside the disc: go on past its node.
         seen.add(path)
-        p = self.graph.paths[path]
-        node = p.end if direction > 0 else p.start
+        node = int(self._ends[path, 1 if direction > 0 else 0])
         if node == from_node:
             return
-        for other, d in self.at_node[node]:
+        for other, d in self.paths_at(node):
             if other in seen:
                 continue
             seen.add(other)
-            start = 0 if d > 0 else len(self.points[other]) - 1
+            start = 0 if d > 0 else len(self.points(other)) - 1
             self._walk(center, other, start, d, node, station, out, seen)
 
 

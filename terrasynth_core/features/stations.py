@@ -48,7 +48,7 @@ class LineStations:
     def __init__(self, graph: FeatureGraph, radius: float):
         self._graph = graph
         self._walker = NetworkSampler(graph, radius, station_radius=STATION_SHARE * float(radius))
-        self._at: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._at: tuple[np.ndarray, np.ndarray] | None = None
         self._nodes: dict[int, int] = {}
         # Routes by centre: a sample's candidates share their sketch
         # centre, and an example centre comes back in many rankings.
@@ -62,26 +62,21 @@ class LineStations:
             self._index()
         if key in self._nodes:
             return -1, self._nodes[key]
-        keys, path, index = self._at
+        keys, order = self._at
         at = int(np.searchsorted(keys, key))
         if at < len(keys) and keys[at] == key:
-            return int(path[at]), int(index[at])
+            return self._walker.locate(int(order[at]))
         return None
 
     def _index(self) -> None:
-        """Every path point's key, sorted, with its path and index."""
-        points = self._walker.points
-        lengths = [len(p) for p in points]
-        pts = np.concatenate(points) if points else np.zeros((0, 2))
-        keys = _keys(pts)
+        """Every path point's key, sorted, with where it is among the
+        network's points (its path and index follow from that)."""
+        keys = _keys(self._walker.flat_points())
         order = np.argsort(keys, kind="stable")
-        path = np.repeat(np.arange(len(lengths)), lengths)
-        index = np.concatenate([np.arange(n) for n in lengths]) if lengths else np.zeros(0, np.int64)
-        nodes = np.array([[nd.row, nd.col] for nd in self._graph.nodes], dtype=float).reshape(-1, 2)
-        self._nodes = {int(k): n for n, k in enumerate(_keys(nodes))}
+        self._nodes = {int(k): n for n, k in enumerate(_keys(self._graph.node_positions()))}
         # Last: an example's stations are shared between sessions, and
         # another thread takes a set ``_at`` for a finished index.
-        self._at = keys[order], path[order], index[order]
+        self._at = keys[order], order.astype(np.int32 if len(order) < 2**31 else np.int64)
 
     def routes(self, centre: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Every way out of the patch's disc from a sample centre: where it

@@ -56,7 +56,7 @@ def breadth_first_components(graph: FeatureGraph, radius: float, *, spacing: flo
     sampler = NetworkSampler(graph, radius)
     n = len(graph.nodes)
     seen = np.zeros(n, dtype=bool)
-    degree = np.array([len(a) for a in sampler.at_node])
+    degree = sampler.degrees()
     roots = sorted(range(n), key=lambda i: (-degree[i], graph.nodes[i].row, graph.nodes[i].col))
     components = []
     for root in roots:
@@ -69,7 +69,7 @@ def breadth_first_components(graph: FeatureGraph, radius: float, *, spacing: flo
         _append(order, sampler.node_sample(root))
         while queue:
             node = queue.popleft()
-            for path, direction in sampler.at_node[node]:
+            for path, direction in sampler.paths_at(node):
                 p = graph.paths[path]
                 other = p.end if direction > 0 else p.start
                 if seen[other]:

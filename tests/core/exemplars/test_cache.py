@@ -45,3 +45,52 @@ def test_a_cache_file_of_another_dem_under_this_name_is_not_used(white_mountains
     assert again.strong_mask.shape == own.strong_mask.shape
     assert np.array_equal(again.strong_mask, own.strong_mask) and again.relief == own.relief
     assert len(again.samples["ridge"]) == len(own.samples["ridge"])
+
+
+def test_a_stored_analysis_is_held_as_arrays_that_give_the_same_graph(white_mountains, tmp_path, monkeypatch):
+    """A library's analyses are held by every tile worker: the graphs and
+    samples read from the cache are tables over the stored arrays, which
+    give the nodes, paths and samples the analysis made."""
+    from terrasynth_core.exemplars import prepare as an
+    from terrasynth_core.features.graph import NodeTable, PathTable
+    from terrasynth_core.features.samples import SampleTable
+
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    an._CACHE.clear()
+    made = an.prepare_example(white_mountains, 32)
+    an._CACHE.clear()
+    stored = an.prepare_example(white_mountains, 32)
+    for kind in ("ridges", "valleys"):
+        a, b = getattr(made.features, kind), getattr(stored.features, kind)
+        assert isinstance(b.nodes, NodeTable) and isinstance(b.paths, PathTable)
+        assert len(a.nodes) == len(b.nodes) > 0 and len(a.paths) == len(b.paths) > 0
+        assert list(a.nodes) == list(b.nodes)  # FeatureNode compares by value
+        assert all(p.start == q.start and p.end == q.end and np.array_equal(p.points, q.points)
+                   for p, q in zip(a.paths, b.paths))
+        assert b.nodes[-1] == a.nodes[-1] and b.nodes[1:3] == tuple(a.nodes[1:3])
+        assert np.array_equal(b.node_positions(), a.node_positions())
+        assert np.array_equal(b.path_ends(), a.path_ends()) and b.total_length() == a.total_length()
+        with np.testing.assert_raises(IndexError):
+            b.paths[len(b.paths)]
+    samples = stored.samples["ridge"]
+    assert isinstance(samples, SampleTable)
+    assert samples[-1].degree == made.samples["ridge"][-1].degree
+    assert np.array_equal(samples[-1].crossings, made.samples["ridge"][-1].crossings)
+
+
+def test_an_entry_holding_its_large_arrays_inside_is_made_again_with_them_beside_it(white_mountains, tmp_path,
+                                                                                    monkeypatch):
+    """An entry written before side files would be read into memory whole:
+    it is taken as absent, and the array stored anew is mapped."""
+    from terrasynth_core.exemplars import cache
+
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    heights = np.asarray(white_mountains.heights, dtype=np.float32)
+    assert heights.nbytes >= cache.SIDE_BYTES
+    key = "old-style-entry"
+    with open(cache._path(key), "wb") as f:  # as the cache wrote it before side files
+        np.savez(f, key=np.array(key), heights=heights)
+    assert cache.load_array(key) is None
+    kept = cache.kept_array(key, lambda: heights)
+    assert isinstance(kept, np.memmap) and np.array_equal(kept, heights)
+    assert list(tmp_path.glob("*.heights.npy"))
