@@ -42,6 +42,11 @@ class ExampleAnalysis:
         deviation, metres): the unit costs are measured in.
     note : str or None
         What was done about nodata, for the run's warnings.
+    key : str
+        What the analysis is of (the heights' digest, their shape and the
+        patch size): equal keys, equal analyses.  Memos of what is made
+        from an analysis key by it, so an analysis read again from the
+        disk cache (a new object) still finds them.
     """
 
     heights: np.ndarray
@@ -50,6 +55,7 @@ class ExampleAnalysis:
     strong_mask: np.ndarray
     relief: float
     note: str | None
+    key: str
 
 
 def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: str = "example") -> ExampleAnalysis:
@@ -84,7 +90,7 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
     digest = hashlib.sha1(heights.tobytes()).hexdigest()
     key = f"{digest}-{heights.shape[0]}x{heights.shape[1]}-p{patch_size}"
     features, samples, strong, relief = _CACHE.get(key, lambda: _analyse(heights, patch_size))
-    return ExampleAnalysis(heights, features, samples, strong, relief, note)
+    return ExampleAnalysis(heights, features, samples, strong, relief, note, key)
 
 
 #: Example feature samples weaker than this quantile of their kind are dropped...

@@ -245,9 +245,12 @@ def _circle_exit(a: np.ndarray, b: np.ndarray, c: np.ndarray, r: float) -> np.nd
     """Point where segment a->b (a inside, b outside the circle) crosses it."""
     d = b - a
     f = a - c
-    qa = float(d @ d)
-    qb = 2.0 * float(f @ d)
-    qc = float(f @ f) - r * r
+    # Products and sums written out, not ``d @ d``: a BLAS dot may fuse
+    # them (FMA) or not depending on the CPU and the numpy build, and the
+    # vectorised walk (:func:`_circle_exits`) must give the same floats.
+    qa = float(d[0] * d[0] + d[1] * d[1])
+    qb = 2.0 * float(f[0] * d[0] + f[1] * d[1])
+    qc = float(f[0] * f[0] + f[1] * f[1]) - r * r
     disc = max(qb * qb - 4 * qa * qc, 0.0)
     t = (-qb + np.sqrt(disc)) / (2 * qa) if qa > 0 else 0.0
     return a + np.clip(t, 0.0, 1.0) * d

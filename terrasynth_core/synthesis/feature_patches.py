@@ -82,16 +82,15 @@ def memo_feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> d
     (each example's standing map and its samples' prominence, about 0.3 s
     for a 1201x1201 example) depend only on the examples, never on the
     sketch.  The key holds what the pools are made of: each example's
-    samples (by identity: the example analysis is memoised, and the kept
-    pools hold those very objects, so an identity cannot be reused while
-    its entry lives), the detail's bytes, the style groups, the radius and
-    the mirror option.  Pools are read-only once made.
+    analysis key (by content, not identity: a tiled run over a library
+    larger than the analysis memo reads analyses back from disk, and
+    keyed by identity each tile made, and kept, another full set of
+    pools), the detail's bytes, the style groups, the radius and the
+    mirror option.  Pools are read-only once made.
     """
-    samples = tuple(ex.samples for ex in layout.examples)
-    key = (tuple(id(s) for s in samples), array_key(*layout.detail),
+    key = (tuple(ex.key for ex in layout.examples), array_key(*layout.detail),
            tuple(tuple(int(i) for i in m) for m in layout.members), float(radius), bool(mirror))
-    kept = _POOLS.get(key, lambda: (samples, feature_pools(layout, radius, mirror=mirror)))
-    return kept[1]
+    return _POOLS.get(key, lambda: feature_pools(layout, radius, mirror=mirror))
 
 
 def standing_map(heights: np.ndarray, size: float) -> np.ndarray:
@@ -214,6 +213,7 @@ class Stations:
         self._graphs = {("sketch", kind): getattr(sketch, kind + "s") for kind in ("ridge", "valley")}
         self._graphs.update({(i, kind): getattr(ex.features, kind + "s")
                              for i, ex in enumerate(examples) for kind in ("ridge", "valley")})
+        self._keys = [ex.key for ex in examples]
         self._radius = radius
         self._made: dict = {}
         # The sketch's stations by sample: its candidates all ask for them.
@@ -225,11 +225,10 @@ class Stations:
             if key[0] == "sketch":
                 self._made[key] = LineStations(graph, self._radius)
             else:
-                # An example's network comes from its memoised analysis:
-                # its stations are kept for later sessions (the entry holds
-                # the graph, so its identity cannot be reused meanwhile).
+                # An example's network comes from its analysis: its stations
+                # are kept for later sessions, by the analysis's content key.
                 self._made[key] = _EXAMPLE_STATIONS.get(
-                    (id(graph), float(self._radius)), lambda: (graph, LineStations(graph, self._radius)))[1]
+                    (self._keys[key[0]], key[1], float(self._radius)), lambda: LineStations(graph, self._radius))
         return self._made[key]
 
     def pairs(self, sample: FeatureSample, cand: Candidate) -> tuple[np.ndarray, np.ndarray] | None:

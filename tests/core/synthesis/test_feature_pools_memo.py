@@ -68,3 +68,34 @@ def test_example_stations_are_kept_between_sessions_and_the_sketch_stations_are_
     for s in samples:
         kept = stations[1]._of((0, "ridge")).inner(s.center, s.crossings)
         np.testing.assert_array_equal(kept, fresh.inner(s.center, s.crossings))
+
+
+def test_an_analysis_read_again_from_disk_finds_its_pools_and_stations(white_mountains, sketch_dir, monkeypatch):
+    """The memos key an example by its analysis's content: when the analysis
+    memo has let it go (a tiled run over a library larger than the memo) and
+    it is read back from disk as a new object, the pools and stations made
+    from the first are found, not made and kept a second time."""
+    from terrasynth_core.exemplars import cache, prepare
+
+    made = []
+    make = feature_patches.feature_pools
+
+    def counted(layout, radius, *, mirror):
+        made.append(radius)
+        return make(layout, radius, mirror=mirror)
+
+    monkeypatch.setattr(feature_patches, "feature_pools", counted)
+    monkeypatch.setattr(feature_patches, "_POOLS", Memo(4))
+    monkeypatch.setattr(feature_patches, "_EXAMPLE_STATIONS", Memo(8))
+    sketch = read_sketch(sketch_dir / "y_junction_512.png").resized((160, 160))
+    first = Session([white_mountains], sketch, params=P)
+    heights = first.run().heights
+    # The analysis memo forgets: the next session reads the analysis from disk.
+    monkeypatch.setattr(prepare, "_CACHE", cache.Memo(8, cache.load, lambda key, value: cache.save(key, *value)))
+    again = Session([white_mountains], sketch, params=P)
+    assert again.layout.examples[0] is not first.layout.examples[0]
+    assert again.layout.examples[0].key == first.layout.examples[0].key
+    np.testing.assert_array_equal(again.run().heights, heights)
+    assert len(made) == 1
+    stations = [feature_patches.Stations(s.sketch_maps, s.layout.examples, 16.0) for s in (first, again)]
+    assert stations[0]._of((0, "valley")) is stations[1]._of((0, "valley"))
