@@ -130,7 +130,8 @@ class LatestRunner(QObject):
     Each request gets a :class:`GeneratorWorker` on its own ``QThread``;
     the runner's signals mean the worker's, for the current request only
     (an old request's late signals are dropped).  A cancelled request stays
-    current until it says it stopped, so listeners learn that it ended.
+    current until it says it stopped or a new request supersedes it, so
+    listeners learn once that it ended.
 
     Parameters
     ----------
@@ -163,8 +164,15 @@ class LatestRunner(QObject):
         return self._current is not None
 
     def start(self, events: Iterable) -> GeneratorWorker:
-        """Run ``events`` (see :class:`GeneratorWorker`), cancelling the current request."""
-        self.cancel()
+        """Run ``events`` (see :class:`GeneratorWorker`), cancelling the current request.
+
+        A request still running is superseded: ``cancelled`` is emitted for
+        it now, since its own signals (which may come after this one's
+        first) are dropped from here on.
+        """
+        if self._current is not None:
+            self._current.cancel()
+            self.cancelled.emit()
         worker = GeneratorWorker(events)
         thread = QThread()
         worker.moveToThread(thread)

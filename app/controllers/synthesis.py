@@ -167,9 +167,11 @@ class SynthesisController(_RunController):
         # the sketch with them); a re-synthesis leaves the rest following
         # the strokes it followed.
         self._strokes = request.sketch_map if request.previous is None else self.document.result_strokes
+        # First, so a run it supersedes says it was cancelled before this
+        # one's stage is shown.
+        self.runner.start(synthesis_events(request))
         self.stage_changed.emit("Reading examples…")
         self.progress_changed.emit(0, 0, "")
-        self.runner.start(synthesis_events(request))
 
     # -- events of the current run --------------------------------------------------------
     def _event(self, event) -> None:
