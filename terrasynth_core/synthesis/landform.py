@@ -342,8 +342,12 @@ def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray
 
     A stamp is a landmark the artist placed as it is: it stands on the
     landform's mean height there instead of being tilted by it; the level
-    returns to the landform over half a patch around it, smoothly (no step
-    where the core ends).
+    returns to the landform around it, smoothly (no step where the core
+    ends), over half a patch or, where the landform lies far above or
+    below the stamp, as far as keeps the ramp no steeper than the
+    landform's own steep slopes (its 99th percentile), up to two patches.
+    Over half a patch alone, the ramp was up to three times steeper than
+    any slope elsewhere: a moat or a wall around the stamp.
 
     Parameters
     ----------
@@ -361,9 +365,17 @@ def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray
         core[r0:r1, c0:c1] = st.core
         if not core.any():
             continue
-        # 1 on the core, easing to 0 over half a patch around it.
-        weight = 1.0 - smoothstep(ndimage.distance_transform_edt(~core) / max(patch_size / 2, 1.0))
-        level = (level + weight * (float(level[core].mean()) - level)).astype(np.float32)
+        mean = float(level[core].mean())
+        dist = ndimage.distance_transform_edt(~core)
+        steep = float(np.percentile(np.hypot(*np.gradient(level.astype(np.float64))), 99))
+        reach = max(patch_size / 2, 1.0)
+        for _ in range(2):  # the rise over a wider ring can be larger: look once more
+            rise = float(np.abs(level[dist <= reach] - mean).max())
+            # smoothstep's steepest slope is 1.5 / reach of the rise.
+            reach = float(np.clip(1.5 * rise / steep if steep > 0 else reach, patch_size / 2, 2 * patch_size))
+        # 1 on the core, easing to 0 over ``reach`` around it.
+        weight = 1.0 - smoothstep(dist / max(reach, 1.0))
+        level = (level + weight * (mean - level)).astype(np.float32)
     return level
 
 
