@@ -237,8 +237,8 @@ def _compare_ann(example, mask, window, f, overlap, zone, queries, k=96):
     from terrasynth_core.matching.window_index import ZoneIndex, ivf_index, zone_of, zone_vectors
 
     search = FillSearch(example, window, feature_mask=mask, coarse_factor=f, overlap=overlap, use_cache=False)
-    rough = search.roughness[search.positions[:, 0], search.positions[:, 1]] - search.target_roughness(0.5)
-    parts, vectors = zone_vectors(example, window, overlap, zone, search.positions, rough)
+    prior = search.prior[search.positions[:, 0], search.positions[:, 1]]
+    parts, vectors = zone_vectors(example, window, overlap, zone, search.positions, prior)
     describe = ZoneIndex(**parts, positions=search.positions, index=None)
     q = np.concatenate([describe.query_vector(t, m) for t, m, _ in queries if zone_of(m, overlap) == zone])
     faiss.omp_set_num_threads(1)

@@ -29,16 +29,6 @@ comes out smoother than its example; the normalised rank removes that
 bias.  The SSD itself is still what is returned, for the match cost.  Positions whose window centre holds a strong
 example feature are excluded, so fill patches do not add ridges or valleys
 the sketch did not ask for.
-
-Every query also names a *roughness target*: a quantile of the roughness
-of the windows on offer (:func:`window_roughness`), and windows pay for
-straying from it (:meth:`_WindowSearch.prior`).  The fill gives each output
-window its own quantile (:func:`~..synthesis.roughness.roughness_targets`),
-spread evenly over the map, so the output's windows are as varied as the
-example's: one target for every window (its median) drew the output's
-windows from the middle of the example's roughness and left out its
-roughest (measured on the Himalaya: none of the chosen windows above the
-65th percentile, the finest creases at 0.69 of the example's).
 """
 
 from __future__ import annotations
@@ -104,34 +94,12 @@ class _WindowSearch:
         # The example is hashed once for both grids' keys.
         digest = hashlib.sha1(np.ascontiguousarray(example, dtype=np.float32).tobytes()).hexdigest()
         self._centred_key = f"centred-{_grid_key(digest, example.shape)}"
-        self.roughness = cache.kept_array(f"rough-{_grid_key(digest, example.shape, window)}",
-                                          lambda: window_roughness(example, window), name="rough",
-                                          dtype=np.float64)
-        offered = self.roughness[::f, ::f][:allowed.shape[0], :allowed.shape[1]][allowed]
-        # The roughness of the windows on offer at each percentile.
-        self._percentiles = np.percentile(offered if offered.size else self.roughness, np.arange(101))
+        self.prior = cache.kept_array(f"prior-{_grid_key(digest, example.shape, window, allowed, f)}",
+                                      lambda: roughness_prior(example, window, allowed, f), name="prior",
+                                      dtype=np.float64)
 
-    def target_roughness(self, quantile: float) -> float:
-        """The log roughness of the windows on offer at ``quantile`` (0 the
-        smoothest, 0.5 the median, 1 the roughest)."""
-        return float(np.interp(quantile, np.linspace(0.0, 1.0, 101), self._percentiles))
-
-    def prior(self, rows, cols, quantile: float = 0.5) -> np.ndarray:
-        """The roughness prior of windows (top-left ``rows``, ``cols``, any
-        shape or slices) against the target ``quantile``:
-        ``ln(rho / rho_q)**2``, ``rho`` a window's mean gradient magnitude
-        and ``rho_q`` that of the windows on offer at the quantile.
-
-        Matching the overlap alone favours smooth windows (their few
-        details are easy to agree with), so a region grown from overlaps
-        comes out smoother than its example (measured: the chosen windows'
-        median slope 7-11 % below that of all windows); the prior makes a
-        window pay for straying from its target in either direction.
-        """
-        return (self.roughness[rows, cols] - self.target_roughness(quantile)) ** 2
-
-    def best(self, target: np.ndarray, filled: np.ndarray, count: int, rng: np.random.Generator,
-             roughness: float = 0.5) -> list[tuple[tuple[int, int], float, float, float]]:
+    def best(self, target: np.ndarray, filled: np.ndarray, count: int, rng: np.random.Generator
+             ) -> list[tuple[tuple[int, int], float, float]]:
         """The ``count`` best example windows for one output window.
 
         Parameters
@@ -142,9 +110,6 @@ class _WindowSearch:
         count : int
         rng : Generator
             Picks positions at random when nothing is filled yet.
-        roughness : float, default 0.5
-            The window's roughness target, a quantile of the windows on
-            offer (see :meth:`prior`).
 
         Returns
         -------
@@ -152,7 +117,7 @@ class _WindowSearch:
             Full-resolution top-left corners, the mean squared difference
             over the overlap after the offset, the height offset to add to
             the example window, and the window's roughness prior (see
-            :meth:`prior`; weighted by ``ROUGHNESS_WEIGHT`` in the
+            :func:`roughness_prior`; weighted by ``ROUGHNESS_WEIGHT`` in the
             ranking).
         """
         n_filled = int(filled.sum())
@@ -161,12 +126,12 @@ class _WindowSearch:
             picks = rng.choice(flat, size=min(count, flat.size), replace=False)
             return [((int(p // self.allowed.shape[1]) * self.f, int(p % self.allowed.shape[1]) * self.f), 0.0, 0.0, 0.0)
                     for p in picks]
-        coarse_pos = self._coarse_best(target, filled, count, roughness)
-        out = [self._refine(target, filled, pos, roughness) for pos in coarse_pos]
+        coarse_pos = self._coarse_best(target, filled, count)
+        out = [self._refine(target, filled, pos) for pos in coarse_pos]
         out.sort(key=lambda t: t[1])
         return out
 
-    def _coarse_best(self, target, filled, count, roughness) -> list[tuple[int, int]]:
+    def _coarse_best(self, target, filled, count) -> list[tuple[int, int]]:
         """Up to ``count`` well-separated grid positions (in grid units), best first."""
         raise NotImplementedError
 
@@ -188,7 +153,7 @@ class _WindowSearch:
         """How far from a grid pick :meth:`_refine` looks, cells."""
         return self.f - 1
 
-    def _refine(self, target, filled, coarse_rc, roughness):
+    def _refine(self, target, filled, coarse_rc):
         """The best window within :meth:`_refine_radius` cells of a grid
         pick, by the exact score: ((row, col), ssd, offset, prior)."""
         f = self.f
@@ -198,10 +163,10 @@ class _WindowSearch:
         rr, cc = np.meshgrid(coarse_rc[0] * f + d, coarse_rc[1] * f + d, indexing="ij")
         fits = (rr >= 0) & (cc >= 0) & (rr + h <= H) & (cc + w <= W)
         positions = np.stack([rr[fits], cc[fits]], axis=1)
-        r, c = (int(v) for v in positions[int(np.argmin(self.scores(target, filled, positions, roughness)))])
+        r, c = (int(v) for v in positions[int(np.argmin(self.scores(target, filled, positions)))])
         diff = target[filled].astype(np.float64) - self.example[r:r + h, c:c + w][filled]
         off = diff.mean()
-        return (r, c), float(((diff - off) ** 2).mean()), float(off), float(self.prior(r, c, roughness))
+        return (r, c), float(((diff - off) ** 2).mean()), float(off), float(self.prior[r, c])
 
     def _centred(self) -> np.ndarray:
         """The example minus its mean, float64, flat (made once: moments of
@@ -212,8 +177,7 @@ class _WindowSearch:
                 name="centred", dtype=np.float64)
         return self._flat
 
-    def scores(self, target: np.ndarray, filled: np.ndarray, positions: np.ndarray,
-               roughness: float = 0.5) -> np.ndarray:
+    def scores(self, target: np.ndarray, filled: np.ndarray, positions: np.ndarray) -> np.ndarray:
         """The exact score of windows, by which the searches rank them.
 
         Parameters
@@ -222,8 +186,6 @@ class _WindowSearch:
         filled : ndarray of bool, shape ``window``, not all False
         positions : ndarray of int, shape (m, 2)
             Top-left corners, cells.
-        roughness : float, default 0.5
-            Roughness target quantile (see :meth:`prior`).
 
         Returns
         -------
@@ -241,7 +203,6 @@ class _WindowSearch:
         var_o = float(o @ o) / n
         flat = self._centred()
         out = np.empty(positions.shape[0])
-        t = self.target_roughness(roughness)
         # The offset-free SSD from moments, var(o - e) = var(o) + var(e) -
         # 2 cov(o, e): three passes over the windows' filled cells, all by
         # einsum (BLAS's threads, measured, slowed it 3x on the two cores
@@ -253,8 +214,7 @@ class _WindowSearch:
             mean_e = e.sum(axis=1) / n
             var_e = np.maximum(np.einsum("ij,ij->i", e, e) / n - mean_e**2, 0.0)
             ssd = np.maximum(var_o + var_e - 2.0 * np.einsum("ij,j->i", e, o) / n, 0.0)
-            prior = (self.roughness[p[:, 0], p[:, 1]] - t) ** 2
-            out[a:a + chunk] = ssd / (var_e + var_o + 1e-6) + ROUGHNESS_WEIGHT * prior
+            out[a:a + chunk] = ssd / (var_e + var_o + 1e-6) + ROUGHNESS_WEIGHT * self.prior[p[:, 0], p[:, 1]]
         return out
 
 
@@ -283,7 +243,7 @@ class FftFillSearch(_WindowSearch):
         self.F_e = fft.rfft2(self.coarse, self.fshape, workers=workers)
         self.F_e2 = fft.rfft2(self.coarse**2, self.fshape, workers=workers)
 
-    def _coarse_best(self, target, filled, count, roughness):
+    def _coarse_best(self, target, filled, count):
         f = self.f
         ch, cw = self.cwin
         h, w = self.window
@@ -316,7 +276,7 @@ class FftFillSearch(_WindowSearch):
         var_c = s_e2m - s_em**2 / sum_m
         var_t = sum_mo2 - sum_mo**2 / sum_m
         ssd = ssd / (np.maximum(var_c, 0.0) + var_t + 1e-6 * sum_m)
-        ssd = ssd + ROUGHNESS_WEIGHT * self.prior(slice(None, ar * f, f), slice(None, ac * f, f), roughness)
+        ssd = ssd + ROUGHNESS_WEIGHT * self.prior[::f, ::f][:ar, :ac]
         ssd[~self.allowed] = np.inf
         # k best, at least a quarter window apart so they differ.
         flat = ssd.ravel()
@@ -374,13 +334,10 @@ class FillSearch(_WindowSearch):
         self.indexes = None
         if self.positions.shape[0] >= self.EXHAUSTIVE_BELOW:
             load, save = (_load_index, _save_index) if use_cache else (None, None)
-            # Indexed about the median, so a query's roughness coordinate
-            # is its target's distance from the median.
             self.indexes = LazyIndexes(example, window, self.overlap, self.positions,
-                                       self.roughness[self.positions[:, 0], self.positions[:, 1]]
-                                       - self.target_roughness(0.5), load=load, save=save)
+                                       self.prior[self.positions[:, 0], self.positions[:, 1]], load=load, save=save)
 
-    def candidates(self, target: np.ndarray, filled: np.ndarray, roughness: float = 0.5) -> np.ndarray:
+    def candidates(self, target: np.ndarray, filled: np.ndarray) -> np.ndarray:
         """The windows scored exactly for this output window.
 
         Returns
@@ -391,8 +348,7 @@ class FillSearch(_WindowSearch):
         """
         if self.indexes is None:
             return self.positions
-        return self.indexes.get(zone_of(filled, self.overlap)).query(
-            target, filled, self.shortlist, self.target_roughness(roughness) - self.target_roughness(0.5))
+        return self.indexes.get(zone_of(filled, self.overlap)).query(target, filled, self.shortlist)
 
     def _refine_radius(self) -> int:
         # The grid windows are scored exactly at full resolution, so a pick
@@ -400,9 +356,9 @@ class FillSearch(_WindowSearch):
         # window; the FFT search scores block means and looks further.
         return self.f // 2
 
-    def _coarse_best(self, target, filled, count, roughness):
-        positions = self.candidates(target, filled, roughness)
-        score = self.scores(target, filled, positions, roughness)
+    def _coarse_best(self, target, filled, count):
+        positions = self.candidates(target, filled)
+        score = self.scores(target, filled, positions)
         order = np.argsort(score, kind="stable")
         return self._separated(((int(r) // self.f, int(c) // self.f) for r, c in positions[order]), count)
 
@@ -412,11 +368,15 @@ class FillSearch(_WindowSearch):
 GRIDS_VERSION = 1
 
 
-def _grid_key(digest: str, shape: tuple[int, int], window: tuple[int, int] | None = None) -> str:
+def _grid_key(digest: str, shape: tuple[int, int], window: tuple[int, int] | None = None,
+              allowed: np.ndarray | None = None, f: int = 0) -> str:
     """Digest of what a search's stored grid is made of: the example (its
-    bytes' SHA-1 ``digest``) and, for the roughness, the window."""
+    bytes' SHA-1 ``digest``) and, for the prior, the window, the windows on
+    offer and their spacing."""
     h = hashlib.sha1(digest.encode())
-    h.update(repr((tuple(shape), None if window is None else tuple(window), 0, GRIDS_VERSION)).encode())
+    if allowed is not None:
+        h.update(np.ascontiguousarray(allowed, dtype=bool).tobytes())
+    h.update(repr((tuple(shape), None if window is None else tuple(window), int(f), GRIDS_VERSION)).encode())
     return h.hexdigest()
 
 
@@ -434,18 +394,30 @@ def _save_index(key: str, index: ZoneIndex) -> None:
     cache.save_arrays(key, index.to_arrays())
 
 
-def window_roughness(example: np.ndarray, window: tuple[int, int]) -> np.ndarray:
-    """Each window's log roughness: ``ln`` of its mean gradient magnitude.
+def roughness_prior(example: np.ndarray, window: tuple[int, int], allowed: np.ndarray, f: int) -> np.ndarray:
+    """How far each window's roughness is from the example's typical window.
+
+    Matching the overlap alone favours smooth windows (their few details
+    are easy to agree with), so a region grown from overlaps comes out
+    smoother than its example (measured: the chosen windows' median slope
+    7-11 % below that of all windows).  This prior, ``ln(rho / rho_50)**2``
+    with ``rho`` a window's mean gradient magnitude and ``rho_50`` its
+    median over the windows on offer, makes a window pay for straying from
+    the example's typical roughness in either direction.
 
     Parameters
     ----------
     example : ndarray of float32, shape (H, W)
     window : (h, w)
+    allowed : ndarray of bool, shape (ar, ac)
+        Windows on offer, at the coarse positions (every ``f`` cells).
+    f : int
+        Coarse factor.
 
     Returns
     -------
     ndarray of float64, shape (H - h + 1, W - w + 1)
-        Per full-resolution top-left corner (gradient per cell, metres).
+        The prior per full-resolution top-left corner (0 at the median).
     """
     h, w = window
     gr, gc = np.gradient(example.astype(np.float64))
@@ -453,4 +425,7 @@ def window_roughness(example: np.ndarray, window: tuple[int, int]) -> np.ndarray
     # Window means from a summed-area table: exact, O(1) per window.
     sat = np.pad(grad.cumsum(0).cumsum(1), ((1, 0), (1, 0)))
     total = sat[h:, w:] - sat[:-h, w:] - sat[h:, :-w] + sat[:-h, :-w]
-    return np.log(total / (h * w) + 1e-9)
+    rho = total / (h * w) + 1e-9
+    offered = rho[::f, ::f][:allowed.shape[0], :allowed.shape[1]][allowed]
+    typical = float(np.median(offered)) if offered.size else float(np.median(rho))
+    return np.log(rho / typical) ** 2

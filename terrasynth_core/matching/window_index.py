@@ -11,12 +11,10 @@ coarse grid (block means ``step`` cells wide), with its mean removed (the
 match ignores a height offset), and the description is split into its
 direction and its size:
 
-``[PCA(d / |d|), ln(rms(d)), sqrt(2 * ROUGHNESS_WEIGHT) * r]``
+``[PCA(d / |d|), ln(rms(d)), sqrt(2 * ROUGHNESS_WEIGHT * prior)]``
 
-with ``r`` the window's log roughness less the median's.  For a query
-``[PCA(t / |t|), ln(rms(t)), sqrt(2 * ROUGHNESS_WEIGHT) * r_t]`` (``r_t``
-its roughness target, likewise), half the squared distance is ``1 - cos +
-ln(rms_e / rms_t)**2 / 2 + ROUGHNESS_WEIGHT * (r - r_t)**2``, which is,
+For a query ``[PCA(t / |t|), ln(rms(t)), 0]``, half the squared distance is
+``1 - cos + ln(rms_e / rms_t)**2 / 2 + ROUGHNESS_WEIGHT * prior``, which is,
 to second order near a good match, the fill search's own score (the
 offset-free SSD over the two windows' variances, ``1 - cos / cosh(ln(rms_e
 / rms_t))``, plus the roughness prior).  So the nearest neighbours are the
@@ -53,9 +51,8 @@ import numpy as np
 from .costs import ROUGHNESS_WEIGHT
 
 #: Bump when descriptors, index parameters or their storage change, so
-#: stored indexes are rebuilt (2: the faiss index in a file of its own, mapped;
-#: 3: a signed roughness coordinate, queried at each window's target).
-INDEX_VERSION = 3
+#: stored indexes are rebuilt (2: the faiss index in a file of its own, mapped).
+INDEX_VERSION = 2
 #: PCA dimensions of a zone's direction (Liang et al. keep a few dozen).
 PCA_DIMS = 24
 #: Coarse cells across a window side in the descriptor.
@@ -181,7 +178,7 @@ class ZoneIndex:
         self.positions = positions
         self._index = index
 
-    def query(self, target: np.ndarray, filled: np.ndarray, count: int, roughness: float = 0.0) -> np.ndarray:
+    def query(self, target: np.ndarray, filled: np.ndarray, count: int) -> np.ndarray:
         """Indexed windows nearest to a partly filled output window.
 
         Parameters
@@ -191,9 +188,6 @@ class ZoneIndex:
         filled : ndarray of bool, shape (h, w)
         count : int
             Shortlist length.
-        roughness : float, default 0
-            The roughness target: a log roughness less the indexed
-            windows' median.
 
         Returns
         -------
@@ -202,13 +196,14 @@ class ZoneIndex:
         """
         _single_thread()
         k = min(count, self.positions.shape[0])
-        _, ids = self._index.search(self.query_vector(target, filled, roughness), k)
+        _, ids = self._index.search(self.query_vector(target, filled), k)
         ids = ids[0][ids[0] >= 0]
         return self.positions[ids]
 
-    def query_vector(self, target: np.ndarray, filled: np.ndarray, roughness: float = 0.0) -> np.ndarray:
+    def query_vector(self, target: np.ndarray, filled: np.ndarray) -> np.ndarray:
         """The index vector of an output window, shape (1, PCA_DIMS + 2),
-        float32, with its roughness target (as in :meth:`query`)."""
+        float32 (its roughness coordinate 0: the prior is the example
+        window's alone)."""
         s = self.step
         h, w = filled.shape
         gh, gw = h // s, w // s
@@ -227,7 +222,7 @@ class ZoneIndex:
         vec = np.empty((1, self.pca_axes.shape[1] + 2), np.float32)
         vec[0, :-2] = (unit - self.pca_mean) @ self.pca_axes
         vec[0, -2] = np.log(rms + self.floor)
-        vec[0, -1] = np.sqrt(2.0 * ROUGHNESS_WEIGHT) * roughness
+        vec[0, -1] = 0.0
         return vec
 
     def to_arrays(self) -> dict:
@@ -277,7 +272,7 @@ def _single_thread() -> None:
 
 
 def build_zone_index(example: np.ndarray, window: tuple[int, int], overlap: int, zone: int,
-                     positions: np.ndarray, roughness: np.ndarray, *, blocks: np.ndarray | None = None) -> ZoneIndex:
+                     positions: np.ndarray, prior: np.ndarray, *, blocks: np.ndarray | None = None) -> ZoneIndex:
     """Index an example's windows for one zone.
 
     Parameters
@@ -290,9 +285,8 @@ def build_zone_index(example: np.ndarray, window: tuple[int, int], overlap: int,
         1 to 15 (see :func:`zone_of`).
     positions : ndarray of int, shape (n, 2)
         Top-left corners of the windows on offer (each window must fit).
-    roughness : ndarray of float, shape (n,)
-        Each window's log roughness less the median's (the prior is its
-        squared distance from a query's target).
+    prior : ndarray of float, shape (n,)
+        Each window's roughness prior (added to its score).
     blocks : ndarray of float32, or None
         :func:`centred_blocks` of ``example`` for this window, when the
         caller keeps it for the example's other zones; None computes it.
@@ -301,7 +295,7 @@ def build_zone_index(example: np.ndarray, window: tuple[int, int], overlap: int,
     -------
     ZoneIndex
     """
-    parts, vectors = zone_vectors(example, window, overlap, zone, positions, roughness, blocks=blocks)
+    parts, vectors = zone_vectors(example, window, overlap, zone, positions, prior, blocks=blocks)
     return ZoneIndex(**parts, positions=positions.astype(np.int32), index=ivf_index(vectors))
 
 
@@ -320,7 +314,7 @@ def centred_blocks(example: np.ndarray, window: tuple[int, int]) -> np.ndarray:
 
 
 def zone_vectors(example: np.ndarray, window: tuple[int, int], overlap: int, zone: int,
-                 positions: np.ndarray, roughness: np.ndarray, *,
+                 positions: np.ndarray, prior: np.ndarray, *,
                  blocks: np.ndarray | None = None) -> tuple[dict, np.ndarray]:
     """The index vectors of an example's windows for one zone.
 
@@ -333,7 +327,7 @@ def zone_vectors(example: np.ndarray, window: tuple[int, int], overlap: int, zon
         the :class:`ZoneIndex` (what a query needs to describe a window).
     vectors : ndarray of float32, shape (n, PCA_DIMS + 2)
         Per window: the PCA projection of its zone's direction, its log
-        rms, and ``sqrt(2 * ROUGHNESS_WEIGHT) * roughness``.
+        rms, and ``sqrt(2 * ROUGHNESS_WEIGHT * prior)``.
     """
     step = descriptor_step(window)
     cells = zone_cells(window, overlap, zone, step)
@@ -380,7 +374,7 @@ def zone_vectors(example: np.ndarray, window: tuple[int, int], overlap: int, zon
         unit, size = describe(slice(a, a + chunk))
         vectors[a:a + chunk, :dims] = (unit - pca_mean) @ axes
         vectors[a:a + chunk, dims] = size
-    vectors[:, dims + 1] = np.sqrt(2.0 * ROUGHNESS_WEIGHT) * np.asarray(roughness, dtype=np.float64)
+    vectors[:, dims + 1] = np.sqrt(2.0 * ROUGHNESS_WEIGHT * np.asarray(prior, dtype=np.float64))
     return {"cells": cells, "step": step, "floor": floor, "pca_mean": pca_mean, "pca_axes": axes}, vectors
 
 
@@ -403,14 +397,14 @@ def ivf_index(vectors: np.ndarray):
 
 
 def index_key(example: np.ndarray, window: tuple[int, int], overlap: int, positions: np.ndarray,
-              roughness: np.ndarray) -> str:
+              prior: np.ndarray) -> str:
     """Cache key of an example's zone indexes (``-z<zone>`` is appended per
-    zone): the digests of the example, the offered windows and their
-    roughness (a coordinate of every vector), the window, overlap and
+    zone): the digests of the example, the offered windows and their prior
+    (a coordinate of every vector), the window, overlap and
     :data:`INDEX_VERSION`."""
     h = hashlib.sha1(np.ascontiguousarray(example, dtype=np.float32).tobytes())
     h.update(np.ascontiguousarray(positions, dtype=np.int32).tobytes())
-    h.update(np.ascontiguousarray(roughness, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(prior, dtype=np.float64).tobytes())
     h.update(repr((example.shape, tuple(window), int(overlap))).encode())
     return f"windows-v{INDEX_VERSION}-{h.hexdigest()}"
 
@@ -419,9 +413,9 @@ class LazyIndexes:
     """The zone indexes of one example and window, each built (or loaded
     from the disk cache) the first time it is asked for; thread-safe."""
 
-    def __init__(self, example, window, overlap, positions, roughness, *, load=None, save=None):
+    def __init__(self, example, window, overlap, positions, prior, *, load=None, save=None):
         self.example, self.window, self.overlap = example, window, overlap
-        self.positions, self.roughness = positions, roughness
+        self.positions, self.prior = positions, prior
         self._load, self._save = load, save
         self._indexes: dict[int, ZoneIndex] = {}
         self._lock = threading.Lock()
@@ -448,14 +442,13 @@ class LazyIndexes:
             if got is not None:
                 return got
             if self._base_key is None:
-                self._base_key = index_key(self.example, self.window, self.overlap, self.positions,
-                                           self.roughness)
+                self._base_key = index_key(self.example, self.window, self.overlap, self.positions, self.prior)
             key = f"{self._base_key}-z{zone}"
             got = self._load(key) if self._load else None
             if got is None:
                 if self._blocks is None:
                     self._blocks = centred_blocks(self.example, self.window)
-                got = build_zone_index(self.example, self.window, self.overlap, zone, self.positions, self.roughness,
+                got = build_zone_index(self.example, self.window, self.overlap, zone, self.positions, self.prior,
                                        blocks=self._blocks)
                 if self._save:
                     self._save(key, got)

@@ -51,7 +51,7 @@ def window_examples(layout: StyleLayout, bbox) -> tuple[list[int], float]:
 
 def search_fill(searches: list, detail: list[np.ndarray], anchor: np.ndarray, members: list[int], relief: float,
                 target: np.ndarray, filled: np.ndarray, rng: np.random.Generator, *,
-                patch_size: int, k: int, roughness: float = 0.5) -> list[tuple]:
+                patch_size: int, k: int) -> list[tuple]:
     """Candidate example windows for one output window, best first.
 
     Parameters
@@ -73,9 +73,6 @@ def search_fill(searches: list, detail: list[np.ndarray], anchor: np.ndarray, me
         Random tie-breaks of the searches.
     patch_size, k : int
         Window side; candidates kept per example and in all.
-    roughness : float, default 0.5
-        The window's roughness target, a quantile of each example's windows
-        (:func:`~.roughness.roughness_targets`).
 
     Returns
     -------
@@ -84,7 +81,7 @@ def search_fill(searches: list, detail: list[np.ndarray], anchor: np.ndarray, me
     """
     options = []
     for ei in members:
-        for pos, ssd, offset, prior in searches[ei].best(target, filled, k, rng, roughness):
+        for pos, ssd, offset, prior in searches[ei].best(target, filled, k, rng):
             # Fill windows are anchored by their mean level: the search
             # favours some parts of an example (often its smooth valley
             # floors), and a region built from them would sit below its

@@ -90,9 +90,6 @@ class WindowTask:
         The window's number in the fill (seeds its random choices).
     index : int
         The patch's index in the run's records.
-    roughness : float
-        The window's roughness target (a quantile, see
-        :func:`~.roughness.roughness_targets`).
     """
 
     box: tuple
@@ -103,17 +100,16 @@ class WindowTask:
     relief: float
     number: int
     index: int
-    roughness: float
 
 
 def window_task(canvas: Canvas, level: np.ndarray, bbox, members: list[int], relief: float, *, number: int,
-                index: int, roughness: float) -> WindowTask:
+                index: int) -> WindowTask:
     """The task of filling window ``bbox`` of ``canvas``."""
     rows, cols = canvas.shape
     r0, r1, c0, c1 = bbox
     box = (max(r0 - 1, 0), min(r1 + 1, rows), max(c0 - 1, 0), min(c1 + 1, cols))
     return WindowTask(box, tuple(bbox), canvas.crop(box), level[box[0]:box[1], box[2]:box[3]].copy(),
-                      members, relief, number, index, float(roughness))
+                      members, relief, number, index)
 
 
 def fill_window(kit: FillKit, task: WindowTask) -> tuple[Canvas, PatchRecord]:
@@ -134,7 +130,7 @@ def fill_window(kit: FillKit, task: WindowTask) -> tuple[Canvas, PatchRecord]:
     rng = np.random.default_rng([kit.seed, 1, task.number])
     options = search_fill(kit.searches, kit.detail, kit.anchor, task.members, task.relief,
                           canvas.heights[win] - task.level[win], canvas.filled[win].copy(), rng,
-                          patch_size=kit.patch_size, k=kit.k, roughness=task.roughness)
+                          patch_size=kit.patch_size, k=kit.k)
     rec = choose_fill(canvas, local, options, kit.detail, task.level, index=task.index, patch_size=kit.patch_size)
     canvas.blend(local)
     return canvas, replace(rec, bbox=task.bbox)

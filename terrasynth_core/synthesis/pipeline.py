@@ -34,7 +34,6 @@ from .finish import finish_heights
 from .landform import DRAWN_NOTE, drawn_level, landform_from, preview_patch, split_sigma
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
-from .roughness import roughness_targets
 
 if TYPE_CHECKING:
     from .session import Session
@@ -275,7 +274,6 @@ def fill_stage(state: RunState):
     options = dict(patch_size=p.patch_size, k=p.k)
     # Heights are matched relative to the level field.
     level = lay.level
-    roughness = roughness_targets(canvas.shape, p.seed, p.patch_size)
     # A style region no feature reached starts from a window of its
     # own terrain: grown only from its neighbours, it would copy
     # their smoothness (the SSD prefers the example's smoothest
@@ -286,8 +284,7 @@ def fill_stage(state: RunState):
         members = lay.members[g]
         found = search_fill(searches, lay.detail, lay.anchor, members, float(max(lay.relief[members])),
                             canvas.heights[r0:r1, c0:c1] - level[r0:r1, c0:c1],
-                            canvas.filled[r0:r1, c0:c1].copy(), rng, **options,
-                            roughness=_centre(roughness, bbox))
+                            canvas.filled[r0:r1, c0:c1].copy(), rng, **options)
         rec = choose_fill(canvas, bbox, found, lay.detail, level, index=len(state.records), patch_size=p.patch_size)
         canvas.blend(rec.bbox)
         yield state.placed(rec, total)
@@ -304,7 +301,7 @@ def fill_stage(state: RunState):
             for j, bbox in enumerate(wave):
                 members, relief = window_examples(lay, bbox)
                 tasks.append(window_task(canvas, level, bbox, members, relief, number=number + j,
-                                         index=len(state.records) + j, roughness=_centre(roughness, bbox)))
+                                         index=len(state.records) + j))
             number += len(wave)
             for task, (crop, rec) in zip(tasks, workers.run(tasks)):
                 canvas.merge(crop, task.box, task.bbox)
@@ -312,12 +309,6 @@ def fill_stage(state: RunState):
                 yield state.placed(rec, total)
     state.timings["fill"] = time.perf_counter() - t
     yield StageFinished("fill", state.timings["fill"])
-
-
-def _centre(field: np.ndarray, bbox) -> float:
-    """``field`` at the centre of window ``bbox``."""
-    r0, r1, c0, c1 = bbox
-    return float(field[(r0 + r1 - 1) // 2, (c0 + c1 - 1) // 2])
 
 
 def finish_stage(state: RunState, t_start: float):

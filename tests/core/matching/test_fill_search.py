@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from terrasynth_core.matching.costs import ROUGHNESS_WEIGHT
-from terrasynth_core.matching.fill_search import FftFillSearch, FillSearch
+from terrasynth_core.matching.fill_search import FftFillSearch, FillSearch, roughness_prior
 
 SEARCHES = pytest.mark.parametrize("search_class", [FillSearch, FftFillSearch])
 
@@ -43,51 +43,25 @@ def test_search_ranks_by_normalised_ssd_like_brute_force(white_mountains, search
             e = E[r:r + 24, c:c + 24][filled]
             d = o - e
             scores[r, c] = ((d - d.mean()) ** 2).mean() / (e.var() + o.var() + 1e-6)
-            scores[r, c] += ROUGHNESS_WEIGHT * search.prior(r, c)
+            scores[r, c] += ROUGHNESS_WEIGHT * search.prior[r, c]
     (r, c), _, _, _ = search.best(target, filled, 1, rng)[0]
     assert (r, c) == np.unravel_index(np.argmin(scores), scores.shape)
 
 
-def _banded(rows: int, cols: int, seed: int) -> np.ndarray:
-    """Three vertical bands of noise, amplitudes 1, 2 and 4 (a third each)."""
-    rng = np.random.default_rng(seed)
-    c = np.arange(cols)
-    amp = np.select([c < cols // 3, c < 2 * cols // 3], [1.0, 2.0], 4.0)
-    return (rng.normal(0.0, 1.0, (rows, cols)) * amp).astype(np.float32)
-
-
-def test_roughness_prior_is_zero_at_the_target_quantile_and_grows_both_ways():
-    """A window as rough as the target quantile's costs nothing; half or
-    twice as rough costs ln(2)**2 either way."""
-    search = FftFillSearch(_banded(64, 96, 0), (16, 16), coarse_factor=1)
-    smooth, typical, rough = (20, 5), (20, 40), (20, 75)  # top-left corners inside each band
-    # The median: the middle band.
-    assert search.prior(*typical) == pytest.approx(0.0, abs=0.02)
-    assert search.prior(*smooth) == pytest.approx(np.log(2) ** 2, rel=0.15)
-    assert search.prior(*rough) == pytest.approx(np.log(2) ** 2, rel=0.15)
-    # Near the top: the rough band costs nothing, the others pay their distance.
-    assert search.prior(*rough, quantile=0.95) == pytest.approx(0.0, abs=0.02)
-    # (the top of the windows on offer is a little rougher than the band's typical window)
-    assert search.prior(*typical, quantile=0.95) == pytest.approx(np.log(2) ** 2, rel=0.3)
-    assert search.prior(*smooth, quantile=0.95) == pytest.approx(np.log(4) ** 2, rel=0.3)
-
-
-@SEARCHES
-def test_the_roughness_target_chooses_the_band_when_the_overlap_cannot_tell(search_class):
-    """Over a strip of noise as rough as the middle band no window
-    correlates with it and the three bands fit about as well: the window's
-    roughness target decides, through the index's shortlist as well as the
-    exact score."""
-    example = _banded(128, 192, 5)
-    search = search_class(example, (24, 24), coarse_factor=1)
-    filled = np.zeros((24, 24), bool)
-    filled[:, :4] = True
-    rng = np.random.default_rng(3)
-    target = rng.normal(0.0, 2.0, (24, 24)).astype(np.float32)
-    (_, c_low), *_ = search.best(target, filled, 1, rng, roughness=0.05)[0]
-    (_, c_high), *_ = search.best(target, filled, 1, rng, roughness=0.95)[0]
-    assert c_low + 24 <= 64 + 4  # (nearly) inside the smooth band
-    assert c_high >= 128 - 4  # inside the rough band
+def test_roughness_prior_is_zero_for_typical_windows_and_grows_both_ways():
+    """A window as rough as the median one costs nothing; half or twice as
+    rough costs ln(2)**2 either way."""
+    rng = np.random.default_rng(0)
+    cols = np.arange(96)
+    # Three vertical bands of noise: amplitudes 1, 2 and 4 (the middle one typical).
+    amp = np.select([cols < 32, cols < 64], [1.0, 2.0], 4.0)
+    example = (rng.normal(0.0, 1.0, (64, 96)) * amp).astype(np.float32)
+    allowed = np.ones((64 - 16 + 1, 96 - 16 + 1), bool)
+    prior = roughness_prior(example, (16, 16), allowed, 1)
+    assert prior.shape == allowed.shape
+    assert prior[20, 40] == pytest.approx(0.0, abs=0.02)  # inside the typical band
+    assert prior[20, 5] == pytest.approx(np.log(2) ** 2, rel=0.15)   # half as rough
+    assert prior[20, 75] == pytest.approx(np.log(2) ** 2, rel=0.15)  # twice as rough
 
 
 def test_search_prefers_the_typical_window_when_the_overlap_cannot_tell():

@@ -120,14 +120,14 @@ def test_indexes_are_stored_and_loaded_from_the_disk_cache(white_mountains, monk
     second = FillSearch(example, (32, 32), coarse_factor=1)
     for (t, m), want in zip(windows, expected):
         np.testing.assert_array_equal(second.candidates(t, m), want)
-    # The windows' roughness is stored too, and read back as made.
-    assert any("-rough-" in p.name for p in tmp_path.iterdir())
-    np.testing.assert_array_equal(second.roughness, first.roughness)
-    # The roughness is a coordinate of every indexed vector: another
-    # roughness (a new way of measuring it) keys other indexes, never stale ones.
-    offered = second.roughness[second.positions[:, 0], second.positions[:, 1]]
-    keys = {window_index.index_key(example, (32, 32), second.overlap, second.positions, rough)
-            for rough in (offered, 2.0 * offered)}
+    # The roughness prior is stored too, and read back as made.
+    assert any("-prior-" in p.name for p in tmp_path.iterdir())
+    np.testing.assert_array_equal(second.prior, first.prior)
+    # The prior is a coordinate of every indexed vector: another prior
+    # (a new way of making it) keys other indexes, never stale ones.
+    offered = second.prior[second.positions[:, 0], second.positions[:, 1]]
+    keys = {window_index.index_key(example, (32, 32), second.overlap, second.positions, prior)
+            for prior in (offered, 2.0 * offered)}
     assert len(keys) == 2
 
 

@@ -80,9 +80,9 @@ CASES = {
 #: with the level about the strokes moved toward amplitude-complementary
 #: (landform.coherence; the styles case has no landform pass and kept its).
 GOLDEN = {
-    "y_junction": "122a47fd271cdeeee46c69ea1ba266651eeae21f2e37b9122b8cb5aabda0e7a2",
-    "ring_cross_raster": "f3daa349b89166affaf53d20023bf922cbde31820702a07ce77d5af3b6ab1ac8",
-    "styles_stamp_water_pin": "b9e9a99fb24d2f10fbeeedec044aeb5e6537c41f2e01b0eacc066606089db094",
+    "y_junction": "23d329ceaadc41df38e65615f6d69a2c1d9fb030bcd84d73b800c056c487e104",
+    "ring_cross_raster": "1d92d5871c04c229b53eb715265fdca392b749ae2ee26ed5c3795e13771232ef",
+    "styles_stamp_water_pin": "947806070207149ee269d5f33ef2d1ce528e4c3878a8f762c5195b48a113e107",
 }
 
 

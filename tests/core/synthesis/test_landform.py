@@ -265,9 +265,17 @@ def test_stamps_stand_on_a_flat_level(white_mountains, helens):
     r0, r1, c0, c1 = st.bbox
     under = landform.level[r0:r1, c0:c1][st.core]
     assert np.ptp(under) < 1e-3
-    # ... and the level eases back to the landform without a step.
+    # ... and the level eases back to the landform without a step, the
+    # ramp no steeper than the landform's slopes away from the stamp (over
+    # half a patch alone it was up to three times steeper: a moat or a wall).
     steps = np.abs(np.diff(landform.level, axis=0)).max(), np.abs(np.diff(landform.level, axis=1)).max()
     assert max(steps) < 0.05 * float(np.ptp(landform.level))
+    core = np.zeros(landform.level.shape, bool)
+    core[r0:r1, c0:c1] = st.core
+    dist = ndimage.distance_transform_edt(~core)
+    slope = np.hypot(*np.gradient(landform.level.astype(np.float64)))
+    # (The landform's own slope adds to the ramp's: 1.1x here, 2x before.)
+    assert slope[(dist > 0) & (dist <= P.patch_size)].max() <= 1.25 * slope[dist > 2 * P.patch_size].max()
 
 
 def test_several_style_regions_keep_their_flat_levels(white_mountains, lowland, y_sketch):
