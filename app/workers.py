@@ -171,7 +171,7 @@ class LatestRunner(QObject):
         first) are dropped from here on.
         """
         if self._current is not None:
-            self._current.cancel()
+            self.cancel()
             self.cancelled.emit()
         worker = GeneratorWorker(events)
         thread = QThread()

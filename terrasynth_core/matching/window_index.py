@@ -400,12 +400,12 @@ def index_key(example: np.ndarray, window: tuple[int, int], overlap: int, positi
               prior: np.ndarray) -> str:
     """Cache key of an example's zone indexes (``-z<zone>`` is appended per
     zone): the digests of the example, the offered windows and their prior
-    (a coordinate of every vector), the window, overlap and
+    (a coordinate of every vector, with its weight), the window, overlap and
     :data:`INDEX_VERSION`."""
     h = hashlib.sha1(np.ascontiguousarray(example, dtype=np.float32).tobytes())
     h.update(np.ascontiguousarray(positions, dtype=np.int32).tobytes())
     h.update(np.ascontiguousarray(prior, dtype=np.float64).tobytes())
-    h.update(repr((example.shape, tuple(window), int(overlap))).encode())
+    h.update(repr((example.shape, tuple(window), int(overlap), float(ROUGHNESS_WEIGHT))).encode())
     return f"windows-v{INDEX_VERSION}-{h.hexdigest()}"
 
 

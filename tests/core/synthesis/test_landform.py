@@ -274,7 +274,7 @@ def test_stamps_stand_on_a_flat_level(white_mountains, helens):
     core[r0:r1, c0:c1] = st.core
     dist = ndimage.distance_transform_edt(~core)
     slope = np.hypot(*np.gradient(landform.level.astype(np.float64)))
-    # (The landform's own slope adds to the ramp's: 1.1x here, 2x before.)
+    # (The landform's own slope adds to the ramp's: 1.1x here, 1.96x before.)
     assert slope[(dist > 0) & (dist <= P.patch_size)].max() <= 1.25 * slope[dist > 2 * P.patch_size].max()
 
 
