@@ -5,7 +5,7 @@ Usage::
 
     python benchmarks/eval_drainage.py [--size 512] [--seed 0] [--pictures DIR]
 
-Each case (``y_junction_512.png`` and ``s_valley_1000.png`` on
+Each case (``y_junction_512.png``, ``s_valley_1000.png`` and ``ring_cross_512.png`` on
 ``gabon-plateau`` and ``white-mountains``) is synthesized once with
 ``drainage=False`` (*before*); the drainage step is then applied to those
 heights as the finish stage would (*after*: the same bytes as a run with
@@ -46,7 +46,7 @@ from terrasynth_core.features import read_sketch
 from terrasynth_core.pictures import save_png, shaded_relief
 from terrasynth_core.synthesis import Session, SynthesisParams
 
-SKETCHES = ("y_junction_512.png", "s_valley_1000.png")
+SKETCHES = ("y_junction_512.png", "s_valley_1000.png", "ring_cross_512.png")
 EXAMPLES = ("gabon-plateau", "white-mountains")
 _STEPS = [(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)]
 

@@ -41,6 +41,20 @@ across it), so this finish step makes it so:
    last on the full grid (only where a residual is left), since
    centimetres are enough for a pit in a floor fitted nearly flat.
 
+5. **Breach.**  An outlet that is not on the map border or painted water
+   may lie in a closed depression: a valley painted inside a ring of
+   ridges, or ending in a basin of the synthesized terrain.  Its water
+   would pool there (a lake as wide as the basin), so the network would
+   not drain.  Within three patches of the outlet the heights are filled
+   to their spill level; if the outlet's is above its fitted floor, the
+   path of least total height above that floor to a cell that spills
+   lower is cut down so that it descends all the way (least-cost
+   breaching, Lindsay 2016): a water gap through the rim at its lowest
+   saddle.  The gorge is corrected on the full grid, as wide as keeps its
+   walls no steeper than the terrain's steep slopes (at most three valley
+   half-widths).  The path is found on the first pass and refitted on the
+   others.
+
 Ridges divide: along each painted ridge the crest (the highest height on
 the cross-section within a twentieth of a patch) is compared with the
 terrain beside it (up to a sixth of a patch on either side).  Where the
@@ -68,12 +82,14 @@ bytes as :func:`apply_drainage` on the whole map.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 import numpy as np
 from scipy import ndimage, sparse
 from scipy.optimize import isotonic_regression
 from scipy.sparse.csgraph import connected_components
+from skimage.graph import MCP_Geometric
+from skimage.morphology import reconstruction
 
 from ..features.graph import FeatureGraph
 from .pins import positions, smooth_correction_cells
@@ -94,6 +110,12 @@ STEP = 0.7
 PASSES = 3
 #: The last pass's correction width, as a share of the valley half-width.
 FINAL_WIDTH = 1.0 / 3.0
+#: How far from an outlet in a closed depression its breach is looked for,
+#: in patches (and at least :data:`BREACH_MIN_REACH` cells).
+BREACH_REACH = 3.0
+BREACH_MIN_REACH = 64
+#: Widest a breach's gorge is, as a multiple of the valley half-width.
+BREACH_MAX_WIDTH = 3.0
 
 
 class Surface(Protocol):
@@ -215,18 +237,27 @@ def drain(surface: Surface, valleys: FeatureGraph | None, ridges: FeatureGraph |
     if valleys is not None and valleys.paths:
         r_floor = max(1, int(round(FLOOR_RADIUS * patch_size)))
         width = max(3.0, VALLEY_HALF_WIDTH * patch_size)
+        breaches: dict[int, Breach | None] = {}
+        reach = max(BREACH_MIN_REACH, int(round(BREACH_REACH * patch_size)))
         for n in range(PASSES):
-            pins = _valley_pins(surface, valleys, r_floor, eps, water)
+            pins, cuts = _valley_pins(surface, valleys, r_floor, eps, water, breaches, reach)
             # The last pass on the full grid: the coarse solve leaves
             # centimetres, enough for a pit in a floor fitted nearly flat.
             # Centimetres fade out over a third of the width unseen, and the
             # full-grid solve gets a third of the unknowns (4x faster).
             last = n == PASSES - 1
-            correction = _correction(shape, pins, max(3.0, width * FINAL_WIDTH) if last else width, locked,
-                                     tol=1e-5 * span, coarse=not last)
-            if correction is None:
+            corrections = [_correction(shape, pins, max(3.0, width * FINAL_WIDTH) if last else width, locked,
+                                       tol=1e-5 * span, coarse=not last)]
+            # A breach's gorge is as wide as its depth asks, so its walls are
+            # no steeper than the terrain's steep slopes; solved on the full
+            # grid, since a coarse solve blunts a gorge's floor.
+            corrections += [_correction(shape, [pin], float(np.clip(gorge, width, BREACH_MAX_WIDTH * width)),
+                                        locked, tol=1e-5 * span, coarse=False) for pin, gorge in cuts]
+            corrections = [c for c in corrections if c is not None]
+            if not corrections:
                 break
-            surface.add(correction)
+            for correction in corrections:
+                surface.add(correction)
 
 
 # -- sampling -------------------------------------------------------------------
@@ -279,10 +310,21 @@ def _arc_length(points: np.ndarray) -> np.ndarray:
 
 # -- valleys --------------------------------------------------------------------
 
-def _valley_pins(h: Surface, graph: FeatureGraph, radius: int, eps: float,
-                 water: Mask | None) -> list[tuple[np.ndarray, np.ndarray]]:
+def _valley_pins(h: Surface, graph: FeatureGraph, radius: int, eps: float, water: Mask | None,
+                 breaches: dict, reach: int) -> tuple[list, list]:
     """Per chain of every network: its points and the change that makes its
-    floor descend to the outlet."""
+    floor descend to the outlet.
+
+    Returns
+    -------
+    pins : list of (cells, change)
+        ``cells`` (n, 2) row, col; ``change`` (n,) metres.
+    cuts : list of ((cells, change), width)
+        For each network whose outlet lies in a closed depression, its
+        breach (:func:`_breach`, found on the first pass and kept in
+        ``breaches`` by outlet node), cut by :func:`_breach_pins`, and the
+        half-width its gorge needs, cells.
+    """
     rows, cols = h.shape
     disc = _disc(radius)
 
@@ -307,7 +349,7 @@ def _valley_pins(h: Surface, graph: FeatureGraph, radius: int, eps: float,
         adj.setdefault(p.start, []).append((i, p.end))
         adj.setdefault(p.end, []).append((i, p.start))
     dense = [_resample(np.asarray(p.points, float)) for p in graph.paths]
-    out = []
+    out, cuts = [], []
     seen: set[int] = set()
     for first in adj:
         if first in seen:
@@ -326,13 +368,31 @@ def _valley_pins(h: Surface, graph: FeatureGraph, radius: int, eps: float,
         outlets = [n for n in ends if touches(graph.nodes[n])] or ends
         node_floor = {n: float(floor(np.array([[graph.nodes[n].row, graph.nodes[n].col]]))[0][0]) for n in outlets}
         outlet = min(outlets, key=lambda n: (node_floor[n], n))
-        out.extend(_fit_network(graph, adj, dense, outlet, floor, eps, radius))
-    return out
+        chains, level, cell = _fit_network(graph, adj, dense, outlet, floor, eps, radius)
+        out.extend(chains)
+        if not touches(graph.nodes[outlet]) and cell is not None:
+            if outlet not in breaches:
+                breaches[outlet] = _breach(h, cell, level, reach, eps, water)
+            breach = breaches[outlet]
+            if breach is not None:
+                pin = _breach_pins(h, breach.path, level, eps, radius)
+                cuts.append((pin, 2.0 * float(-pin[1].min(initial=0.0)) / breach.steep))
+    return out, cuts
 
 
 def _fit_network(graph, adj, dense, outlet, floor, eps, radius):
     """Root the network at ``outlet``, cut it into chains (longest route
-    first) and fit each chain's floor."""
+    first) and fit each chain's floor.
+
+    Returns
+    -------
+    pins : list of (cells, change)
+        Per chain, as :func:`_valley_pins`.
+    level : float
+        The fitted floor at the outlet, metres (NaN without a chain).
+    cell : ndarray of float, shape (2,), or None
+        The outlet's floor cell (row, col).
+    """
     children: dict[int, list[tuple[int, int]]] = {}
     order, parent = [outlet], {outlet: None}
     for n in order:
@@ -351,6 +411,7 @@ def _fit_network(graph, adj, dense, outlet, floor, eps, radius):
     for n in reversed(order):
         reach[n] = max((len(dense[i]) + reach[m] for i, m in children[n]), default=0)
     pins = []
+    level, cell = float("nan"), None
     # A chain starts at a node (the outlet, or a junction on a chain already
     # fitted, whose fitted height it starts from), leaves it by one path
     # (None: the longest) and then follows the longest route to a source.
@@ -375,6 +436,8 @@ def _fit_network(graph, adj, dense, outlet, floor, eps, radius):
         f, at = floor(pts)
         s = _arc_length(pts)
         g = _descending_fit(f, s, eps, start)
+        if start is None:
+            level, cell = float(g[0]), at[0]
         # Near its junction a tributary's cross-section reaches the trunk,
         # whose floor the trunk's own fit sets: pinned from both, a trunk
         # cell below the junction would be raised to the tributary's level.
@@ -382,7 +445,111 @@ def _fit_network(graph, adj, dense, outlet, floor, eps, radius):
         pins.append((at[keep], (g - f)[keep]))
         for b_node, index, jk in branches:
             stack.append((b_node, jk, float(g[index])))
-    return pins
+    return pins, level, cell
+
+
+# -- breaches -------------------------------------------------------------------
+
+class Breach(NamedTuple):
+    """Where an outlet's water gets out (:func:`_breach`).
+
+    ``path`` (n, 2): cells (row, col) from the outlet outward; ``steep``:
+    the terrain's steep slope about it (90th percentile of the gradient
+    magnitude in the window searched), metres per cell."""
+
+    path: np.ndarray
+    steep: float
+
+
+def _breach(h: Surface, cell: np.ndarray, level: float, reach: int, eps: float,
+            water: Mask | None) -> Breach | None:
+    """Where the water of an outlet in a closed depression gets out: the
+    path from the outlet's floor cell to the nearest cell that drains
+    below it, cutting as little terrain as it can (least-cost breaching,
+    Lindsay 2016), or None when the outlet drains already.
+
+    Within ``reach`` cells of the outlet, the heights are filled to their
+    spill level (priority flood by morphological reconstruction, water
+    leaving at the window's border and at painted water).  If the outlet's
+    spill level is above its fitted floor ``level``, the outlet is in a
+    closed depression (a valley painted inside a ring of ridges, or ending
+    in a basin of the synthesized terrain): the path is the one of least
+    total height above ``level`` to a cell whose spill level is below it,
+    so it crosses the rim at its lowest saddle.  :func:`_breach_pins` cuts
+    it down into a gorge that descends all the way: a water gap.
+
+    Parameters
+    ----------
+    h : Surface
+    cell : ndarray of float, shape (2,)
+        The outlet's floor cell (row, col).
+    level : float
+        Its fitted floor height, metres.
+    reach : int
+        Half-side of the window searched, cells.
+    eps : float
+        The least floor gradient, metres per cell (also the price of a step
+        along the path, so of equal cuts the shorter path wins).
+    water : Mask or None
+
+    Returns
+    -------
+    Breach or None
+
+    References
+    ----------
+    Lindsay, J. B. (2016). Efficient hybrid breaching-filling sink removal
+    methods for flow path enforcement in digital elevation models.
+    Hydrological Processes 30(6).
+    """
+    rows, cols = h.shape
+    r, c = (int(v) for v in np.rint(cell))
+    r0, r1 = max(r - reach, 0), min(r + reach + 1, rows)
+    c0, c1 = max(c - reach, 0), min(c + reach + 1, cols)
+    rr, cc = np.meshgrid(np.arange(r0, r1), np.arange(c0, c1), indexing="ij")
+    heights = h[rr, cc].astype(np.float64)
+    exits = np.zeros(heights.shape, bool)
+    exits[[0, -1], :] = True
+    exits[:, [0, -1]] = True
+    if water is not None:
+        exits |= water.window((r0, r1, c0, c1))
+    spill = reconstruction(np.where(exits, heights, heights.max()), heights, method="erosion")
+    here = (r - r0, c - c0)
+    if spill[here] <= level + eps:
+        return None
+    # Nothing within reach spills below the outlet (a valley cut deep into
+    # high country): a breach would be a canyon across the map, so the
+    # outlet is left to pool.
+    ends = spill < level - eps
+    if not ends.any():
+        return None
+    costs = np.maximum(heights - level, 0.0) + eps
+    search = MCP_Geometric(costs, fully_connected=True)
+    total, _ = search.find_costs([here])
+    total = np.where(ends, total, np.inf)
+    end = np.unravel_index(int(np.argmin(total)), total.shape)
+    if not np.isfinite(total[end]):
+        return None
+    path = np.asarray(search.traceback(tuple(int(v) for v in end)), float) + np.array([r0, c0], float)
+    gr, gc = np.gradient(heights)
+    return Breach(path, max(float(np.percentile(np.hypot(gr, gc), 90)), 1e-6))
+
+
+def _breach_pins(h: Surface, path: np.ndarray, level: float, eps: float, radius: int) -> tuple[np.ndarray, np.ndarray]:
+    """The cut that makes a breach path (:func:`_breach`) descend from the
+    outlet's fitted floor ``level`` by at least ``eps`` per cell: on each
+    cell the highest height that is below every cell before it (less the
+    gradient) and not above the terrain, so the path is only ever lowered.
+    The cells within ``radius + 1`` of the outlet are left to the
+    network's own fit, as a tributary's first cells are."""
+    heights = h[_cells(path, h.shape)].astype(np.float64)
+    s = _arc_length(path)
+    ceiling = np.minimum(heights, level)
+    ceiling[0] = level
+    target = np.minimum.accumulate(ceiling + eps * s) - eps * s
+    change = np.minimum(target - heights, 0.0)
+    keep = s > radius + 1
+    return path[keep], change[keep]
 
 
 def _descending_fit(floor: np.ndarray, s: np.ndarray, eps: float, start: float | None) -> np.ndarray:

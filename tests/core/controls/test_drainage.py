@@ -252,3 +252,79 @@ def test_a_world_size_map_drains_in_memory_of_its_strokes_not_its_area():
     along = np.arange(100, side - 100, 7)
     floor = surface[along, along].astype(np.float64)
     assert np.all(np.diff(floor) <= 1e-3)
+
+
+# -- a valley in a closed basin --------------------------------------------------------
+def _basin_terrain():
+    """A ring of ridges (radius 62 about the centre) around a valley along
+    row 80 whose floor falls east; the ring is lowest at its east saddle,
+    30 m above the floor there.  Outside the ring the land falls to the
+    east border."""
+    r, c = np.mgrid[0:N, 0:N].astype(float)
+    d = np.hypot(r - 80, c - 80)
+    theta = np.arctan2(r - 80, c - 80)
+    h = 100.0 + 0.8 * np.abs(r - 80) + 0.1 * (N - c)
+    h += 60.0 * np.exp(-((d - 62) ** 2) / (2 * 5.0 ** 2)) * (1 - 0.5 * np.exp(-theta ** 2 / (2 * 0.25 ** 2)))
+    return h.astype(np.float32)
+
+
+class _HeldSurface:
+    """An array read through the Surface protocol only, corrections kept
+    apart (as a tiled run's surface)."""
+
+    def __init__(self, base):
+        self.base, self.shape, self.corrections = base, base.shape, []
+
+    def __getitem__(self, cells):
+        rr, cc = (np.asarray(a, np.int64) for a in cells)
+        out = self.base[rr, cc]
+        for corr in self.corrections:
+            out = out + corr.at(rr, cc).astype(np.float32)
+        return out
+
+    def add(self, correction):
+        self.corrections.append(correction)
+
+
+def test_a_valley_in_a_closed_basin_breaches_its_rim_at_the_lowest_saddle():
+    h = _basin_terrain()
+    graph = _graph("valley", [(80, 40), (80, 100)], [(0, 1)])
+    before = _trace(h, (80, 40))
+    assert np.hypot(*(before[-1] - 80)) < 62  # a pit inside the ring
+    out = apply_drainage(h, graph, None, patch_size=PATCH)
+    path = _trace(out, (80, 40))
+    assert path[-1][1] == N - 1, path[-1]  # out through the ring, to the east border
+    on_rim = np.abs(np.hypot(path[:, 0] - 80, path[:, 1] - 80) - 62) < 3
+    assert on_rim.any() and np.all(np.abs(np.arctan2(path[on_rim, 0] - 80, path[on_rim, 1] - 80)) < 0.3)
+    # A gap, not a trench: its walls are no steeper than twice the
+    # terrain's steep slopes, and the rest of the ring is untouched.
+    cut = out < h - 0.5
+    gr, gc = np.gradient(out.astype(np.float64))
+    steep = np.percentile(np.hypot(*np.gradient(h.astype(np.float64))), 90)
+    assert np.hypot(gr, gc)[cut].max() < 2.0 * steep
+    assert np.array_equal(out[:, :60], h[:, :60])
+    # Read through the Surface protocol alone, the same bytes.
+    held = _HeldSurface(h)
+    drain(held, graph, None, patch_size=PATCH, span=float(np.ptp(h)))
+    lazy = h.copy()
+    for corr in held.corrections:
+        lazy += corr.over((0, N, 0, N)).astype(np.float32)
+    assert np.array_equal(out, lazy)
+
+
+def test_a_valley_that_drains_already_gets_no_breach(monkeypatch):
+    from terrasynth_core.controls import drainage
+    found = []
+
+    def spy(*args):
+        found.append(breach(*args))
+        return found[-1]
+
+    breach = drainage._breach
+    monkeypatch.setattr(drainage, "_breach", spy)
+    # The valley ends short of the border, on land that falls on to it.
+    graph = _graph("valley", [(80, 12), (80, 120)], [(0, 1)])
+    apply_drainage(_valley_terrain(dam=0.0), graph, None, patch_size=PATCH)
+    assert found == [None]
+    apply_drainage(_basin_terrain(), _graph("valley", [(80, 40), (80, 100)], [(0, 1)]), None, patch_size=PATCH)
+    assert found[-1] is not None
