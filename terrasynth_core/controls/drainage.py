@@ -50,10 +50,18 @@ across it), so this finish step makes it so:
    path of least total height above that floor to a cell that spills
    lower is cut down so that it descends all the way (least-cost
    breaching, Lindsay 2016): a water gap through the rim at its lowest
-   saddle.  The gorge is corrected on the full grid, as wide as keeps its
-   walls no steeper than the terrain's steep slopes (at most three valley
-   half-widths).  The path is found on the first pass and refitted on the
-   others.
+   saddle.  The path is found on the first pass and cut, once the
+   valleys' first correction is in, on the full grid (a coarse solve
+   blunts a gorge's floor) as wide as keeps its walls no steeper than the
+   terrain's steep slopes (at most three valley half-widths); what is
+   left goes with the valleys' later passes.  Its first cells, at the
+   outlet, are pinned too, so the gorge does not spread into the valley's
+   outlet (whose floor the next fit would follow down, and the gorge after
+   it).  A breach that would run within that width of a locked cell is
+   not made (the outlet pools): it could not be cut there, and a cut
+   beside the lock would overshoot against it.  Breaching comes after
+   the ridges' step, so a gap may cross a painted ridge: the ring of a
+   ring-and-cross sketch has to open somewhere for its valleys to drain.
 
 Ridges divide: along each painted ridge the crest (the highest height on
 the cross-section within a twentieth of a patch) is compared with the
@@ -208,7 +216,7 @@ def drain(surface: Surface, valleys: FeatureGraph | None, ridges: FeatureGraph |
           span: float, water: Mask | None = None, locked: Mask | None = None) -> None:
     """:func:`apply_drainage` on any :class:`Surface`: the corrections are
     added to ``surface`` one after the other (the ridges', then up to
-    :data:`PASSES` of the valleys').
+    :data:`PASSES` of the valleys', the first followed by one per breach).
 
     Parameters
     ----------
@@ -223,7 +231,7 @@ def drain(surface: Surface, valleys: FeatureGraph | None, ridges: FeatureGraph |
         Painted water (a valley end touching it is an outlet) and cells that
         must not change.
     """
-    if span <= 0:
+    if not np.isfinite(span) or span <= 0:
         return
     eps = MIN_SLOPE * span
     shape = surface.shape
@@ -240,24 +248,40 @@ def drain(surface: Surface, valleys: FeatureGraph | None, ridges: FeatureGraph |
         breaches: dict[int, Breach | None] = {}
         reach = max(BREACH_MIN_REACH, int(round(BREACH_REACH * patch_size)))
         for n in range(PASSES):
-            pins, cuts = _valley_pins(surface, valleys, r_floor, eps, water, breaches, reach)
+            pins, cuts = _valley_pins(surface, valleys, r_floor, eps, water, locked, breaches, reach,
+                                      int(np.ceil(BREACH_MAX_WIDTH * width)))
+            if n > 0:
+                # What the first cut left of a breach goes with the valleys
+                # (but for the outlet's own cell, which the valley's fit pins).
+                for breach, level in cuts:
+                    cells, change = _breach_pins(surface, breach.path, level, eps)
+                    pins.append((cells[1:], change[1:]))
             # The last pass on the full grid: the coarse solve leaves
             # centimetres, enough for a pit in a floor fitted nearly flat.
             # Centimetres fade out over a third of the width unseen, and the
             # full-grid solve gets a third of the unknowns (4x faster).
             last = n == PASSES - 1
-            corrections = [_correction(shape, pins, max(3.0, width * FINAL_WIDTH) if last else width, locked,
-                                       tol=1e-5 * span, coarse=not last)]
-            # A breach's gorge is as wide as its depth asks, so its walls are
-            # no steeper than the terrain's steep slopes; solved on the full
-            # grid, since a coarse solve blunts a gorge's floor.
-            corrections += [_correction(shape, [pin], float(np.clip(gorge, width, BREACH_MAX_WIDTH * width)),
-                                        locked, tol=1e-5 * span, coarse=False) for pin, gorge in cuts]
-            corrections = [c for c in corrections if c is not None]
-            if not corrections:
-                break
-            for correction in corrections:
+            correction = _correction(shape, pins, max(3.0, width * FINAL_WIDTH) if last else width, locked,
+                                     tol=1e-5 * span, coarse=not last)
+            if correction is not None:
                 surface.add(correction)
+            changed = correction is not None
+            if n == 0:
+                # A breach is first cut on the heights the valleys'
+                # correction left (it reaches the outlet's first cells), as
+                # a gorge as wide as its depth asks, so its walls are no
+                # steeper than the terrain's steep slopes, on the full grid
+                # (a coarse solve blunts the gorge's floor).
+                for breach, level in cuts:
+                    pin = _breach_pins(surface, breach.path, level, eps)
+                    gorge = 2.0 * float(-pin[1].min(initial=0.0)) / breach.steep
+                    cut = _correction(shape, [pin], float(np.clip(gorge, width, BREACH_MAX_WIDTH * width)), locked,
+                                      tol=1e-5 * span, coarse=False)
+                    if cut is not None:
+                        surface.add(cut)
+                        changed = True
+            if not changed:
+                break
 
 
 # -- sampling -------------------------------------------------------------------
@@ -311,19 +335,37 @@ def _arc_length(points: np.ndarray) -> np.ndarray:
 # -- valleys --------------------------------------------------------------------
 
 def _valley_pins(h: Surface, graph: FeatureGraph, radius: int, eps: float, water: Mask | None,
-                 breaches: dict, reach: int) -> tuple[list, list]:
+                 locked: Mask | None, breaches: dict, reach: int, guard: int) -> tuple[list, list]:
     """Per chain of every network: its points and the change that makes its
     floor descend to the outlet.
+
+    Parameters
+    ----------
+    h : Surface
+    graph : FeatureGraph
+        The valleys.
+    radius : int
+        Half-width of a floor's cross-section, cells.
+    eps : float
+        Least floor gradient, metres per cell.
+    water, locked : Mask or None
+        Painted water (outlets) and cells that must not change.
+    breaches : dict
+        Breaches found so far by outlet node (:func:`_breach`; None: none
+        needed or none possible); filled in place on the first call.
+    reach, guard : int
+        The breach search's half-window and how close to a locked cell a
+        breach may run, cells.
 
     Returns
     -------
     pins : list of (cells, change)
         ``cells`` (n, 2) row, col; ``change`` (n,) metres.
-    cuts : list of ((cells, change), width)
+    cuts : list of (Breach, float)
         For each network whose outlet lies in a closed depression, its
         breach (:func:`_breach`, found on the first pass and kept in
-        ``breaches`` by outlet node), cut by :func:`_breach_pins`, and the
-        half-width its gorge needs, cells.
+        ``breaches`` by outlet node) and the outlet's fitted floor, metres
+        (:func:`_breach_pins` makes the cut).
     """
     rows, cols = h.shape
     disc = _disc(radius)
@@ -372,11 +414,9 @@ def _valley_pins(h: Surface, graph: FeatureGraph, radius: int, eps: float, water
         out.extend(chains)
         if not touches(graph.nodes[outlet]) and cell is not None:
             if outlet not in breaches:
-                breaches[outlet] = _breach(h, cell, level, reach, eps, water)
-            breach = breaches[outlet]
-            if breach is not None:
-                pin = _breach_pins(h, breach.path, level, eps, radius)
-                cuts.append((pin, 2.0 * float(-pin[1].min(initial=0.0)) / breach.steep))
+                breaches[outlet] = _breach(h, cell, level, reach, eps, water, locked, guard)
+            if breaches[outlet] is not None:
+                cuts.append((breaches[outlet], level))
     return out, cuts
 
 
@@ -448,6 +488,26 @@ def _fit_network(graph, adj, dense, outlet, floor, eps, radius):
     return pins, level, cell
 
 
+def _descending_fit(floor: np.ndarray, s: np.ndarray, eps: float, start: float | None) -> np.ndarray:
+    """The profile nearest ``floor`` (least squares) that rises by at least
+    ``eps`` per cell along ``s``, is not below ``floor`` at its last point
+    (the source: lowered, it would be a pit at the valley's head) and,
+    given ``start``, begins there."""
+    tilted = floor - eps * s
+    fit = isotonic_regression(tilted, increasing=True).x
+    if fit[-1] < tilted[-1]:
+        # Under a lower bound on the last point: that point at its bound and
+        # the rest the unbounded fit clipped to it (isotonic regression under
+        # a constant bound is the clipped unbounded fit).
+        fit = np.minimum(isotonic_regression(tilted[:-1], increasing=True).x, tilted[-1]) \
+            if len(tilted) > 1 else fit
+        fit = np.append(fit, tilted[-1]) if len(tilted) > 1 else tilted.copy()
+    if start is not None:
+        fit = np.maximum(fit, start)
+        fit[0] = start
+    return fit + eps * s
+
+
 # -- breaches -------------------------------------------------------------------
 
 class Breach(NamedTuple):
@@ -462,11 +522,12 @@ class Breach(NamedTuple):
 
 
 def _breach(h: Surface, cell: np.ndarray, level: float, reach: int, eps: float,
-            water: Mask | None) -> Breach | None:
+            water: Mask | None, locked: Mask | None = None, guard: int = 0) -> Breach | None:
     """Where the water of an outlet in a closed depression gets out: the
-    path from the outlet's floor cell to the nearest cell that drains
-    below it, cutting as little terrain as it can (least-cost breaching,
-    Lindsay 2016), or None when the outlet drains already.
+    path from the outlet's floor cell to the cell that drains below it at
+    the least cut (least-cost breaching, Lindsay 2016).  None when the
+    outlet drains already, when nothing within reach spills lower, or
+    when the path runs within ``guard`` cells of a locked cell.
 
     Within ``reach`` cells of the outlet, the heights are filled to their
     spill level (priority flood by morphological reconstruction, water
@@ -475,7 +536,8 @@ def _breach(h: Surface, cell: np.ndarray, level: float, reach: int, eps: float,
     closed depression (a valley painted inside a ring of ridges, or ending
     in a basin of the synthesized terrain): the path is the one of least
     total height above ``level`` to a cell whose spill level is below it,
-    so it crosses the rim at its lowest saddle.  :func:`_breach_pins` cuts
+    so it crosses the rim where there is least to cut (near its lowest
+    saddle).  :func:`_breach_pins` cuts
     it down into a gorge that descends all the way: a water gap.
 
     Parameters
@@ -490,7 +552,11 @@ def _breach(h: Surface, cell: np.ndarray, level: float, reach: int, eps: float,
     eps : float
         The least floor gradient, metres per cell (also the price of a step
         along the path, so of equal cuts the shorter path wins).
-    water : Mask or None
+    water, locked : Mask or None
+        Painted water (exits) and cells that must not change.
+    guard : int
+        How close to a locked cell the path may run, cells (the gorge's
+        widest half-width).
 
     Returns
     -------
@@ -530,46 +596,45 @@ def _breach(h: Surface, cell: np.ndarray, level: float, reach: int, eps: float,
     end = np.unravel_index(int(np.argmin(total)), total.shape)
     if not np.isfinite(total[end]):
         return None
-    path = np.asarray(search.traceback(tuple(int(v) for v in end)), float) + np.array([r0, c0], float)
+    steps = np.asarray(search.traceback(tuple(int(v) for v in end)))
+    if locked is not None:
+        # A gorge cannot be cut through cells that must not change, and one
+        # cut beside them would overshoot against them: the outlet pools.
+        held = locked.window((r0, r1, c0, c1))
+        if held.any():
+            on_path = np.ones(heights.shape, bool)
+            on_path[steps[:, 0], steps[:, 1]] = False
+            if (held & (ndimage.distance_transform_edt(on_path) <= guard)).any():
+                return None
+    path = steps.astype(float) + np.array([r0, c0], float)
     gr, gc = np.gradient(heights)
     return Breach(path, max(float(np.percentile(np.hypot(gr, gc), 90)), 1e-6))
 
 
-def _breach_pins(h: Surface, path: np.ndarray, level: float, eps: float, radius: int) -> tuple[np.ndarray, np.ndarray]:
+def _breach_pins(h: Surface, path: np.ndarray, level: float, eps: float) -> tuple[np.ndarray, np.ndarray]:
     """The cut that makes a breach path (:func:`_breach`) descend from the
     outlet's fitted floor ``level`` by at least ``eps`` per cell: on each
     cell the highest height that is below every cell before it (less the
     gradient) and not above the terrain, so the path is only ever lowered.
-    The cells within ``radius + 1`` of the outlet are left to the
-    network's own fit, as a tributary's first cells are."""
+
+    Read after the valleys' correction, the outlet's first cells are
+    already near ``level`` and are pinned too, so the gorge's correction
+    does not spread into the valley's outlet (whose floor the next pass's
+    fit would follow down, and the gorge after it).
+
+    Returns
+    -------
+    cells : ndarray of float, shape (n, 2)
+        The path (row, col).
+    change : ndarray of float64, shape (n,)
+        Metres, never positive.
+    """
     heights = h[_cells(path, h.shape)].astype(np.float64)
     s = _arc_length(path)
     ceiling = np.minimum(heights, level)
     ceiling[0] = level
     target = np.minimum.accumulate(ceiling + eps * s) - eps * s
-    change = np.minimum(target - heights, 0.0)
-    keep = s > radius + 1
-    return path[keep], change[keep]
-
-
-def _descending_fit(floor: np.ndarray, s: np.ndarray, eps: float, start: float | None) -> np.ndarray:
-    """The profile nearest ``floor`` (least squares) that rises by at least
-    ``eps`` per cell along ``s``, is not below ``floor`` at its last point
-    (the source: lowered, it would be a pit at the valley's head) and,
-    given ``start``, begins there."""
-    tilted = floor - eps * s
-    fit = isotonic_regression(tilted, increasing=True).x
-    if fit[-1] < tilted[-1]:
-        # Under a lower bound on the last point: that point at its bound and
-        # the rest the unbounded fit clipped to it (isotonic regression under
-        # a constant bound is the clipped unbounded fit).
-        fit = np.minimum(isotonic_regression(tilted[:-1], increasing=True).x, tilted[-1]) \
-            if len(tilted) > 1 else fit
-        fit = np.append(fit, tilted[-1]) if len(tilted) > 1 else tilted.copy()
-    if start is not None:
-        fit = np.maximum(fit, start)
-        fit[0] = start
-    return fit + eps * s
+    return path, np.minimum(target - heights, 0.0)
 
 
 # -- ridges ---------------------------------------------------------------------

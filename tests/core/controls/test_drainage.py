@@ -328,3 +328,30 @@ def test_a_valley_that_drains_already_gets_no_breach(monkeypatch):
     assert found == [None]
     apply_drainage(_basin_terrain(), _graph("valley", [(80, 40), (80, 100)], [(0, 1)]), None, patch_size=PATCH)
     assert found[-1] is not None
+
+
+def test_a_breach_searched_in_a_window_inside_the_map_lands_where_it_was_found():
+    # A 16-cell patch searches 64 cells about the outlet: the window's
+    # corner is not the map's, so window and map coordinates must agree.
+    h = _basin_terrain()
+    graph = _graph("valley", [(80, 40), (80, 100)], [(0, 1)])
+    out = apply_drainage(h, graph, None, patch_size=16)
+    path = _trace(out, (80, 40))
+    assert path[-1][1] == N - 1, path[-1]
+    # The cut lies on the way out east, through the saddle, not elsewhere.
+    cut = out < h - 0.5
+    rows, cols = np.nonzero(cut)
+    assert cols.min() > 60 and np.all(np.abs(rows - 80) < 40)
+
+
+def test_no_breach_runs_beside_locked_cells():
+    h = _basin_terrain()
+    graph = _graph("valley", [(80, 40), (80, 100)], [(0, 1)])
+    locked = np.zeros(h.shape, bool)
+    locked[60:100, 136:149] = True  # the east saddle
+    out = apply_drainage(h, graph, None, patch_size=PATCH, locked=locked)
+    assert np.array_equal(out[locked], h[locked])
+    # No gorge cut short at the lock: the rim is left whole and the basin
+    # pools (as it did before breaching).
+    assert float((out - h)[:, 110:].min()) > -0.5
+    assert np.hypot(*(_trace(out, (80, 40))[-1] - 80)) < 62

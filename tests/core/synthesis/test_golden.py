@@ -83,7 +83,7 @@ CASES = {
 #: valleys now get out through a water gap).
 GOLDEN = {
     "y_junction": "23d329ceaadc41df38e65615f6d69a2c1d9fb030bcd84d73b800c056c487e104",
-    "ring_cross_raster": "b6387cc67459cc1b767df1187e4225468bf9dd2d2c4ff5bc0e23795ea4b8064e",
+    "ring_cross_raster": "19091e58c870a4de2007619add0a6e99523d6f397a559190afcc67d93d5f9e49",
     "styles_stamp_water_pin": "947806070207149ee269d5f33ef2d1ce528e4c3878a8f762c5195b48a113e107",
 }
 
