@@ -100,6 +100,7 @@ from skimage.graph import MCP_Geometric
 from skimage.morphology import reconstruction
 
 from ..features.graph import FeatureGraph
+from ..measures import surface_gradient
 from .pins import positions, smooth_correction_cells
 
 #: Radius of the disc a floor (or crest) is sampled in, in patches.
@@ -407,12 +408,13 @@ def _valley_pins(h: Surface, graph: FeatureGraph, radius: int, eps: float, water
                     seen.add(m)
                     queue.append(m)
         ends = [n for n in comp if len(adj[n]) == 1] or comp
-        outlets = [n for n in ends if touches(graph.nodes[n])] or ends
+        touching = [n for n in ends if touches(graph.nodes[n])]
+        outlets = touching or ends
         node_floor = {n: float(floor(np.array([[graph.nodes[n].row, graph.nodes[n].col]]))[0][0]) for n in outlets}
         outlet = min(outlets, key=lambda n: (node_floor[n], n))
         chains, level, cell = _fit_network(graph, adj, dense, outlet, floor, eps, radius)
         out.extend(chains)
-        if not touches(graph.nodes[outlet]) and cell is not None:
+        if not touching and cell is not None:
             if outlet not in breaches:
                 breaches[outlet] = _breach(h, cell, level, reach, eps, water, locked, guard)
             if breaches[outlet] is not None:
@@ -537,8 +539,8 @@ def _breach(h: Surface, cell: np.ndarray, level: float, reach: int, eps: float,
     in a basin of the synthesized terrain): the path is the one of least
     total height above ``level`` to a cell whose spill level is below it,
     so it crosses the rim where there is least to cut (near its lowest
-    saddle).  :func:`_breach_pins` cuts
-    it down into a gorge that descends all the way: a water gap.
+    saddle).  :func:`_breach_pins` cuts it down into a gorge that descends
+    all the way: a water gap.
 
     Parameters
     ----------
@@ -607,7 +609,7 @@ def _breach(h: Surface, cell: np.ndarray, level: float, reach: int, eps: float,
             if (held & (ndimage.distance_transform_edt(on_path) <= guard)).any():
                 return None
     path = steps.astype(float) + np.array([r0, c0], float)
-    gr, gc = np.gradient(heights)
+    gr, gc, _ = surface_gradient(heights, cell_size=1.0)
     return Breach(path, max(float(np.percentile(np.hypot(gr, gc), 90)), 1e-6))
 
 

@@ -178,15 +178,33 @@ def test_no_strokes_no_change_and_the_switch_is_validated():
 
 
 # -- the step on a map it does not hold ------------------------------------------------
-class _PlaneSurface:
-    """A drainage surface computed where read (never held): a valley along
-    the diagonal of a ``side`` x ``side`` map, falling to the far corner,
-    with a dam across it half-way."""
+class _ReadSurface:
+    """A drainage surface read through the Surface protocol only, its
+    corrections kept apart (as a tiled run's): ``base(rr, cc)`` gives the
+    heights before them."""
+
+    def __init__(self, shape):
+        self.shape, self.corrections = shape, []
+
+    def __getitem__(self, cells):
+        rr, cc = (np.asarray(a, np.int64) for a in cells)
+        out = self.base(rr, cc)
+        for corr in self.corrections:
+            out = out + corr.at(rr, cc).astype(np.float32)
+        return out
+
+    def add(self, correction):
+        self.corrections.append(correction)
+
+
+class _PlaneSurface(_ReadSurface):
+    """Computed where read (never held): a valley along the diagonal of a
+    ``side`` x ``side`` map, falling to the far corner, with a dam across
+    it half-way."""
 
     def __init__(self, side):
-        self.shape = (side, side)
+        super().__init__((side, side))
         self.side = side
-        self.corrections = []
 
     def base(self, rr, cc):
         r, c = rr.astype(np.float64), cc.astype(np.float64)
@@ -195,16 +213,6 @@ class _PlaneSurface:
         h = 100.0 + 1.5 * across + 0.05 * (self.side - along)
         h += 12.0 * np.exp(-((along - self.side / 2) ** 2) / 50.0) * np.exp(-(across ** 2) / 800.0)
         return h.astype(np.float32)
-
-    def __getitem__(self, cells):
-        rr, cc = (np.asarray(a) for a in cells)
-        out = self.base(rr, cc)
-        for corr in self.corrections:
-            out = out + corr.at(rr, cc).astype(np.float32)
-        return out
-
-    def add(self, correction):
-        self.corrections.append(correction)
 
 
 def test_a_correction_read_cell_by_cell_is_its_field_to_the_bit():
@@ -268,22 +276,15 @@ def _basin_terrain():
     return h.astype(np.float32)
 
 
-class _HeldSurface:
-    """An array read through the Surface protocol only, corrections kept
-    apart (as a tiled run's surface)."""
+class _HeldSurface(_ReadSurface):
+    """An array, read cell by cell."""
 
-    def __init__(self, base):
-        self.base, self.shape, self.corrections = base, base.shape, []
+    def __init__(self, heights):
+        super().__init__(heights.shape)
+        self.heights = heights
 
-    def __getitem__(self, cells):
-        rr, cc = (np.asarray(a, np.int64) for a in cells)
-        out = self.base[rr, cc]
-        for corr in self.corrections:
-            out = out + corr.at(rr, cc).astype(np.float32)
-        return out
-
-    def add(self, correction):
-        self.corrections.append(correction)
+    def base(self, rr, cc):
+        return self.heights[rr, cc]
 
 
 def test_a_valley_in_a_closed_basin_breaches_its_rim_at_the_lowest_saddle():
