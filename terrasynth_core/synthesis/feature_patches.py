@@ -174,19 +174,18 @@ def sample_prominence(standing: np.ndarray | None, samples: list[FeatureSample],
     return np.bincount(whose, values, len(samples)) / np.bincount(whose, minlength=len(samples))
 
 
-def pool_for(pools: dict, layout: StyleLayout, sample: FeatureSample, warnings: list[str], *,
-             patch_size: int) -> FeaturePool:
-    """The pool of the style under a sample; all examples' when that style
-    has no feature of the kind (said once in ``warnings``)."""
+def pool_key(pools: dict, layout: StyleLayout, sample: FeatureSample, warnings: list[str], *,
+             patch_size: int) -> tuple[str, int | None]:
+    """The key in ``pools`` of the style under a sample; all examples' when
+    that style has no feature of the kind (said once in ``warnings``)."""
     g = layout.group_at(*sample.center)
-    pool = pools[(sample.kind, g)]
-    if pool.size() == 0:
+    if pools[(sample.kind, g)].size() == 0:
         note = (f"{layout.names[g]} has no {sample.kind} features for a {patch_size}-cell patch: "
                 f"its sketched {sample.kind}s use the other styles' examples")
         if note not in warnings:
             warnings.append(note)
-        pool = pools[(sample.kind, None)]
-    return pool
+        return sample.kind, None
+    return sample.kind, g
 
 
 #: Example networks' stations kept between sessions (:meth:`Stations._of`).

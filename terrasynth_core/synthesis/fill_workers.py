@@ -9,28 +9,21 @@ searched, cut, placed and blended on a copy of its neighbourhood
 (:meth:`~..placing.canvas.Canvas.crop`), here or in a worker process, and
 merged back in wave order.  Which process did the work changes nothing.
 
-Most of that work holds the interpreter lock (graph cuts, small array
-operations), so threads would not run it in parallel; worker processes do.
-They come from loky's reusable executor: started once (fork and exec, safe
-beside Qt and BLAS threads; no ``if __name__ == "__main__"`` guard needed in
-a user's script) and reused by every later run.  What a run's windows need
-from the examples (their detail and fill searches) goes to the workers once,
-as a file they load on their first window of the run.
+The workers are the run's (:mod:`.workers`); what a run's windows need
+from the examples (their detail and fill searches) goes to them once, as a
+kit file they load on their first window of the run.
 """
 
 from __future__ import annotations
 
-import os
-import pickle
-import tempfile
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
 from ..placing.canvas import Canvas
 from .fill_patches import choose_fill, search_fill
 from .result import PatchRecord
+from .workers import KitFile, executor, with_kit
 
 #: Windows per wave; fixed (not the process count) so the result does not
 #: depend on how many processes fill them.
@@ -39,9 +32,6 @@ WAVE = 4
 #: Fewest fill windows worth sending to worker processes (the result is
 #: the same either way).
 MIN_PARALLEL_WINDOWS = 64
-
-#: Seconds an idle worker process waits for more work before it exits.
-IDLE_SECONDS = 300
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,60 +126,6 @@ def fill_window(kit: FillKit, task: WindowTask) -> tuple[Canvas, PatchRecord]:
     return canvas, replace(rec, bbox=task.bbox)
 
 
-# -- worker processes -------------------------------------------------------------
-
-#: In a worker: the kit of the run it works for, and where it came from.
-_KIT: tuple[str, FillKit] | None = None
-
-
-def _work(kit_path: str, task: WindowTask) -> tuple[Canvas, PatchRecord]:
-    global _KIT
-    if _KIT is None or _KIT[0] != kit_path:
-        _KIT = None  # the last run's kit goes before the next one loads
-        with open(kit_path, "rb") as f:
-            _KIT = (kit_path, pickle.load(f))
-    return fill_window(_KIT[1], task)
-
-
-def _executor(processes: int):
-    from loky import get_reusable_executor
-
-    # One BLAS thread per worker: the processes themselves use the cores
-    # (see pipeline.run_pipeline for what BLAS threads on top cost).  A
-    # worker keeps its run's kit (searches, indexes) by design: loky, where
-    # psutil is installed (Dask brings it), would take that growth for a
-    # leak and restart the worker mid-run, with a warning.
-    return get_reusable_executor(max_workers=processes, timeout=IDLE_SECONDS,
-                                 env={**{name: "1" for name in _THREAD_VARIABLES},
-                                      "LOKY_MAX_MEMORY_LEAK_SIZE": str(2**62)})
-
-
-#: Environment variables that hold native libraries to one thread.
-_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
-
-
-def _warm(shape: tuple[int, int]) -> int:
-    """In a worker: import what a fill window needs (this module's imports,
-    faiss, PyMaxflow) and make the seam solver of the window's shape."""
-    import faiss  # noqa: F401  (the fill indexes load with it)
-
-    from ..blending.rectangle import rectangle_solver
-    from ..placing import graph_cut  # noqa: F401
-
-    rectangle_solver(shape, build=1)
-    return os.getpid()
-
-
-def warm_up(processes: int, patch_size: int) -> None:
-    """Start the worker processes now (in the background) and have them
-    import and prepare what a fill window needs, so they are ready when
-    the fill begins.  Nothing happens for 1 process."""
-    if processes > 1:
-        pool = _executor(processes - 1)
-        for _ in range(processes - 1):
-            pool.submit(_warm, (patch_size, patch_size))
-
-
 class FillWorkers:
     """Fills waves of windows with ``processes`` processes (this one
     included); use as a context manager.
@@ -204,28 +140,25 @@ class FillWorkers:
     def __init__(self, kit: FillKit, processes: int):
         self.kit = kit
         self.processes = max(1, int(processes))
-        self._path = None
+        self._file = None
         self._pool = None
 
     def __enter__(self) -> "FillWorkers":
         if self.processes > 1:
-            fd, path = tempfile.mkstemp(prefix="terrasynth-fill-", suffix=".pkl")
-            with os.fdopen(fd, "wb") as f:
-                pickle.dump(self.kit, f, protocol=pickle.HIGHEST_PROTOCOL)
-            self._path = path
-            self._pool = _executor(self.processes - 1)
+            self._file = KitFile(self.kit).__enter__()
+            self._pool = executor(self.processes - 1)
         return self
 
     def __exit__(self, *exc) -> None:
-        if self._path is not None:
-            Path(self._path).unlink(missing_ok=True)
+        if self._file is not None:
+            self._file.__exit__(*exc)
 
     def run(self, tasks: list[WindowTask]) -> list[tuple[Canvas, PatchRecord]]:
         """Fill the windows of one wave; results in the tasks' order."""
         if self._pool is None:
             return [fill_window(self.kit, t) for t in tasks]
         # Every ``processes``-th task here, the others to the workers.
-        futures = {i: self._pool.submit(_work, self._path, t)
+        futures = {i: self._pool.submit(with_kit, self._file.path, fill_window, t)
                    for i, t in enumerate(tasks) if i % self.processes}
         here = {i: fill_window(self.kit, t) for i, t in enumerate(tasks) if i not in futures}
         return [here[i] if i in here else futures[i].result() for i in range(len(tasks))]

@@ -27,13 +27,20 @@ from ..order.bfs import feature_order
 from ..placing.canvas import Canvas
 from ..placing.windows import WindowQueue, estimate_fill_count, fill_windows, region_seeds
 from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, SynthesisFinished
-from .feature_patches import Stations, memo_feature_pools, place_feature, place_stamp, pool_for, prepare_feature
+from .feature_ahead import FeatureKit, PrepareAhead
+from .feature_patches import Stations, memo_feature_pools, place_feature, place_stamp, pool_key
 from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
-from .fill_workers import MIN_PARALLEL_WINDOWS, WAVE, FillKit, FillWorkers, warm_up, window_task
+from .fill_workers import MIN_PARALLEL_WINDOWS, WAVE, FillKit, FillWorkers, window_task
 from .finish import finish_heights
 from .landform import DRAWN_NOTE, drawn_level, landform_from, preview_patch, split_sigma
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
+from .workers import ready as workers_ready
+from .workers import warm_up
+
+#: Fewest feature patches worth preparing on a worker process (sending it
+#: the run's pools and examples costs more than a few patches save).
+MIN_AHEAD_SAMPLES = 16
 
 if TYPE_CHECKING:
     from .session import Session
@@ -218,19 +225,21 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
     usage = UsageRegistry(p.patch_size)
     n_kind = {kind: sum(s.kind == kind for s in samples) for kind in ("ridge", "valley")}
     stations = Stations(state.session.sketch_maps, lay.examples, state.radius)
-    # One helper thread prepares the next patch (ranking and warping, which
-    # do not read the output) while this one merges the current patch.  It
-    # ranks against a snapshot of the windows used, taken now: what it
-    # prepares does not depend on timing (same seed, same bytes); the
-    # placing checks the prepared candidates again against every patch.
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-prefetch") as pre:
+    # The next patch is prepared (ranked and warped, which does not read
+    # the output) while this one is placed, on a worker process when the
+    # run's are warm (a thread would hold the interpreter lock against this
+    # one: :mod:`.feature_ahead`).  It ranks against a snapshot of the
+    # windows used, taken now: what it prepares does not depend on timing
+    # or on where it ran (same seed, same bytes); the placing checks the
+    # prepared candidates again against every patch.
+    kit = FeatureKit(pools, lay.detail, stations, state.session.shape, p.patch_size)
+    processes = state.processes if len(samples) >= MIN_AHEAD_SAMPLES and workers_ready() else 1
+    with PrepareAhead(kit, processes=processes) as ahead:
         def prepare(i):
-            pool = pool_for(pools, lay, samples[i], state.warnings, patch_size=p.patch_size)
-            cap = window_cap(len(samples), n_kind[samples[i].kind], pool.size())
+            key = pool_key(pools, lay, samples[i], state.warnings, patch_size=p.patch_size)
+            cap = window_cap(len(samples), n_kind[samples[i].kind], pools[key].size())
             rng = np.random.default_rng([p.seed, 0, i])
-            return pool, cap, pre.submit(prepare_feature, samples[i], pool, lay.detail, shape=state.session.shape,
-                                         patch_size=p.patch_size, count=3 * p.k, rng=rng, usage=usage.snapshot(),
-                                         cap=cap, stations=stations)
+            return pools[key], cap, ahead.submit(samples[i], key, 3 * p.k, rng, usage.snapshot(), cap)
 
         pending = prepare(0) if samples else None
         for i, sample in enumerate(samples):

@@ -1,0 +1,123 @@
+"""The run's worker processes: started once, reused by every run, handed
+what a run's tasks need as one file.
+
+Most of a run's CPU work holds the interpreter lock (graph cuts, warps,
+many small array operations), so threads do not run it in parallel; worker
+processes do.  They come from loky's reusable executor: started once (fork
+and exec, safe beside Qt and BLAS threads; no ``if __name__ ==
+"__main__"`` guard needed in a user's script) and reused by every later run.
+What a stage's tasks need from the examples (their detail, feature pools,
+fill searches) goes to the workers once, as a *kit* file
+(:class:`KitFile`) that a worker loads on its first task of the stage
+(:func:`with_kit`).  Which process did a task changes nothing: tasks are
+pure functions of what they are given.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import tempfile
+import threading
+from pathlib import Path
+
+#: Seconds an idle worker process waits for more work before it exits.
+IDLE_SECONDS = 300
+
+#: Environment variables that hold native libraries to one thread.
+_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def executor(processes: int):
+    """loky's reusable executor with ``processes`` worker processes."""
+    from loky import get_reusable_executor
+
+    # One BLAS thread per worker: the processes themselves use the cores
+    # (see pipeline.run_pipeline for what BLAS threads on top cost).  A
+    # worker keeps its stage's kit (searches, indexes) by design: loky, where
+    # psutil is installed (Dask brings it), would take that growth for a
+    # leak and restart the worker mid-run, with a warning.
+    return get_reusable_executor(max_workers=processes, timeout=IDLE_SECONDS,
+                                 env={**{name: "1" for name in _THREAD_VARIABLES},
+                                      "LOKY_MAX_MEMORY_LEAK_SIZE": str(2**62)})
+
+
+def _warm(shape: tuple[int, int]) -> int:
+    """In a worker: import what a fill window and a feature preparation
+    need (faiss, PyMaxflow, the warps) and make the seam solver of the
+    window's shape."""
+    import faiss  # noqa: F401  (the fill indexes load with it)
+
+    from ..blending.rectangle import rectangle_solver
+    from ..placing import graph_cut  # noqa: F401
+    from . import feature_patches  # noqa: F401
+
+    rectangle_solver(shape, build=1)
+    return os.getpid()
+
+
+#: The warm-up tasks of the last :func:`warm_up` (see :func:`ready`).
+_WARMING: list = []
+_WARMING_LOCK = threading.Lock()
+
+
+def warm_up(processes: int, patch_size: int) -> None:
+    """Start the worker processes now (in the background) and have them
+    import and prepare what their tasks need, so they are ready when the
+    run needs them.  Nothing happens for 1 process."""
+    if processes > 1:
+        pool = executor(processes - 1)
+        futures = [pool.submit(_warm, (patch_size, patch_size)) for _ in range(processes - 1)]
+        with _WARMING_LOCK:
+            _WARMING[:] = futures
+
+
+def ready() -> bool:
+    """Whether the workers of the last :func:`warm_up` have started and
+    imported what they need (a task sent to them now runs at once; one sent
+    earlier would wait for a fresh process's imports)."""
+    with _WARMING_LOCK:
+        futures = list(_WARMING)
+    return bool(futures) and all(f.done() and f.exception() is None for f in futures)
+
+
+class KitFile:
+    """What a stage's tasks share, pickled to a temporary file for the
+    workers (removed on exit); use as a context manager.
+
+    Parameters
+    ----------
+    kit : object
+        Picklable.
+    """
+
+    def __init__(self, kit):
+        self.kit = kit
+        self.path: str | None = None
+
+    def __enter__(self) -> "KitFile":
+        fd, path = tempfile.mkstemp(prefix="terrasynth-kit-", suffix=".pkl")
+        with os.fdopen(fd, "wb") as f:
+            pickle.dump(self.kit, f, protocol=pickle.HIGHEST_PROTOCOL)
+        self.path = path
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.path is not None:
+            Path(self.path).unlink(missing_ok=True)
+
+
+#: In a worker: the kit it works with, and the file it came from.
+_KIT: tuple[str, object] | None = None
+
+
+def with_kit(kit_path: str, task, *args):
+    """In a worker: ``task(kit, *args)`` with the kit of ``kit_path``
+    (loaded on the first task that names it; the last stage's kit goes
+    first)."""
+    global _KIT
+    if _KIT is None or _KIT[0] != kit_path:
+        _KIT = None
+        with open(kit_path, "rb") as f:
+            _KIT = (kit_path, pickle.load(f))
+    return task(_KIT[1], *args)
