@@ -19,9 +19,12 @@ worker of a tiled run touching only the windows its searches read): an
 array of :data:`SIDE_BYTES` or more as a ``.npy`` loaded with
 ``mmap_mode="r"``, and raw bytes (a faiss index) as a ``.bin`` handed back
 as its path, for the reader to map.  The ``.npz``, written last, names each
-side file with its size and BLAKE2b digest; a side file is checked against
-them once per process before it is first used (a damaged one makes the
-entry unreadable: it is rebuilt, never trusted).  Mapped pages are the
+side file with its size, modification time and BLAKE2b digest; a side file
+is checked against them once per process before it is first used: one
+whose size and time are those written is the file written (reading a fill
+index's 15 MB files through the hash cost a cold run 0.3 s in each
+process), any other is read through and hashed (a damaged or replaced one
+makes the entry unreadable: it is rebuilt, never trusted).  Mapped pages are the
 page cache's: resident while used, dropped by the kernel under pressure,
 shared by every process on the machine that maps the same file.  An entry
 from before side files, its large arrays inside, is made again and stored
@@ -169,20 +172,24 @@ class _Entry:
     def __getitem__(self, name: str):
         if name not in self._side:
             return self._z[name]
-        filename, size, digest = self._side[name]
+        filename, size, digest, *written = self._side[name]  # entries before times hold three
         side = self._folder / filename
-        _check_side(side, int(size), digest)
+        _check_side(side, int(size), digest, int(written[0]) if written else None)
         if side.suffix == ".npy":
             return np.load(side, mmap_mode="r", allow_pickle=False)
         return side
 
 
-def _check_side(path: Path, size: int, digest: str) -> None:
+def _check_side(path: Path, size: int, digest: str, written_ns: int | None = None) -> None:
     """Raise ValueError unless ``path`` has ``size`` bytes and the BLAKE2b
-    ``digest`` (read through once per process and file version)."""
+    ``digest``: read through once per process and file version, unless its
+    modification time is still ``written_ns`` (the file as it was written
+    and named in its entry)."""
     st = path.stat()
     if st.st_size != size:
         raise ValueError(f"{path} has {st.st_size} bytes, its entry says {size}")
+    if written_ns is not None and st.st_mtime_ns == written_ns:
+        return
     seen = (str(path), st.st_size, st.st_mtime_ns, digest)
     with _CHECKED_LOCK:
         if seen in _CHECKED:
@@ -250,10 +257,11 @@ def _npy_bytes(array: np.ndarray) -> bytes:
 
 
 def _write_side(path: Path, data: bytes) -> list:
-    """Write a side file atomically; its (name, size, digest) for the entry."""
+    """Write a side file atomically; its (name, size, digest, modification
+    time in ns) for the entry."""
     with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
         f.write(data)
-    return [path.name, len(data), hashlib.blake2b(data, digest_size=20).hexdigest()]
+    return [path.name, len(data), hashlib.blake2b(data, digest_size=20).hexdigest(), path.stat().st_mtime_ns]
 
 
 def load_array(key: str) -> np.ndarray | None:

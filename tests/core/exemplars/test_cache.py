@@ -94,3 +94,33 @@ def test_an_entry_holding_its_large_arrays_inside_is_made_again_with_them_beside
     kept = cache.kept_array(key, lambda: heights)
     assert isinstance(kept, np.memmap) and np.array_equal(kept, heights)
     assert list(tmp_path.glob("*.heights.npy"))
+
+
+def test_a_side_file_as_written_is_not_read_through_and_a_changed_one_is_caught(white_mountains, tmp_path,
+                                                                               monkeypatch):
+    """A side file whose size and modification time are those its entry
+    names is used without hashing it again (a cold run read 15 MB fill
+    indexes through the hash in every process); one rewritten since, even
+    at the same size, is hashed, and its entry is taken as absent."""
+    import os
+
+    from terrasynth_core.exemplars import cache
+
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    heights = np.asarray(white_mountains.heights, dtype=np.float32)
+    cache.save_array("side-check", heights)
+    [side] = tmp_path.glob("*.heights.npy")
+    hashed = []
+    blake2b = cache.hashlib.blake2b
+    monkeypatch.setattr(cache.hashlib, "blake2b", lambda *a, **k: hashed.append(1) or blake2b(*a, **k))
+    cache._CHECKED.clear()  # as in a new process
+    assert np.array_equal(cache.load_array("side-check"), heights)
+    assert hashed == []
+    data = bytearray(side.read_bytes())
+    data[-4:] = b"\x00\x00\x80\x7f"  # the last height made infinite, the size kept
+    side.write_bytes(bytes(data))
+    st = side.stat()
+    os.utime(side, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))  # a rewrite within the clock's tick
+    cache._CHECKED.clear()
+    assert cache.load_array("side-check") is None
+    assert hashed
