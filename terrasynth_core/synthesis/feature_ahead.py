@@ -23,7 +23,7 @@ import numpy as np
 from ..features.samples import FeatureSample
 from ..matching.usage import UsageRegistry
 from .feature_patches import Stations, prepare_feature
-from .workers import KitFile, executor, with_kit
+from .workers import KitFile, executor, ready, with_kit
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,44 +60,46 @@ def prepare_with(kit: FeatureKit, sample: FeatureSample, pool: tuple, count: int
 
 
 class PrepareAhead:
-    """Runs feature preparations on the run's worker processes or on a
-    helper thread; use as a context manager.
+    """Runs feature preparations on the run's worker processes once they
+    are warm, on a helper thread until then; use as a context manager.
 
     Parameters
     ----------
     kit : FeatureKit
     processes : int
         The run's processes (this one included, as for the fill): above 1,
-        preparations go to its workers (they should be warm:
-        :func:`.workers.ready`); 1, to a helper thread of this process.
+        each preparation goes to its workers if they have started and
+        imported (:func:`.workers.ready`; a fresh process's first
+        preparations would wait a second for that), else to the thread.
+        1: the thread only.
     """
 
     def __init__(self, kit: FeatureKit, *, processes: int):
         self.kit = kit
         self.processes = max(1, int(processes))
         self._file = None
-        self._pool = None
+        self._thread = None
 
     def __enter__(self) -> "PrepareAhead":
         if self.processes > 1:
             self._file = KitFile(self.kit).__enter__()
-            # The fill's executor (same size): resizing it would restart warm workers.
-            self._pool = executor(self.processes - 1)
-        else:
-            self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-prefetch")
         return self
 
     def __exit__(self, *exc) -> None:
+        if self._thread is not None:
+            self._thread.shutdown(wait=True, cancel_futures=True)
         if self._file is not None:
             self._file.__exit__(*exc)
-        else:
-            self._pool.shutdown(wait=True, cancel_futures=True)
 
     def submit(self, sample: FeatureSample, pool: tuple, count: int, rng: np.random.Generator,
                usage: UsageRegistry, cap: int) -> Future:
         """Start preparing ``sample``: a future of what
         :func:`~.feature_patches.prepare_feature` returns.  ``usage`` must be
         a snapshot (:meth:`UsageRegistry.snapshot`)."""
-        if self._file is not None:
-            return self._pool.submit(with_kit, self._file.path, prepare_with, sample, pool, count, rng, usage, cap)
-        return self._pool.submit(prepare_with, self.kit, sample, pool, count, rng, usage, cap)
+        if self._file is not None and ready():
+            # The fill's executor (same size): resizing it would restart warm workers.
+            return executor(self.processes - 1).submit(with_kit, self._file.path, prepare_with, sample, pool,
+                                                       count, rng, usage, cap)
+        if self._thread is None:
+            self._thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-prefetch")
+        return self._thread.submit(prepare_with, self.kit, sample, pool, count, rng, usage, cap)

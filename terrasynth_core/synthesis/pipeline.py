@@ -35,7 +35,6 @@ from .finish import finish_heights
 from .landform import DRAWN_NOTE, drawn_level, landform_from, preview_patch, split_sigma
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
-from .workers import ready as workers_ready
 from .workers import warm_up
 
 #: Fewest feature patches worth preparing on a worker process (sending it
@@ -63,6 +62,8 @@ class RunState:
     #: Feature pools and fill searches made ahead (during the landform pass).
     pools: dict | None = None
     searches: list | None = None
+    #: Whether this run started the worker processes (:func:`.workers.warm_up`).
+    warmed: bool = False
 
     @classmethod
     def start(cls, session: Session) -> "RunState":
@@ -118,6 +119,7 @@ def run_pipeline(state: RunState) -> Iterator[object]:
     if estimate_fill_count(state.session.shape, p.patch_size, overlap=p.overlap_cells, n_features=0,
                            selection=state.controls.selection) >= MIN_PARALLEL_WINDOWS:
         warm_up(state.processes, p.patch_size)
+        state.warmed = state.processes > 1
     with _blas_threads().limit(limits=1, user_api="blas"):
         yield from landform_stage(state)
         samples, pools = yield from analyse_stage(state)
@@ -226,14 +228,14 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
     n_kind = {kind: sum(s.kind == kind for s in samples) for kind in ("ridge", "valley")}
     stations = Stations(state.session.sketch_maps, lay.examples, state.radius)
     # The next patch is prepared (ranked and warped, which does not read
-    # the output) while this one is placed, on a worker process when the
+    # the output) while this one is placed, on a worker process once the
     # run's are warm (a thread would hold the interpreter lock against this
     # one: :mod:`.feature_ahead`).  It ranks against a snapshot of the
     # windows used, taken now: what it prepares does not depend on timing
     # or on where it ran (same seed, same bytes); the placing checks the
     # prepared candidates again against every patch.
     kit = FeatureKit(pools, lay.detail, stations, state.session.shape, p.patch_size)
-    processes = state.processes if len(samples) >= MIN_AHEAD_SAMPLES and workers_ready() else 1
+    processes = state.processes if state.warmed and len(samples) >= MIN_AHEAD_SAMPLES else 1
     with PrepareAhead(kit, processes=processes) as ahead:
         def prepare(i):
             key = pool_key(pools, lay, samples[i], state.warnings, patch_size=p.patch_size)

@@ -6,10 +6,10 @@ from __future__ import annotations
 from concurrent.futures import wait
 
 import numpy as np
+import pytest
 
 from terrasynth_core.features import read_sketch
-from terrasynth_core.synthesis import Session, SynthesisParams, pipeline, workers
-from terrasynth_core.synthesis.feature_ahead import PrepareAhead
+from terrasynth_core.synthesis import Session, SynthesisParams, feature_ahead, pipeline, workers
 
 
 def _warm() -> bool:
@@ -19,17 +19,23 @@ def _warm() -> bool:
     return workers.ready()
 
 
-def test_features_prepared_on_a_process_give_the_same_bytes(white_mountains, sketch_dir, monkeypatch):
+@pytest.mark.parametrize("thread_first", [0, 5])
+def test_features_prepared_on_a_process_give_the_same_bytes(white_mountains, sketch_dir, monkeypatch, thread_first):
+    """On the worker from the first patch, or (as in a fresh process whose
+    worker is still importing) on the thread for the first five and on the
+    worker for the rest."""
     sketch = read_sketch(sketch_dir / "s_valley_1000.png").resized((256, 256))
-    used = []
-    enter = PrepareAhead.__enter__
-    monkeypatch.setattr(PrepareAhead, "__enter__", lambda self: used.append(self.processes) or enter(self))
-    monkeypatch.setattr(pipeline, "workers_ready", _warm)
+    sent = []  # preparations sent to a worker process
+    executor = feature_ahead.executor
+    monkeypatch.setattr(feature_ahead, "executor", lambda n: sent.append(n) or executor(n))
+    asked = []
+    monkeypatch.setattr(feature_ahead, "ready", lambda: len(asked) >= thread_first and _warm() or asked.append(1))
     params = dict(patch_size=32, k=2, seed=5, landform=False)
     here = Session([white_mountains], sketch, params=SynthesisParams(**params, workers=1)).run()
+    assert sent == []
     there = Session([white_mountains], sketch, params=SynthesisParams(**params, workers=2)).run()
-    assert used == [1, 2]
-    assert sum(here.counts()[k] for k in ("branch", "end", "path")) >= pipeline.MIN_AHEAD_SAMPLES
+    assert len(asked) == thread_first
+    assert len(sent) >= pipeline.MIN_AHEAD_SAMPLES - thread_first
     np.testing.assert_array_equal(here.heights, there.heights)
     assert [(p.kind, p.example, p.source, p.mirrored) for p in here.patches] == \
         [(p.kind, p.example, p.source, p.mirrored) for p in there.patches]
