@@ -237,29 +237,36 @@ def largest_valid_rectangle(valid: np.ndarray) -> tuple[int, int, int, int]:
 
     Notes
     -----
-    The classic histogram-stack method, O(rows * cols): column heights of
-    consecutive ``True`` cells are updated row by row and the largest
-    rectangle under each histogram is found with a monotone stack.
+    The classic dynamic programme, O(rows * cols), a row at a time in
+    array operations: per column, the run of ``True`` cells ending in the
+    row (its height) and how far left and right the columns stay at least
+    that tall (the running bounds of the row's own runs).  Of equal areas
+    the first row wins, then the rectangle ending furthest left, then the
+    tallest (the order of the histogram-stack method this replaced, whose
+    scan in Python took 5 s on a reprojected 3601x3601 tile).
     """
     rows, cols = valid.shape
     if valid.all():
-        # Most DEMs have no nodata: the scan below would take 0.3 s of
-        # Python on a 1201x1201 tile to find the whole grid.
         return 0, rows, 0, cols
+    at = np.arange(cols)
     heights = np.zeros(cols, dtype=np.int64)
+    left = np.zeros(cols, dtype=np.int64)
+    right = np.full(cols, cols, dtype=np.int64)
     best = (0, 0, 0, 0, 0)  # area, r0, r1, c0, c1
     for r in range(rows):
-        heights = np.where(valid[r], heights + 1, 0)
-        stack: list[int] = []
-        hs = heights.tolist() + [0]
-        for c, h in enumerate(hs):
-            while stack and hs[stack[-1]] >= h:
-                top = stack.pop()
-                left = stack[-1] + 1 if stack else 0
-                area = hs[top] * (c - left)
-                if area > best[0]:
-                    best = (area, r + 1 - hs[top], r + 1, left, c)
-            stack.append(c)
+        v = valid[r]
+        heights = np.where(v, heights + 1, 0)
+        # Start and end of the row's run of True cells through each column.
+        run_left = np.maximum.accumulate(np.where(v, 0, at + 1))
+        run_right = np.minimum.accumulate(np.where(v, cols, at)[::-1])[::-1]
+        left = np.where(v, np.maximum(left, run_left), 0)
+        right = np.where(v, np.minimum(right, run_right), cols)
+        area = heights * (right - left)
+        top = int(area.max())
+        if top > best[0]:
+            ties = np.flatnonzero(area == top)
+            c = ties[np.lexsort((-heights[ties], right[ties]))[0]]
+            best = (top, r + 1 - int(heights[c]), r + 1, int(left[c]), int(right[c]))
     if best[0] == 0:
         raise DEMFormatError("grid has no valid cell")
     return best[1:]

@@ -18,3 +18,17 @@ def test_largest_valid_rectangle_is_the_largest_all_valid_one():
         assert (r1 - r0) * (c1 - c0) == best
     # A grid without nodata is its own rectangle (at once: no scan).
     assert largest_valid_rectangle(np.ones((1201, 1201), bool)) == (0, 1201, 0, 1201)
+
+
+def test_ties_go_to_the_first_row_then_the_leftmost_end_then_the_tallest():
+    """Of equal areas, the rectangle the histogram-stack scan this replaced
+    found first (so an example with nodata keeps its crop)."""
+    valid = np.array([[1, 1, 0, 1, 1],
+                      [1, 1, 0, 1, 1],
+                      [0, 0, 0, 0, 0],
+                      [1, 1, 1, 1, 0]], bool)
+    assert largest_valid_rectangle(valid) == (0, 2, 0, 2)
+    valid = np.array([[0, 1, 0],
+                      [1, 1, 1],
+                      [0, 1, 0]], bool)
+    assert largest_valid_rectangle(valid) == (1, 2, 0, 3)  # the row ends before the column does
