@@ -31,4 +31,4 @@ def test_ties_go_to_the_first_row_then_the_leftmost_end_then_the_tallest():
     valid = np.array([[0, 1, 0],
                       [1, 1, 1],
                       [0, 1, 0]], bool)
-    assert largest_valid_rectangle(valid) == (1, 2, 0, 3)  # the row ends before the column does
+    assert largest_valid_rectangle(valid) == (1, 2, 0, 3)  # complete at row 1, the column only at row 2
