@@ -140,6 +140,15 @@ class FeaturePool:
     def degrees(self) -> list[int]:
         return sorted(self._groups)
 
+    def __getstate__(self) -> dict:
+        # Pools are shared by a process's sessions: another thread may add
+        # an alignment while this pool is pickled for a worker process, and
+        # a dict that changes size mid-pickle fails.  The copy is taken at
+        # once (the alignments themselves are never changed).
+        state = self.__dict__.copy()
+        state["_aligned"] = dict(self._aligned)
+        return state
+
     def size(self, degree: int | None = None) -> int:
         if degree is None:
             return sum(len(g[0]) for g in self._groups.values())

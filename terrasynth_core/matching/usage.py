@@ -123,7 +123,8 @@ class UsageRegistry:
 
     def snapshot(self) -> "UsageRegistry":
         """A copy that later :meth:`record` calls do not change (for work
-        prepared on another thread: what it sees must not depend on timing)."""
+        prepared on another thread or process: what it sees must not depend
+        on timing)."""
         out = UsageRegistry(self.patch_size, same_window=self.same_window)
         out._examples = list(self._examples)
         out._sources = list(self._sources)

@@ -3,8 +3,8 @@ pool, warped onto the sketch, chosen by match cost plus seam cost.
 
 A feature patch is prepared (ranked and warped, reading only the examples)
 and then placed (matched against the output, cut and merged), so that the
-preparation of the next patch can run on another thread while this one is
-placed.
+preparation of the next patch can run elsewhere (a worker process or a
+helper thread: :mod:`.feature_ahead`) while this one is placed.
 """
 
 from __future__ import annotations
@@ -262,7 +262,7 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
     """Rank candidates for a sample and warp them onto its window.
 
     Reads only the examples, never the output, so it can run ahead on
-    another thread.
+    another thread or process.
 
     Parameters
     ----------

@@ -112,9 +112,9 @@ def run_pipeline(state: RunState) -> Iterator[object]:
     # The run's own threads keep both cores busy; BLAS threads on top of
     # them only contend (a 300x300 Cholesky of a seam solve took 60x longer
     # with OpenBLAS's threads fighting the search thread).
-    # The fill's worker processes start now, while the landform and
-    # feature stages run, so they are ready when the fill begins (if the
-    # fill will be long enough to use them).
+    # The worker processes start now, while the landform pass runs, so
+    # they are ready for the feature patches' preparation and the fill (if
+    # the fill will be long enough to use them).
     p = state.params
     if estimate_fill_count(state.session.shape, p.patch_size, overlap=p.overlap_cells, n_features=0,
                            selection=state.controls.selection) >= MIN_PARALLEL_WINDOWS:

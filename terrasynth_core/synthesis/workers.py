@@ -7,7 +7,7 @@ processes do.  They come from loky's reusable executor: started once (fork
 and exec, safe beside Qt and BLAS threads; no ``if __name__ ==
 "__main__"`` guard needed in a user's script) and reused by every later run.
 What a stage's tasks need from the examples (their detail, feature pools,
-fill searches) goes to the workers once, as a *kit* file
+fill searches) goes to the workers once per stage, as a *kit* file
 (:class:`KitFile`) that a worker loads on its first task of the stage
 (:func:`with_kit`).  Which process did a task changes nothing: tasks are
 pure functions of what they are given.
@@ -78,7 +78,7 @@ def ready() -> bool:
     earlier would wait for a fresh process's imports)."""
     with _WARMING_LOCK:
         futures = list(_WARMING)
-    return bool(futures) and all(f.done() and f.exception() is None for f in futures)
+    return bool(futures) and all(f.done() and not f.cancelled() and f.exception() is None for f in futures)
 
 
 class KitFile:
@@ -97,8 +97,12 @@ class KitFile:
 
     def __enter__(self) -> "KitFile":
         fd, path = tempfile.mkstemp(prefix="terrasynth-kit-", suffix=".pkl")
-        with os.fdopen(fd, "wb") as f:
-            pickle.dump(self.kit, f, protocol=pickle.HIGHEST_PROTOCOL)
+        try:
+            with os.fdopen(fd, "wb") as f:
+                pickle.dump(self.kit, f, protocol=pickle.HIGHEST_PROTOCOL)
+        except BaseException:  # a full disk, an interrupt: no file left behind
+            Path(path).unlink(missing_ok=True)
+            raise
         self.path = path
         return self
 
@@ -107,8 +111,9 @@ class KitFile:
             Path(self.path).unlink(missing_ok=True)
 
 
-#: In a worker: the kit it works with, and the file it came from.
-_KIT: tuple[str, object] | None = None
+#: In a worker: the kit it works with, and the file it came from (path,
+#: inode and modification time: a later kit may reuse a removed one's name).
+_KIT: tuple[tuple, object] | None = None
 
 
 def with_kit(kit_path: str, task, *args):
@@ -116,8 +121,10 @@ def with_kit(kit_path: str, task, *args):
     (loaded on the first task that names it; the last stage's kit goes
     first)."""
     global _KIT
-    if _KIT is None or _KIT[0] != kit_path:
+    st = os.stat(kit_path)
+    which = (kit_path, st.st_ino, st.st_mtime_ns)
+    if _KIT is None or _KIT[0] != which:
         _KIT = None
         with open(kit_path, "rb") as f:
-            _KIT = (kit_path, pickle.load(f))
+            _KIT = (which, pickle.load(f))
     return task(_KIT[1], *args)

@@ -40,3 +40,28 @@ def test_features_prepared_on_a_process_give_the_same_bytes(white_mountains, ske
     assert [(p.kind, p.example, p.source, p.mirrored) for p in here.patches] == \
         [(p.kind, p.example, p.source, p.mirrored) for p in there.patches]
     assert here.warnings == there.warnings
+
+
+def test_a_pool_pickles_while_another_thread_ranks_with_it(white_mountains):
+    """Pools are shared by a process's sessions: one run pickles them for its
+    worker while another's thread may add an alignment to them."""
+    import pickle
+
+    from terrasynth_core.exemplars.prepare import prepare_example
+    from terrasynth_core.matching.candidates import FeaturePool
+
+    an = prepare_example(white_mountains, 32)
+    pool = FeaturePool([(0, an.samples["ridge"])], 16.0, mirror=True)
+    pool._aligned[98] = pool._aligned[99] = _AddsAnAlignment(pool._aligned)  # pickling adds one, as a thread would
+    copy = pickle.loads(pickle.dumps(pool))
+    assert copy.size() == pool.size() > 0
+    assert 100 in pool._aligned and 100 not in copy._aligned
+
+
+class _AddsAnAlignment:
+    def __init__(self, aligned: dict):
+        self.aligned = aligned
+
+    def __reduce__(self):
+        self.aligned[100] = None
+        return (str, ("an alignment",))
