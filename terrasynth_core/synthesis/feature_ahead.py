@@ -77,12 +77,11 @@ class PrepareAhead:
     def __init__(self, kit: FeatureKit, *, processes: int):
         self.kit = kit
         self.processes = max(1, int(processes))
-        self._file = None
+        self._file = None  # the kit file and the workers, once they are first used
+        self._pool = None
         self._thread = None
 
     def __enter__(self) -> "PrepareAhead":
-        if self.processes > 1:
-            self._file = KitFile(self.kit).__enter__()
         return self
 
     def __exit__(self, *exc) -> None:
@@ -96,10 +95,14 @@ class PrepareAhead:
         """Start preparing ``sample``: a future of what
         :func:`~.feature_patches.prepare_feature` returns.  ``usage`` must be
         a snapshot (:meth:`UsageRegistry.snapshot`)."""
-        if self._file is not None and ready():
-            # The fill's executor (same size): resizing it would restart warm workers.
-            return executor(self.processes - 1).submit(with_kit, self._file.path, prepare_with, sample, pool,
-                                                       count, rng, usage, cap)
+        if self.processes > 1 and (self._pool is not None or ready()):
+            if self._pool is None:
+                # Written when the workers are first used, not before: a run
+                # whose workers never warm up in time pays nothing for it.
+                self._file = KitFile(self.kit).__enter__()
+                # The fill's executor (same size): resizing it would restart warm workers.
+                self._pool = executor(self.processes - 1)
+            return self._pool.submit(with_kit, self._file.path, prepare_with, sample, pool, count, rng, usage, cap)
         if self._thread is None:
             self._thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-prefetch")
         return self._thread.submit(prepare_with, self.kit, sample, pool, count, rng, usage, cap)

@@ -12,6 +12,17 @@ from terrasynth_core.features import read_sketch
 from terrasynth_core.synthesis import Session, SynthesisParams, feature_ahead, pipeline, workers
 
 
+class _Counting:
+    """An executor that notes each task it is given in ``sent``."""
+
+    def __init__(self, pool, sent: list):
+        self.pool, self.sent = pool, sent
+
+    def submit(self, *args):
+        self.sent.append(args[1])
+        return self.pool.submit(*args)
+
+
 def _warm() -> bool:
     """The workers once their warm-up is done (a test must not depend on
     whether a fresh process imported in time)."""
@@ -27,7 +38,7 @@ def test_features_prepared_on_a_process_give_the_same_bytes(white_mountains, ske
     sketch = read_sketch(sketch_dir / "s_valley_1000.png").resized((256, 256))
     sent = []  # preparations sent to a worker process
     executor = feature_ahead.executor
-    monkeypatch.setattr(feature_ahead, "executor", lambda n: sent.append(n) or executor(n))
+    monkeypatch.setattr(feature_ahead, "executor", lambda n: _Counting(executor(n), sent))
     asked = []
     monkeypatch.setattr(feature_ahead, "ready", lambda: len(asked) >= thread_first and _warm() or asked.append(1))
     params = dict(patch_size=32, k=2, seed=5, landform=False)
