@@ -84,6 +84,7 @@ from fidelity_measures import (
     relief,
     share_out_of_range,
 )
+from terrasynth_core.heightfield import HeightField
 from terrasynth_core.examples import builtin_example
 from terrasynth_core.exemplars.patch_size import MIN_POOL, held_windows
 from terrasynth_core.features import read_sketch
@@ -137,14 +138,17 @@ def spectrum_tile(example_shape, output_shape) -> int:
     return int(min(SPECTRUM_TILE, *example_shape, *output_shape))
 
 
-def example_figures(heights: np.ndarray, tile: int) -> dict:
-    """What every case is compared with: relief, HF and band powers of the example."""
-    return {"relief": relief(heights), "hf": high_frequency(heights), "bands": band_powers(heights, tile=tile),
-            "tile": tile}
+def example_figures(heights: np.ndarray, tile: int, valid: np.ndarray | None = None) -> dict:
+    """What every case is compared with: relief (over ``valid``, the
+    example's valid heights, when given), HF and band powers of the
+    example (``heights``, a whole grid)."""
+    return {"relief": relief(heights if valid is None else valid), "hf": high_frequency(heights),
+            "bands": band_powers(heights, tile=tile), "tile": tile}
 
 
 def measure(heights: np.ndarray, sketch_maps, example: np.ndarray, ex: dict, patches) -> dict:
-    """Every figure of one output (see the module docstring)."""
+    """Every figure of one output (see the module docstring); ``example``:
+    the example's valid heights, any shape."""
     size = max(heights.shape)
     out = {}
     cells = {}
@@ -285,8 +289,15 @@ def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=p
         # (its finer side), so spectra and slopes compare cell for cell.
         raw = builtin_example(key).load()
         example, _ = on_ground(raw, run_cell_size(None, [raw]), name=key)
-        ex_h = np.asarray(example.heights, dtype=np.float32)
-        ex = example_figures(ex_h, spectrum_tile(ex_h.shape, shape))
+        # Its heights and relief over every valid cell; its roughness and
+        # spectrum on its largest valid rectangle (they need a whole grid;
+        # the engine keeps patches off the voids of a basin clip such as
+        # the Himalaya's).
+        measured = example.crop_valid() if isinstance(example, HeightField) else example
+        ex_h = np.asarray(measured.heights, dtype=np.float32)
+        ex_valid = np.asarray(example.heights, dtype=np.float32)
+        ex_valid = ex_valid[np.isfinite(ex_valid)]
+        ex = example_figures(ex_h, spectrum_tile(ex_h.shape, shape), ex_valid)
         sheet_rows = []
         pools = {}  # (sketch, patch size): the example's pool windows
         for sketch_file in sketches:
@@ -294,7 +305,7 @@ def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=p
                 for order in orders:
                     params = SynthesisParams(seed=seed, order=order, **(extra or {}))
                     result, seconds, fallback = synthesize(example, loaded[sketch_file], shape, params)
-                    fig = measure(result.heights, result.sketch_features, ex_h, ex, result.patches)
+                    fig = measure(result.heights, result.sketch_features, ex_valid, ex, result.patches)
                     pk = (sketch_file, result.params.patch_size)
                     if pk not in pools:
                         pools[pk] = pool_windows(example, result.params.patch_size, loaded[sketch_file])
@@ -310,7 +321,7 @@ def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=p
             sheets.mkdir(parents=True, exist_ok=True)
             path = sheets / f"fidelity_{key}.png"
             log(f"  wrote {path.relative_to(REPO) if path.is_relative_to(REPO) else path} "
-                f"({write_sheet(path, key, example, sheet_rows, orders[0]) // 1000} kB)")
+                f"({write_sheet(path, key, measured, sheet_rows, orders[0]) // 1000} kB)")
     return rows
 
 

@@ -57,15 +57,17 @@ class BuiltinExample:
         return resource_path("thumbnails", f"{self.key}.png")
 
     def load(self) -> HeightField:
-        """Read the DEM, cropped to its largest fully valid rectangle.
+        """Read the DEM, its nodata margins cut away
+        (:meth:`~terrasynth_core.heightfield.HeightField.trim_nodata`).
 
-        Cropping (not filling) keeps exemplars free of invented terrain: the
-        Himalayan basin clip and the ragged St. Helens quadrangle lose only
-        their nodata margins.
+        The ragged St. Helens quadrangle is cropped to its largest valid
+        rectangle; the Himalayan basin clip keeps the whole basin, the
+        nodata around it NaN (the engine keeps patches off it): its
+        largest rectangle holds only half of its valid cells.
         """
         from .io import load_dem
 
-        return load_dem(self.path).crop_valid()
+        return load_dem(self.path).trim_nodata()
 
 
 BUILTIN_EXAMPLES: tuple[BuiltinExample, ...] = (

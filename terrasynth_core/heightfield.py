@@ -11,11 +11,15 @@ Cells without a valid height are ``NaN`` in :attr:`HeightField.heights` and
 algorithms do not accept NaN.  Two ways to get a fully valid grid:
 
 * :meth:`HeightField.crop_valid` crops to the largest axis-aligned rectangle
-  holding only valid cells (the right choice for exemplars: no invented
-  terrain, e.g. the Mandakini basin clip or the ragged USGS quadrangle).
+  holding only valid cells (no invented terrain, but a basin clip or a
+  tile with a void inside can lose half its cells).
 * :meth:`HeightField.fill_nodata` fills each invalid cell from its nearest
-  valid cell and smooths the fill (the right choice for a few scattered
-  voids, e.g. SRTM holes).
+  valid cell and smooths the fill.
+
+Examples take :meth:`HeightField.trim_nodata`: the crop when it keeps
+nearly every valid cell (a ragged edge, a reprojection's slivers), else
+only the margins, the voids inside left for the engine to fill and keep
+out of every patch (:func:`terrasynth_core.exemplars.prepare_example`).
 """
 
 from __future__ import annotations
@@ -27,6 +31,10 @@ import numpy as np
 from scipy import ndimage
 
 from .errors import DEMFormatError, ParamsError
+
+#: :meth:`HeightField.trim_nodata` crops to the largest valid rectangle when
+#: it keeps this share of the valid cells.
+CROP_KEEPS = 0.9
 
 #: Mean Earth radius in metres (IUGG), used to turn arc-seconds into metres.
 EARTH_RADIUS_M = 6_371_008.8
@@ -192,6 +200,25 @@ class HeightField:
         if valid.all():
             return self
         return self.window(*largest_valid_rectangle(valid))
+
+    def trim_nodata(self) -> "HeightField":
+        """Cut nodata away as an example wants it.
+
+        The largest valid rectangle (:meth:`crop_valid`) when it keeps at
+        least :data:`CROP_KEEPS` of the valid cells: a ragged quadrangle or
+        a reprojected tile's slivers.  Otherwise (a basin clip, a void
+        inside a tile) the valid cells' bounding box, with the nodata
+        inside still NaN: cropping would throw real terrain away.
+        """
+        valid = ~self.nodata
+        if valid.all():
+            return self
+        r0, r1, c0, c1 = largest_valid_rectangle(valid)
+        if (r1 - r0) * (c1 - c0) >= CROP_KEEPS * int(valid.sum()):
+            return self.window(r0, r1, c0, c1)
+        rows, cols = np.flatnonzero(valid.any(axis=1)), np.flatnonzero(valid.any(axis=0))
+        box = (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
+        return self if box == (0, self.shape[0], 0, self.shape[1]) else self.window(*box)
 
     def window(self, r0: int, r1: int, c0: int, c1: int) -> "HeightField":
         """Rows ``r0:r1`` and columns ``c0:c1`` (a copy); the georeference

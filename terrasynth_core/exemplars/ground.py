@@ -17,7 +17,7 @@ import hashlib
 import numpy as np
 
 from ..errors import ParamsError
-from ..heightfield import HeightField
+from ..heightfield import CROP_KEEPS, HeightField
 from ..io.resample import already_square, ground_cell_size, to_square_cells
 from . import cache
 
@@ -92,7 +92,7 @@ def on_ground(field: HeightField | np.ndarray, cell_size: float | None, *,
         notes.append(f"{name}: {dy:.4g} x {dx:.4g} m cells up-sampled {factor:.1f}x to {cell_size:g} m: its "
                      "detail will be soft; a finer example or --cell-size N would help")
     heights = _MEMO.get(_key(field, cell_size), lambda: _resampled(field, cell_size, name))
-    if field.nodata_count:
+    if field.nodata_count and not np.isnan(heights).any():  # (voids kept inside: prepare_example says so)
         notes.append(f"{name}: cropped to its largest valid rectangle {heights.shape[0]}x{heights.shape[1]} at "
                      f"{cell_size:g} m (nodata)")
     out = HeightField(heights, cell_size=(cell_size, cell_size), source=field.source, format=field.format,
@@ -101,9 +101,10 @@ def on_ground(field: HeightField | np.ndarray, cell_size: float | None, *,
 
 
 def _resampled(field: HeightField, cell_size: float, name: str) -> np.ndarray:
-    """The heights at square cells, the warp's NaN edges cropped."""
+    """The heights at square cells, the warp's NaN edges cut away
+    (:meth:`~terrasynth_core.heightfield.HeightField.trim_nodata`)."""
     resampled = to_square_cells(field, cell_size)
-    heights = resampled.crop_valid().heights if resampled.nodata_count else resampled.heights
+    heights = resampled.trim_nodata().heights
     if np.isnan(heights).all():
         raise ParamsError(f"{name}: no valid cell left after resampling to {cell_size:g} m cells")
     return heights
@@ -111,9 +112,12 @@ def _resampled(field: HeightField, cell_size: float, name: str) -> np.ndarray:
 
 def _key(field: HeightField, cell_size: float) -> str:
     """Digest of what the resampled grid depends on: heights, cell size,
-    georeference (CRS and where the grid lies) and the new size."""
+    georeference (CRS and where the grid lies), the new size and the
+    nodata trimming."""
     h = hashlib.sha1(np.ascontiguousarray(field.heights).tobytes())
     geo = field.georef
     where = None if geo is None else (geo.x_origin, geo.y_origin, geo.x_step, geo.y_step, geo.epsg, geo.crs_wkt)
-    h.update(repr((field.shape, field.cell_size, where, float(cell_size))).encode())
+    # (With how nodata is trimmed: grids stored before voids were kept inside
+    # were cropped.)
+    h.update(repr((field.shape, field.cell_size, where, float(cell_size), "trim", CROP_KEEPS)).encode())
     return "ground-" + h.hexdigest()

@@ -19,7 +19,7 @@ from ..measures import topographic_position_index
 from ..errors import ParamsError
 from ..features import FeatureMaps, extract_features
 from ..features.ppa import spare_core
-from ..heightfield import HeightField, largest_valid_rectangle
+from ..heightfield import HeightField
 from . import cache
 from ..features.samples import example_samples
 
@@ -43,10 +43,14 @@ class ExampleAnalysis:
     note : str or None
         What was done about nodata, for the run's warnings.
     key : str
-        What the analysis is of (the heights' digest, their shape and the
-        patch size): equal keys, equal analyses.  Memos of what is made
-        from an analysis key by it, so an analysis read again from the
-        disk cache (a new object) still finds them.
+        What the analysis is of (the heights' digest, their shape, the
+        patch size and the valid cells): equal keys, equal analyses.
+        Memos of what is made from an analysis key by it, so an analysis
+        read again from the disk cache (a new object) still finds them.
+    valid : ndarray of bool, shape (H, W), or None
+        Where the example has real heights; None: everywhere.  Its voids
+        are filled in ``heights`` (filters need a whole grid) but no
+        feature sample, fill window or landform is taken over them.
     """
 
     heights: np.ndarray
@@ -56,6 +60,12 @@ class ExampleAnalysis:
     relief: float
     note: str | None
     key: str
+    valid: np.ndarray | None = None
+
+    def valid_values(self, grid: np.ndarray) -> np.ndarray:
+        """The cells of ``grid`` (shape (H, W), e.g. the heights) where the
+        example is valid, flat: what its statistics are taken over."""
+        return grid.ravel() if self.valid is None else grid[self.valid]
 
 
 def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: str = "example") -> ExampleAnalysis:
@@ -64,34 +74,65 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
     Raises
     ------
     ParamsError
-        When the example (after removing nodata) is smaller than a patch.
+        When the example (after removing nodata) is smaller than a patch,
+        or its voids leave no patch-sized window of valid cells.
     """
     if not isinstance(field, HeightField):
         field = HeightField(np.asarray(field, dtype=np.float32), source=name)
-    note = None
+    notes, valid = [], None
     if field.nodata_count:
-        r0, r1, c0, c1 = largest_valid_rectangle(~field.nodata)
-        if min(r1 - r0, c1 - c0) >= 2 * patch_size:
-            note = f"{name}: cropped to its largest valid rectangle {r1 - r0}x{c1 - c0} (nodata)"
-            field = field.window(r0, r1, c0, c1)
+        trimmed = field.trim_nodata()
+        if not trimmed.nodata_count:
+            notes.append(f"{name}: cropped to its largest valid rectangle {trimmed.shape[0]}x{trimmed.shape[1]} "
+                         "(nodata)")
         else:
-            note = f"{name}: {field.nodata_count} nodata cells filled from their neighbours"
-            field = field.fill_nodata()
+            # Cropping would lose real terrain: the voids are filled so that
+            # filters see a whole grid; thin ones are terrain again, and no
+            # patch is taken over the others.
+            wide = _wide_voids(trimmed.nodata)
+            thin = trimmed.nodata_count - int(wide.sum())
+            if thin:
+                notes.append(f"{name}: {thin} nodata cells filled from their neighbours")
+            if wide.any():
+                notes.append(f"{name}: {int(wide.sum())} nodata cells ({wide.mean():.0%} of "
+                             f"{trimmed.shape[0]}x{trimmed.shape[1]}) filled and kept out of every patch")
+                valid = ~wide
+            trimmed = trimmed.fill_nodata()
+        field = trimmed
     if min(field.shape) < patch_size + 4:
         raise ParamsError(
             f"{name} is {field.shape[0]}x{field.shape[1]} cells (valid part), smaller than a patch of "
             f"{patch_size}x{patch_size}: use a larger example or a smaller patch size"
         )
+    if valid is not None and not _fits(valid, patch_size + 4).any():
+        raise ParamsError(
+            f"{name} has no {patch_size + 4}x{patch_size + 4} window without nodata, which a patch of "
+            f"{patch_size}x{patch_size} needs: use an example with fewer voids or a smaller patch size"
+        )
     heights = np.ascontiguousarray(field.heights, dtype=np.float32)
+    low, high = np.percentile(heights if valid is None else heights[valid], [0.5, 99.5])
+    flat = None
     if not np.ptp(heights):
         flat = (f"{name} is flat (every cell {heights.flat[0]:g} m): it has no relief to give, "
                 "the terrain will be flat")
-        note = flat if note is None else f"{note}; {flat}"
+    elif high - low < NEARLY_FLAT_M:
+        flat = (f"{name} is nearly flat ({high - low:.3g} m between its 0.5th and 99.5th height "
+                "percentiles): the strokes will barely show; a steeper example, or a style with a "
+                "relief scale (relief=K), would help")
+    if flat is not None:
+        notes.append(flat)
+    note = "; ".join(notes) or None
     digest = hashlib.sha1(heights.tobytes()).hexdigest()
     key = f"{digest}-{heights.shape[0]}x{heights.shape[1]}-p{patch_size}"
-    features, samples, strong, relief = _CACHE.get(key, lambda: _analyse(heights, patch_size))
-    return ExampleAnalysis(heights, features, samples, strong, relief, note, key)
+    if valid is not None:
+        key += "-v" + hashlib.sha1(np.packbits(valid).tobytes()).hexdigest()[:16]
+    features, samples, strong, relief = _CACHE.get(key, lambda: _analyse(heights, patch_size, valid))
+    return ExampleAnalysis(heights, features, samples, strong, relief, note, key, valid)
 
+
+#: An example whose heights span less than this (metres, between their
+#: 0.5th and 99.5th percentiles) is said to be nearly flat.
+NEARLY_FLAT_M = 10.0
 
 #: Example feature samples weaker than this quantile of their kind are dropped...
 STRONG_QUANTILE = 0.5
@@ -102,7 +143,27 @@ MIN_STRENGTH = 1.0
 _CACHE = cache.Memo(8, cache.load, lambda key, value: cache.save(key, *value))
 
 
-def _analyse(heights: np.ndarray, patch_size: int) -> tuple:
+#: Voids no more than this many cells from a valid one (up to about twice as
+#: wide: interlaced rows, SRTM's pinholes) are filled and used as terrain.
+THIN_VOID = 2.0
+
+
+def _wide_voids(void: np.ndarray) -> np.ndarray:
+    """The cells of ``void`` (bool, (H, W)) in a connected void that reaches
+    more than :data:`THIN_VOID` cells from valid ground."""
+    labels, count = ndimage.label(void)
+    depth = ndimage.distance_transform_edt(void)
+    deepest = np.concatenate([[0.0], ndimage.maximum(depth, labels, np.arange(1, count + 1))])
+    return deepest[labels] > THIN_VOID
+
+
+def _fits(valid: np.ndarray, size: int) -> np.ndarray:
+    """Cells of ``valid`` (bool, (H, W)) whose ``size`` x ``size`` square
+    (centred, as ``ndimage`` centres an even size) is all valid."""
+    return ndimage.minimum_filter(valid, size=size, mode="constant", cval=False)
+
+
+def _analyse(heights: np.ndarray, patch_size: int, valid: np.ndarray | None = None) -> tuple:
     """The analysis :data:`_CACHE` stores: ``(features, samples, strong, relief)``.
 
     With a core to spare (:func:`~terrasynth_core.features.ppa.spare_core`)
@@ -114,15 +175,16 @@ def _analyse(heights: np.ndarray, patch_size: int) -> tuple:
     radius = patch_size / 2
     if spare_core():
         with ThreadPoolExecutor(max_workers=2, thread_name_prefix="analysis") as pool:
-            tpi_and_relief = pool.submit(_tpi_and_relief, heights, radius, patch_size)
+            tpi_and_relief = pool.submit(_tpi_and_relief, heights, radius, patch_size, valid)
             features = extract_features(heights)
             tpi, relief = tpi_and_relief.result()
             pools = list(pool.map(_sample_pool, (features.ridges, features.valleys), (1.0, -1.0),
-                                  (tpi, tpi), (radius, radius)))
+                                  (tpi, tpi), (radius, radius), (valid, valid)))
     else:
         features = extract_features(heights)
-        tpi, relief = _tpi_and_relief(heights, radius, patch_size)
-        pools = [_sample_pool(features.ridges, 1.0, tpi, radius), _sample_pool(features.valleys, -1.0, tpi, radius)]
+        tpi, relief = _tpi_and_relief(heights, radius, patch_size, valid)
+        pools = [_sample_pool(features.ridges, 1.0, tpi, radius, valid),
+                 _sample_pool(features.valleys, -1.0, tpi, radius, valid)]
     samples = {"ridge": pools[0], "valley": pools[1]}
     strong = np.zeros(heights.shape, dtype=bool)
     for graph in (features.ridges, features.valleys):
@@ -133,32 +195,40 @@ def _analyse(heights: np.ndarray, patch_size: int) -> tuple:
     return features, samples, strong, relief
 
 
-def _tpi_and_relief(heights: np.ndarray, radius: float, patch_size: int) -> tuple[np.ndarray, float]:
+def _tpi_and_relief(heights: np.ndarray, radius: float, patch_size: int,
+                    valid: np.ndarray | None = None) -> tuple[np.ndarray, float]:
     """The TPI in standard deviations, shape (H, W) float32, and the relief.
 
     The TPI tells how far a sample's centre stands above (ridge) or below
     (valley) the patch around it: PPA finds every little spur, but a
     sketched stroke asks for a real ridge or valley.  The relief is the
-    median local standard deviation within a patch, in metres.
+    median local standard deviation within a patch, in metres.  Both are
+    read where the example is ``valid`` (a patch of it, for the relief).
     """
     tpi = topographic_position_index(heights, radius=radius)
-    tpi /= float(np.nanstd(tpi)) or 1.0
+    tpi /= float(np.nanstd(tpi if valid is None else tpi[valid])) or 1.0
     mean = ndimage.uniform_filter(heights.astype(np.float64), patch_size)
     mean2 = ndimage.uniform_filter(heights.astype(np.float64) ** 2, patch_size)
     local_std = np.sqrt(np.maximum(mean2 - mean**2, 0.0))
+    if valid is not None:
+        local_std = local_std[_fits(valid, patch_size)]
     return tpi, float(np.median(local_std)) or 1.0
 
 
-def _sample_pool(graph, sign: float, tpi: np.ndarray, radius: float) -> list:
+def _sample_pool(graph, sign: float, tpi: np.ndarray, radius: float, valid: np.ndarray | None = None) -> list:
     """The candidate samples of one network: centres that leave room for
-    the patch (and a little warp) inside the example, standing out enough
-    by TPI (``sign`` +1 for ridges, -1 for valleys)."""
+    the patch (and a little warp) inside the example's valid cells,
+    standing out enough by TPI (``sign`` +1 for ridges, -1 for valleys)."""
     margin = radius * 1.1
     H, W = tpi.shape
     pool = [
         s for s in example_samples(graph, radius, spacing=radius / 2)
         if margin <= s.center[0] <= H - 1 - margin and margin <= s.center[1] <= W - 1 - margin
     ]
+    if pool and valid is not None:
+        # The same room from every void as from the edges.
+        room = _fits(valid, 2 * int(np.ceil(margin)) + 3)
+        pool = [s for s in pool if room[int(round(s.center[0])), int(round(s.center[1]))]]
     if pool:
         rc = np.rint([s.center for s in pool]).astype(int)
         strength = sign * tpi[rc[:, 0], rc[:, 1]]

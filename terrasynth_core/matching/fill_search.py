@@ -39,6 +39,7 @@ import numpy as np
 from scipy import fft, ndimage
 from skimage.transform import downscale_local_mean
 
+from ..errors import ParamsError
 from ..exemplars import cache
 from .costs import ROUGHNESS_WEIGHT
 from .window_index import LazyIndexes, ZoneIndex, zone_of
@@ -61,10 +62,13 @@ class _WindowSearch:
         one are not offered.
     coarse_factor : int
         Spacing of the windows on offer, cells.
+    void_mask : ndarray of bool, shape (H, W), optional
+        The example's voids (filled in ``example``): no window touching
+        one is offered or refined to.
     """
 
     def __init__(self, example: np.ndarray, window: tuple[int, int], *, feature_mask=None,
-                 coarse_factor: int = 2):
+                 coarse_factor: int = 2, void_mask=None):
         self.example = example
         self.window = window
         self._flat = None
@@ -77,6 +81,12 @@ class _WindowSearch:
         max_r = (H - h) // f
         max_c = (W - w) // f
         allowed = np.ones((max_r + 1, max_c + 1), dtype=bool)
+        self.clear = None  # full-resolution top-left corners whose window has no void; None: all
+        if void_mask is not None and void_mask.any():
+            self.clear = _void_free(void_mask, window)
+            allowed &= self.clear[::f, ::f][: max_r + 1, : max_c + 1]
+            if not allowed.any():
+                raise ParamsError(f"the example has no {h}x{w} window without nodata on its {f}-cell grid")
         if feature_mask is not None and feature_mask.any():
             # A strong feature in the central half of the window rules it out.
             cen = ndimage.uniform_filter(feature_mask.astype(np.float32), size=(max(h // 2, 1), max(w // 2, 1)),
@@ -85,7 +95,7 @@ class _WindowSearch:
             rr = np.arange(max_r + 1) * f + h // 2
             cc = np.arange(max_c + 1) * f + w // 2
             near = cen[np.ix_(rr, cc)] > 0
-            if (~near).sum() >= 16:
+            if (allowed & ~near).sum() >= 16:
                 allowed &= ~near
         self.allowed = allowed
         # Float64 grids as large as the example: stored and mapped (a
@@ -162,6 +172,8 @@ class _WindowSearch:
         d = np.arange(-self._refine_radius(), self._refine_radius() + 1)
         rr, cc = np.meshgrid(coarse_rc[0] * f + d, coarse_rc[1] * f + d, indexing="ij")
         fits = (rr >= 0) & (cc >= 0) & (rr + h <= H) & (cc + w <= W)
+        if self.clear is not None:
+            fits[fits] = self.clear[rr[fits], cc[fits]]
         positions = np.stack([rr[fits], cc[fits]], axis=1)
         r, c = (int(v) for v in positions[int(np.argmin(self.scores(target, filled, positions)))])
         diff = target[filled].astype(np.float64) - self.example[r:r + h, c:c + w][filled]
@@ -218,21 +230,36 @@ class _WindowSearch:
         return out
 
 
+def _void_free(void: np.ndarray, window: tuple[int, int]) -> np.ndarray:
+    """Top-left corners whose ``window`` holds no ``void`` cell.
+
+    Returns
+    -------
+    ndarray of bool, shape (H - h + 1, W - w + 1)
+    """
+    h, w = window
+    table = np.zeros((void.shape[0] + 1, void.shape[1] + 1), dtype=np.int64)  # summed-area table
+    np.cumsum(np.cumsum(void, axis=0), axis=1, out=table[1:, 1:])
+    count = table[h:, w:] - table[:-h, w:] - table[h:, :-w] + table[:-h, :-w]
+    return count == 0
+
+
 class FftFillSearch(_WindowSearch):
     """FFT search over one example for one window size: every window on
     offer scored at once (three correlations), O(example area) per query.
 
     Parameters
     ----------
-    example, window, feature_mask, coarse_factor
+    example, window, feature_mask, coarse_factor, void_mask
         As for :class:`FillSearch`.
     workers : int
         Threads for the FFTs.
     """
 
     def __init__(self, example: np.ndarray, window: tuple[int, int], *, feature_mask=None,
-                 coarse_factor: int = 2, workers: int = 1):
-        super().__init__(example, window, feature_mask=feature_mask, coarse_factor=coarse_factor)
+                 coarse_factor: int = 2, workers: int = 1, void_mask=None):
+        super().__init__(example, window, feature_mask=feature_mask, coarse_factor=coarse_factor,
+                         void_mask=void_mask)
         f = self.f
         self.workers = workers
         # The offset-free SSD ignores a constant added to the example, so
@@ -312,6 +339,8 @@ class FillSearch(_WindowSearch):
     use_cache : bool
         Load zone indexes from (and save them to) the example-analysis
         disk cache.
+    void_mask : ndarray of bool, shape (H, W), optional
+        The example's voids: no window touching one is offered.
 
     References
     ----------
@@ -325,8 +354,9 @@ class FillSearch(_WindowSearch):
 
     def __init__(self, example: np.ndarray, window: tuple[int, int], *, feature_mask=None,
                  coarse_factor: int = 2, overlap: int | None = None, shortlist: int = 96,
-                 use_cache: bool = True):
-        super().__init__(example, window, feature_mask=feature_mask, coarse_factor=coarse_factor)
+                 use_cache: bool = True, void_mask=None):
+        super().__init__(example, window, feature_mask=feature_mask, coarse_factor=coarse_factor,
+                         void_mask=void_mask)
         self.overlap = int(overlap) if overlap else max(2, min(window) // 3)
         self.shortlist = int(shortlist)
         grid = np.argwhere(self.allowed) * self.f

@@ -20,7 +20,8 @@ def fill_searches(layout: StyleLayout, params: SynthesisParams) -> list[FillSear
     used = {int(g) for g in np.unique(layout.group_map)}
     size = (params.patch_size, params.patch_size)
     return [
-        _search(detail, size, ex.strong_mask, params.coarse_factor_for(detail.shape), params.overlap_cells)
+        _search(detail, size, ex.strong_mask, params.coarse_factor_for(detail.shape), params.overlap_cells,
+                None if ex.valid is None else ~ex.valid)
         if any(i in layout.members[g] for g in used) else None
         for i, (ex, detail) in enumerate(zip(layout.examples, layout.detail))
     ]
@@ -33,12 +34,13 @@ def fill_searches(layout: StyleLayout, params: SynthesisParams) -> list[FillSear
 _SEARCHES = Memo(4)
 
 
-def _search(detail: np.ndarray, window: tuple[int, int], feature_mask, coarse: int, overlap: int) -> FillSearch:
+def _search(detail: np.ndarray, window: tuple[int, int], feature_mask, coarse: int, overlap: int,
+            void_mask=None) -> FillSearch:
     """A :class:`FillSearch`, shared with earlier sessions when its inputs
     are the same bytes (searches are read-only once made)."""
-    return _SEARCHES.get((array_key(detail, feature_mask), window, coarse, overlap),
+    return _SEARCHES.get((array_key(detail, feature_mask, void_mask), window, coarse, overlap),
                          lambda: FillSearch(detail, window, feature_mask=feature_mask, coarse_factor=coarse,
-                                            overlap=overlap))
+                                            overlap=overlap, void_mask=void_mask))
 
 
 def window_examples(layout: StyleLayout, bbox) -> tuple[list[int], float]:

@@ -196,7 +196,7 @@ def coarse_session_for(params, layout, shape: tuple[int, int], controls: Control
     if min(grid) < pc:
         return None, 0, None  # the whole output is about one landform: nothing to structure
     cell = None if lay.cell_size is None else lay.cell_size * f
-    fields = [_coarsened(ex.heights, f, cell) for ex in lay.examples]
+    fields = [_coarsened(ex.heights, f, cell, ex.valid) for ex in lay.examples]
     styles = tuple(replace(s, example=fields[n_plain + i]) for i, s in enumerate(c.styles))
     style_map = None if c.style_map is None else c.style_map[::f, ::f]
     coarse_controls = Controls(styles=styles, style_map=style_map, height_range=c.height_range)
@@ -334,7 +334,8 @@ def drawn_relief(sketch, shape: tuple[int, int], layout, patch_size: int) -> tup
     strokes = sketch_features(sketch.resized(grid))
     if not (strokes.ridges.paths or strokes.valleys.paths):
         return None
-    q1, q3 = np.quantile(np.concatenate([layout.detail[i].ravel() for i in layout.members[0]]), [0.25, 0.75])
+    q1, q3 = np.quantile(np.concatenate([layout.examples[i].valid_values(layout.detail[i]) for i in layout.members[0]]),
+                         [0.25, 0.75])
     return (DRAWN_UPLIFT * float(q3 - q1) * _stroke_regions(strokes, reach / f, grid)).astype(np.float32), f
 
 
@@ -439,9 +440,12 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
         members = layout.members[int(g)]
         for i in members:
             coarse = _coarsened(layout.detail[i], f, None).heights.astype(np.float64)
-            values.append((coarse + base).ravel())
-            details.append((coarse - ndimage.gaussian_filter(coarse, sigma, mode="reflect")).ravel())
-            weights.append(np.full(coarse.size, n / (len(members) * coarse.size)))
+            # (Only the example's valid blocks: its filled voids are no landform.)
+            valid = _valid_blocks(layout.examples[i].valid, f, coarse.shape)
+            valid = np.ones(coarse.size, bool) if valid is None else valid.ravel()
+            values.append((coarse + base).ravel()[valid])
+            details.append((coarse - ndimage.gaussian_filter(coarse, sigma, mode="reflect")).ravel()[valid])
+            weights.append(np.full(int(valid.sum()), n / (len(members) * int(valid.sum()))))
     values, details, weights = np.concatenate(values), np.concatenate(details), np.concatenate(weights)
     target = _weighted_quantiles(values, weights, FIT_QUANTILES)
     # The quantiles are read on at most FIT_SAMPLES cells, evenly spread
@@ -698,13 +702,26 @@ def landform_lowpass(heights: np.ndarray, sigma: float, coherent: np.ndarray | N
     return out.astype(np.float32)
 
 
-def _coarsened(heights: np.ndarray, f: int, cell: float | None) -> HeightField:
+def _coarsened(heights: np.ndarray, f: int, cell: float | None, valid: np.ndarray | None = None) -> HeightField:
     """Block means of f x f cells (area-correct, no aliasing of the fine
-    detail into the coarse grid)."""
+    detail into the coarse grid); a block with a cell outside ``valid``
+    (bool, shape of ``heights``; None: all valid) is nodata."""
     h = heights[: heights.shape[0] // f * f, : heights.shape[1] // f * f]
     blocks = h.reshape(h.shape[0] // f, f, h.shape[1] // f, f).astype(np.float64)
     coarse = blocks.mean(axis=(1, 3)).astype(np.float32)
+    whole = _valid_blocks(valid, f, coarse.shape)
+    if whole is not None:
+        coarse[~whole] = np.nan
     return HeightField(coarse, cell_size=None if cell is None else (cell, cell))
+
+
+def _valid_blocks(valid: np.ndarray | None, f: int, shape: tuple[int, int]) -> np.ndarray | None:
+    """Which f x f blocks of ``valid`` (bool; None: all valid) are wholly
+    valid: bool, ``shape`` (the block grid), or None."""
+    if valid is None:
+        return None
+    v = valid[: shape[0] * f, : shape[1] * f]
+    return v.reshape(shape[0], f, shape[1], f).all(axis=(1, 3))
 
 
 def preview_patch(bbox: tuple[int, int, int, int], heights: np.ndarray, coarse_shape: tuple[int, int],

@@ -287,7 +287,7 @@ def group_bases(layout, styles: Sequence[Style], n_plain: int) -> np.ndarray:
     sets them (:func:`~terrasynth_core.controls.layout.build_layout`): the
     plain examples' mean median first, then each style's base or its
     example's median."""
-    medians = [float(np.median(ex.heights)) for ex in layout.examples]
+    medians = [float(np.median(ex.valid_values(ex.heights))) for ex in layout.examples]
     given = ([None] if n_plain else []) + [s.base for s in styles]
     return np.array([float(np.mean([medians[i] for i in members])) if b is None else float(b)
                      for members, b in zip(layout.members, given)])

@@ -96,13 +96,15 @@ def test_info_mandakini_is_about_45_percent_nodata(capsys, dems_dir):
     assert info["nodata"] / (rows * cols) == pytest.approx(0.45, abs=0.01)
 
 
-def test_info_builtin_is_cropped_to_valid_cells(capsys):
+def test_info_builtin_is_trimmed_to_valid_cells(capsys):
+    """St. Helens' ragged quadrangle is cropped; the Himalayan basin keeps
+    every valid cell, its surroundings nodata."""
+    info = info_json(capsys, "builtin:st-helens")
+    assert info["nodata"] == 0 and info["shape"] == [460, 317]
     info = info_json(capsys, "builtin:himalaya")
     assert info["format"] == "envi"
-    assert info["nodata"] == 0
-    rows, cols = info["shape"]
-    assert rows >= 250 and cols >= 250 and rows < 648 and cols < 587
-    assert 644.0 <= info["min"] < info["max"] <= 6741.0
+    assert info["nodata"] == 172089 and info["shape"] == [648, 587]
+    assert info["min"] == 644.0 and info["max"] <= 6741.0
 
 
 def test_info_text_mentions_format_shape_and_nodata(capsys, dems_dir):
@@ -489,7 +491,7 @@ def test_console_script_is_installed_and_works(tmp_path):
                           timeout=60)
     assert done.returncode == EXIT_OK, done.stderr
     info = json.loads(done.stdout)
-    assert info["format"] == "envi" and info["nodata"] == 0
+    assert info["format"] == "envi" and info["nodata"] == 172089
 
     done = subprocess.run([script, "info", str(tmp_path / "missing.hgt")], capture_output=True, text=True,
                           timeout=60)

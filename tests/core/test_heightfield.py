@@ -32,3 +32,40 @@ def test_ties_go_to_the_first_row_then_the_leftmost_end_then_the_tallest():
                       [1, 1, 1],
                       [0, 1, 0]], bool)
     assert largest_valid_rectangle(valid) == (1, 2, 0, 3)  # complete at row 1, the column only at row 2
+
+
+def _field(valid):
+    from terrasynth_core.heightfield import HeightField
+
+    h = np.where(valid, np.add.outer(np.arange(valid.shape[0]), np.arange(valid.shape[1])), np.nan)
+    return HeightField(h.astype(np.float32))
+
+
+def test_trim_nodata_crops_a_ragged_edge_to_the_largest_rectangle():
+    """A ragged margin (the crop keeps >= 90 % of the valid cells) is cropped away."""
+    valid = np.ones((100, 80), bool)
+    valid[:3, :40] = False  # a ragged corner: 120 of 8000 cells
+    valid[-1, 50:] = False
+    field = _field(valid).trim_nodata()
+    assert field.nodata_count == 0
+    assert field.shape == (96, 80)  # rows 3..98: the rectangle spans the width
+
+
+def test_trim_nodata_keeps_a_basin_clip_whole_with_its_voids():
+    """A basin clip (the largest rectangle holds half the valid cells) keeps
+    its bounding box, the nodata inside still NaN; the all-nodata margin goes."""
+    rows, cols = np.mgrid[:120, :100]
+    valid = (rows - 60) ** 2 / 50**2 + (cols - 45) ** 2 / 40**2 <= 1  # an ellipse
+    field = _field(valid).trim_nodata()
+    assert field.shape == (101, 81)
+    assert 0 < field.nodata_count < field.heights.size / 3
+    assert (~field.nodata).sum() == valid.sum()  # no valid cell lost
+
+
+def test_trim_nodata_keeps_a_void_inside_a_tile():
+    valid = np.ones((200, 200), bool)
+    valid[95:105, :] = False  # a void stripe across the tile: a crop would keep half
+    field = _field(valid).trim_nodata()
+    assert field.shape == (200, 200) and field.nodata_count == 2000
+    whole = _field(np.ones((5, 5), bool))
+    assert whole.trim_nodata() is whole

@@ -77,3 +77,30 @@ def test_search_prefers_the_typical_window_when_the_overlap_cannot_tell():
     target = np.zeros((24, 24), np.float32)
     (r, c), _, _, prior = search.best(target, filled, 1, rng)[0]
     assert c + 24 > 40 and prior < 0.5
+
+
+@SEARCHES
+def test_no_window_touching_a_void_is_offered_or_refined_to(white_mountains, search_class):
+    """An example's voids (filled in its heights) are never copied: no window
+    on offer, picked at random or refined at full resolution touches one."""
+    E = white_mountains.heights[:200, :200].copy()
+    void = np.zeros(E.shape, bool)
+    void[60:100, 50:130] = True
+    E[void] = E[~void].mean()  # a flat fill: the best match for a flat target if it were allowed
+    window = (24, 24)
+    search = search_class(E, window, coarse_factor=2, void_mask=void)
+    plain = search_class(E, window, coarse_factor=2)
+    assert 0 < search.allowed.sum() < plain.allowed.sum()
+
+    def touches(r, c):
+        return void[r:r + window[0], c:c + window[1]].any()
+
+    rng = np.random.default_rng(0)
+    assert not any(touches(*pos) for pos, *_ in search.best(np.zeros(window), np.zeros(window, bool), 20, rng))
+    filled = np.zeros(window, bool)
+    filled[:, :8] = True
+    for target in (np.full(window, float(E[~void].mean())), E[70:94, 60:84] + 1.0):
+        picks = search.best(target, filled, 5, rng)
+        assert picks and not any(touches(*pos) for pos, *_ in picks)
+    # Without the mask the flat fill is what a flat target finds.
+    assert touches(*plain.best(np.full(window, float(E[~void].mean())), filled, 1, rng)[0][0])

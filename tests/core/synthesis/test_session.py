@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from terrasynth_core.matching.usage import FEATURE_KINDS
 from terrasynth_core.measures import feature_tpi_score
 from terrasynth_core.errors import ParamsError, SynthesisCancelled
 from terrasynth_core.features.sketch import SketchMap, read_sketch, sketch_features
@@ -149,6 +150,30 @@ def test_nodata_in_the_example_is_cropped(white_mountains, y_sketch):
     rows, cols = session.examples[0].heights.shape
     dy, dx = white_mountains.cell_size
     assert rows == pytest.approx(360 * dy / dx, abs=4) and cols == pytest.approx(400, abs=4)
+
+
+def test_voids_inside_the_example_are_never_copied(white_mountains, y_sketch):
+    """A void inside the example (an SRTM hole the largest valid rectangle
+    would halve the example for) is kept, filled, and no patch of the run,
+    fill or feature, takes a cell of it."""
+    h = white_mountains.heights.copy()
+    h[150:210, 60:260] = np.nan
+    session = Session([white_mountains.with_heights(h)], y_sketch, params=SMALL)
+    assert any("filled and kept out of every patch" in w for w in session.warnings)
+    example = session.examples[0]
+    assert example.valid is not None and example.heights.shape[1] == pytest.approx(400, abs=4)
+    result = session.run()
+    p = SMALL.patch_size
+    margin = int(np.ceil(p / 2 * 1.1)) + 1
+    kinds = set()
+    for rec in result.patches:
+        kinds.add(rec.kind)
+        r, c = (int(round(v)) for v in rec.source)
+        if rec.kind == "fill":
+            assert example.valid[r:r + p, c:c + p].all(), rec
+        elif rec.kind in FEATURE_KINDS:
+            assert example.valid[r - margin:r + margin + 1, c - margin:c + margin + 1].all(), rec
+    assert "fill" in kinds and kinds & set(FEATURE_KINDS)
 
 
 def test_sketch_is_scaled_to_the_output_size(white_mountains, y_sketch):
