@@ -84,7 +84,6 @@ from fidelity_measures import (
     relief,
     share_out_of_range,
 )
-from terrasynth_core.heightfield import HeightField
 from terrasynth_core.examples import builtin_example
 from terrasynth_core.exemplars.patch_size import MIN_POOL, held_windows
 from terrasynth_core.features import read_sketch
@@ -183,8 +182,9 @@ def example_crop(heights: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 
 def write_sheet(path: Path, key: str, example, rows: list[tuple[str, object, np.ndarray, dict]], order: str) -> int:
     """One contact sheet: per row the sketch, the output and the example crop."""
-    ex_h = np.asarray(example.heights, dtype=np.float32)
-    vrange = height_range(ex_h, tail=0.5)
+    # Coloured over all its valid heights; shown on its largest valid rectangle.
+    vrange = height_range(np.asarray(example.heights, dtype=np.float32), tail=0.5)
+    ex_h = np.asarray(example.crop_valid().heights, dtype=np.float32)
     cell = example.cell_size or (1.0, 1.0)
     panels, labels = [], []
     for sketch_file, sketch, heights, fig in rows:
@@ -293,7 +293,7 @@ def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=p
         # spectrum on its largest valid rectangle (they need a whole grid;
         # the engine keeps patches off the voids of a basin clip such as
         # the Himalaya's).
-        measured = example.crop_valid() if isinstance(example, HeightField) else example
+        measured = example.crop_valid()
         ex_h = np.asarray(measured.heights, dtype=np.float32)
         ex_valid = np.asarray(example.heights, dtype=np.float32)
         ex_valid = ex_valid[np.isfinite(ex_valid)]
@@ -321,7 +321,7 @@ def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=p
             sheets.mkdir(parents=True, exist_ok=True)
             path = sheets / f"fidelity_{key}.png"
             log(f"  wrote {path.relative_to(REPO) if path.is_relative_to(REPO) else path} "
-                f"({write_sheet(path, key, measured, sheet_rows, orders[0]) // 1000} kB)")
+                f"({write_sheet(path, key, example, sheet_rows, orders[0]) // 1000} kB)")
     return rows
 
 

@@ -5,8 +5,8 @@ any size (issue 10, "small examples")."""
 import numpy as np
 import pytest
 
-from terrasynth_core.exemplars.patch_size import (DEFAULT_PATCH, MIN_POOL, PATCH_SIZES, distinct_windows,
-                                                  fitting_patch_size, path_windows)
+from terrasynth_core.exemplars.patch_size import (DEFAULT_PATCH, MIN_POOL, PATCH_SIZES, VARIED_POOL,
+                                                  distinct_windows, fitting_patch_size, path_windows)
 from terrasynth_core.exemplars.prepare import prepare_example
 from terrasynth_core.features.sketch import SketchMap
 from terrasynth_core.synthesis import Session, SynthesisParams
@@ -29,8 +29,9 @@ def test_a_large_example_keeps_the_papers_patch(dems_dir):
 
 
 def test_a_small_example_gets_a_smaller_patch_and_the_run_says_why(highland):
-    # The Himalaya example, 415x252 cells of 89 m: at 80 cells it holds too
-    # few distinct ridge and valley windows for a run not to repeat them.
+    # The Himalaya's valid core, 415x252 cells of 89 m: at 80 cells it holds
+    # too few distinct ridge and valley windows for a run not to repeat
+    # them (and fewer than VARIED_POOL at any size: the floor decides).
     at_80 = prepare_example(highland, DEFAULT_PATCH, name="himalaya").samples
     assert min(path_windows(at_80[k]) for k in BOTH) < MIN_POOL
     size, notes = fitting_patch_size([highland], ["himalaya"], BOTH)
@@ -74,7 +75,7 @@ def test_every_example_that_can_vary_does_at_the_size_chosen(highland, helens, d
     size, notes = fitting_patch_size(fields, names, BOTH)
     for field, name in zip(fields[:2], names[:2]):  # St. Helens cannot, at any size
         held = prepare_example(field, size, name=name).samples
-        assert min(path_windows(held[k]) for k in BOTH) >= MIN_POOL, name
+        assert min(path_windows(held[k]) for k in BOTH) >= (VARIED_POOL if name == "big" else MIN_POOL), name
     assert any("st-helens" in n and "repeat" in n for n in notes)
 
 
@@ -98,3 +99,33 @@ def test_the_session_chooses_and_reports_it_and_a_given_size_is_kept(highland):
     given = Session([highland], sketch, params=SynthesisParams(patch_size=80))
     assert given.params.patch_size == 80
     assert not any("automatic" in w for w in given.warnings)
+
+
+def test_an_example_short_of_the_varied_pool_takes_the_size_that_meets_the_floor(monkeypatch):
+    """An example that never holds :data:`VARIED_POOL` windows but holds
+    :data:`MIN_POOL` at some size decides at the largest such size; one
+    that holds fewer at every size does not decide."""
+    import terrasynth_core.exemplars.patch_size as patch_size
+
+    held = {"mid": {80: 12, 72: 15, 64: 22, 56: 26, 48: 30}, "rich": {80: 45, 72: 50, 64: 55, 56: 60, 48: 70},
+            "poor": {80: 3, 72: 3, 64: 4, 56: 5, 48: 6}}
+    monkeypatch.setattr(patch_size, "held_windows", lambda field, size, kinds, *, name: {"ridge": held[name][size]})
+    assert fitting_patch_size([np.zeros((500, 500))], ["rich"], ("ridge",)) == (80, [])
+    size, notes = fitting_patch_size([np.zeros((500, 500))] * 3, ["rich", "mid", "poor"], ("ridge",))
+    assert size == 64
+    assert any("at 80 cells mid holds only 12 ridge" in n for n in notes)
+    assert any("poor holds only 4 ridge windows" in n and "repeat" in n for n in notes)
+
+
+def test_the_whole_basin_is_varied_enough_at_the_size_chosen():
+    """The Himalayan basin with its voids kept (648x587 cells, 55 % valid)
+    holds 20 windows of each kind at 72 cells, the issue's floor, but
+    twice that only at 48: it runs at 48."""
+    from terrasynth_core.examples import builtin_example
+
+    basin = builtin_example("himalaya").load()
+    size, notes = fitting_patch_size([basin], ["himalaya"], BOTH)
+    assert size == 48
+    assert min(path_windows(prepare_example(basin, 72, name="himalaya").samples[k]) for k in BOTH) >= MIN_POOL
+    assert min(path_windows(prepare_example(basin, 48, name="himalaya").samples[k]) for k in BOTH) >= VARIED_POOL
+    assert len(notes) == 1 and "fewer than 40; at 48" in notes[0]
