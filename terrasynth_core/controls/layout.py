@@ -178,7 +178,7 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
     placed = np.array([[base[g] + min(float(detail[i].min()) for i in m),
                         base[g] + max(float(detail[i].max()) for i in m)] for g, m in enumerate(members)])
     return StyleLayout(examples, detail, relief, members, names, group_map, level, stamps, remap, notes, cell,
-                       anchors(detail, relief, patch_size), placed)
+                       anchors(detail, relief, patch_size, [ex.valid for ex in examples]), placed)
 
 
 @dataclass(frozen=True, eq=False)
@@ -271,7 +271,7 @@ def _detail(heights: np.ndarray, median: float, scale: float) -> np.ndarray:
 _SPREADS = Memo(16)
 
 
-def anchors(detail: list, relief: np.ndarray, patch_size: int) -> np.ndarray:
+def anchors(detail: list, relief: np.ndarray, patch_size: int, valid: list | None = None) -> np.ndarray:
     """Each example's shift weight (see :class:`StyleLayout`).
 
     Parameters
@@ -282,6 +282,8 @@ def anchors(detail: list, relief: np.ndarray, patch_size: int) -> np.ndarray:
         Each example's relief, metres.
     patch_size : int
         Patch side, cells.
+    valid : list of (ndarray of bool, shape (H, W), or None), optional
+        Where each example is real (:attr:`ExampleAnalysis.valid`).
 
     Returns
     -------
@@ -294,7 +296,8 @@ def anchors(detail: list, relief: np.ndarray, patch_size: int) -> np.ndarray:
     every run and every live stroke, with the same examples.  Hashing the
     bytes costs a few milliseconds.
     """
-    spreads = [_SPREADS.get((array_key(d), int(patch_size)), lambda d=d: level_spread(d, patch_size))
-               for d in detail]
+    valid = valid or [None] * len(detail)
+    spreads = [_SPREADS.get((array_key(d, v), int(patch_size)), lambda d=d, v=v: level_spread(d, patch_size, v))
+               for d, v in zip(detail, valid)]
     return np.array([anchor_weight(float(r), spread) for spread, r in zip(spreads, relief)])
 

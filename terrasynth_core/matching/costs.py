@@ -56,7 +56,7 @@ def overlap_ssd(existing: np.ndarray, patch: np.ndarray, filled: np.ndarray) -> 
     return float(((diff - offset) ** 2).mean()), offset
 
 
-def level_spread(detail: np.ndarray, patch_size: int) -> float:
+def level_spread(detail: np.ndarray, patch_size: int, valid: np.ndarray | None = None) -> float:
     """How far a window's mean level strays in an example.
 
     Parameters
@@ -65,6 +65,9 @@ def level_spread(detail: np.ndarray, patch_size: int) -> float:
         The example's detail heights, metres.
     patch_size : int
         Window side, cells.
+    valid : ndarray of bool, shape (H, W), optional
+        Where the example is real (its voids are filled in ``detail``):
+        only windows wholly inside count, when there are any.
 
     Returns
     -------
@@ -74,8 +77,12 @@ def level_spread(detail: np.ndarray, patch_size: int) -> float:
     """
     h = detail.astype(np.float64)
     p = min(patch_size, *h.shape)
-    means = ndimage.uniform_filter(h, p, mode="reflect")[p // 2: h.shape[0] - p // 2 or None,
-                                                          p // 2: h.shape[1] - p // 2 or None]
+    inside = (slice(p // 2, h.shape[0] - p // 2 or None), slice(p // 2, h.shape[1] - p // 2 or None))
+    means = ndimage.uniform_filter(h, p, mode="reflect")[inside]
+    if valid is not None:
+        whole = ndimage.minimum_filter(valid, p, mode="constant", cval=False)[inside]
+        if whole.any():
+            means = means[whole]
     return max(float(means.std()), 1e-3)
 
 

@@ -215,7 +215,8 @@ class Session:
         (memoised: a session may run again), see :func:`.landform.detail_above`."""
         if sigma not in self._detail_above:
             detail = [_memo_detail_above(d, sigma) for d in self.layout.detail]
-            self._detail_above[sigma] = detail, anchors(detail, self.layout.relief, self.params.patch_size)
+            self._detail_above[sigma] = detail, anchors(detail, self.layout.relief, self.params.patch_size,
+                                                        [ex.valid for ex in self.layout.examples])
         return self._detail_above[sigma]
 
     # -- running --------------------------------------------------------------

@@ -72,9 +72,9 @@ def test_anchors_keep_each_detail_level_spread_by_its_bytes(monkeypatch):
 
     measured = []
 
-    def counted(detail, patch_size):
+    def counted(detail, patch_size, valid=None):
         measured.append(patch_size)
-        return level_spread(detail, patch_size)
+        return level_spread(detail, patch_size, valid)
 
     monkeypatch.setattr(layout_module, "_SPREADS", Memo(16))
     monkeypatch.setattr(layout_module, "level_spread", counted)

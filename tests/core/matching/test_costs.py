@@ -73,6 +73,19 @@ def test_level_spread_is_the_spread_of_window_means():
     assert level_spread(rr * 2.0, 60) > 100  # a slope's windows sit at many levels
 
 
+def test_level_spread_counts_only_windows_of_valid_cells():
+    """An example's filled voids (here a plateau at 900 m beside noise about
+    0) do not spread its window levels."""
+    rng = np.random.default_rng(1)
+    detail = rng.normal(0, 50, (300, 300)).astype(np.float32)
+    valid = np.ones(detail.shape, bool)
+    valid[:, 200:] = False
+    detail[~valid] = 900.0
+    assert level_spread(detail, 60) > 100
+    assert level_spread(detail, 60, valid) < 2  # (about 50 / 60: the noise's own)
+    assert level_spread(detail, 60, np.zeros(detail.shape, bool)) == level_spread(detail, 60)  # no whole window
+
+
 def test_anchor_weight_grows_as_window_levels_vary_less():
     assert anchor_weight(40.0, 10.0) == pytest.approx(ANCHOR_WEIGHT * 16)
     assert anchor_weight(40.0, 20.0) < anchor_weight(40.0, 10.0)
