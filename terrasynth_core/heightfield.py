@@ -240,14 +240,22 @@ class HeightField:
         mask = self.nodata
         if not mask.any():
             return self
-        idx = ndimage.distance_transform_edt(mask, return_distances=False, return_indices=True)
-        filled = self.heights[tuple(idx)]
+        # Only the voids' bounding box and a ring of valid cells around it
+        # take part: every void cell's nearest valid cell lies there, and the
+        # smoothing reads one cell further per pass from void cells only.
+        rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+        box = (slice(max(rows[0] - 1, 0), rows[-1] + 2), slice(max(cols[0] - 1, 0), cols[-1] + 2))
+        hole, part = mask[box], self.heights[box]
+        idx = ndimage.distance_transform_edt(hole, return_distances=False, return_indices=True)
+        filled = part[tuple(idx)]
         # A few passes of a 3x3 mean inside the hole remove the Voronoi steps
         # that nearest-neighbour filling leaves, without touching valid cells.
         for _ in range(8):
             smooth = ndimage.uniform_filter(filled, size=3, mode="nearest")
-            filled = np.where(mask, smooth, filled)
-        return replace(self, heights=filled.astype(np.float32))
+            filled = np.where(hole, smooth, filled)
+        heights = self.heights.copy()
+        heights[box] = filled
+        return replace(self, heights=heights.astype(np.float32, copy=False))
 
 
 def largest_valid_rectangle(valid: np.ndarray) -> tuple[int, int, int, int]:

@@ -12,6 +12,7 @@ from scipy import ndimage
 
 from ..errors import ParamsError
 from ..exemplars.ground import on_ground
+from ..exemplars.prepare import without_voids
 from ..heightfield import HeightField
 from .options import Stamp
 
@@ -70,10 +71,9 @@ def render_stamp(stamp: Stamp, shape: tuple[int, int], patch_size: int, *, cell_
     if notes is not None:
         notes.extend(said)
     sub = HeightField(np.ascontiguousarray(fieldobj.heights, dtype=np.float32), source=name)
+    real = None  # where the stamp has ground (None: everywhere), as examples trim and fill their voids
     if sub.nodata_count:
-        sub = sub.crop_valid()
-        if sub.nodata_count:
-            sub = sub.fill_nodata()
+        sub, real = without_voids(sub)[:2]
     src = sub.heights.astype(np.float64)
     if min(src.shape) < 8:
         raise ParamsError(f"stamp {name} is {src.shape[0]}x{src.shape[1]} valid cells: use a window of at "
@@ -102,6 +102,8 @@ def render_stamp(stamp: Stamp, shape: tuple[int, int], patch_size: int, *, cell_
     sr = (dc * sin + dr * cos) / s + (src.shape[0] - 1) / 2
     sc = (dc * cos - dr * sin) / s + (src.shape[1] - 1) / 2
     valid = (sr >= 0) & (sr <= src.shape[0] - 1) & (sc >= 0) & (sc <= src.shape[1] - 1)
+    if real is not None:  # (a basin clip stamps the basin)
+        valid &= ndimage.map_coordinates(real.astype(np.uint8), [sr, sc], order=0, mode="nearest") > 0
     values = ndimage.map_coordinates(src, [sr, sc], order=1, mode="nearest")
     if valid.sum() < 16:
         raise ParamsError(f"stamp {name} covers fewer than 16 output cells: make it larger")

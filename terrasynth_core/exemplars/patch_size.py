@@ -88,9 +88,13 @@ def path_windows(samples: list) -> int:
 def held_windows(field, patch_size: int, kinds: Sequence[str], *, name: str) -> dict:
     """Distinct path windows (:func:`path_windows`) of each kind in
     ``kinds`` that the example holds at a patch size, ``{kind: n}``."""
+    from ..errors import ParamsError
     from .prepare import prepare_example  # (here: the parameters import this module's sizes, and start fast)
 
-    samples = prepare_example(field, patch_size, name=name).samples
+    try:
+        samples = prepare_example(field, patch_size, name=name).samples
+    except ParamsError:  # (its voids leave no window of this size: none held)
+        return {kind: 0 for kind in kinds}
     return {kind: path_windows(samples[kind]) for kind in kinds}
 
 

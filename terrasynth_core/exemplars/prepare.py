@@ -20,6 +20,7 @@ from ..errors import ParamsError
 from ..features import FeatureMaps, extract_features
 from ..features.ppa import spare_core
 from ..heightfield import HeightField
+from ..memo import Memo, array_key
 from . import cache
 from ..features.samples import example_samples
 
@@ -81,24 +82,15 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
         field = HeightField(np.asarray(field, dtype=np.float32), source=name)
     notes, valid = [], None
     if field.nodata_count:
-        trimmed = field.trim_nodata()
-        if not trimmed.nodata_count:
-            notes.append(f"{name}: cropped to its largest valid rectangle {trimmed.shape[0]}x{trimmed.shape[1]} "
+        field, valid, cropped, thin, wide = without_voids(field)
+        if cropped:
+            notes.append(f"{name}: cropped to its largest valid rectangle {field.shape[0]}x{field.shape[1]} "
                          "(nodata)")
-        else:
-            # Cropping would lose real terrain: the voids are filled so that
-            # filters see a whole grid; thin ones are terrain again, and no
-            # patch is taken over the others.
-            wide = _wide_voids(trimmed.nodata)
-            thin = trimmed.nodata_count - int(wide.sum())
-            if thin:
-                notes.append(f"{name}: {thin} nodata cells filled from their neighbours")
-            if wide.any():
-                notes.append(f"{name}: {int(wide.sum())} nodata cells ({wide.mean():.0%} of "
-                             f"{trimmed.shape[0]}x{trimmed.shape[1]}) filled and kept out of every patch")
-                valid = ~wide
-            trimmed = trimmed.fill_nodata()
-        field = trimmed
+        if thin:
+            notes.append(f"{name}: {thin} nodata cells filled from their neighbours")
+        if wide:
+            notes.append(f"{name}: {wide} nodata cells ({wide / field.heights.size:.0%} of "
+                         f"{field.shape[0]}x{field.shape[1]}) filled and kept out of every patch")
     if min(field.shape) < patch_size + 4:
         raise ParamsError(
             f"{name} is {field.shape[0]}x{field.shape[1]} cells (valid part), smaller than a patch of "
@@ -110,7 +102,11 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
             f"{patch_size}x{patch_size} needs: use an example with fewer voids or a smaller patch size"
         )
     heights = np.ascontiguousarray(field.heights, dtype=np.float32)
-    low, high = np.percentile(heights if valid is None else heights[valid], [0.5, 99.5])
+    what = f"{hashlib.sha1(heights.tobytes()).hexdigest()}-{heights.shape[0]}x{heights.shape[1]}"
+    where = "" if valid is None else "-v" + hashlib.sha1(np.packbits(valid).tobytes()).hexdigest()[:16]
+    key = f"{what}-p{patch_size}{where}"
+    low, high = _SPANS.get(what + where, lambda: np.percentile(heights if valid is None else heights[valid],
+                                                               [0.5, 99.5]))
     flat = None
     if not np.ptp(heights):
         flat = (f"{name} is flat (every cell {heights.flat[0]:g} m): it has no relief to give, "
@@ -122,10 +118,6 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
     if flat is not None:
         notes.append(flat)
     note = "; ".join(notes) or None
-    digest = hashlib.sha1(heights.tobytes()).hexdigest()
-    key = f"{digest}-{heights.shape[0]}x{heights.shape[1]}-p{patch_size}"
-    if valid is not None:
-        key += "-v" + hashlib.sha1(np.packbits(valid).tobytes()).hexdigest()[:16]
     features, samples, strong, relief = _CACHE.get(key, lambda: _analyse(heights, patch_size, valid))
     return ExampleAnalysis(heights, features, samples, strong, relief, note, key, valid)
 
@@ -145,16 +137,65 @@ _CACHE = cache.Memo(8, cache.load, lambda key, value: cache.save(key, *value))
 
 #: Voids no more than this many cells from a valid one (up to about twice as
 #: wide: interlaced rows, SRTM's pinholes) are filled and used as terrain.
-THIN_VOID = 2.0
+THIN_VOID = 2
+
+#: Fields whose every void is wide (a coarse pass's blocks over an
+#: example's wide voids) say so in their metadata under this key.
+WIDE_VOIDS = "voids_are_wide"
+
+# By the field's bytes: a session is made for every run and live stroke,
+# and trimming and filling a large example's voids takes seconds.
+_VOIDS = Memo(8)
+# Each example's height span (0.5th to 99.5th percentile), by what its key
+# says of its heights and valid cells.
+_SPANS = Memo(16)
+
+
+def without_voids(field: HeightField) -> tuple:
+    """``field`` trimmed (:meth:`~HeightField.trim_nodata`) and filled.
+
+    Returns
+    -------
+    field : HeightField
+        No NaN; read-only heights.
+    valid : ndarray of bool, shape of ``field``, or None
+        False on its wide voids (None: there are none).
+    cropped : bool
+        Cut to its largest valid rectangle.
+    thin, wide : int
+        Void cells filled and used as terrain; filled and kept out.
+    """
+    every_wide = bool(field.metadata.get(WIDE_VOIDS))
+
+    def make() -> tuple:
+        trimmed = field.trim_nodata()
+        if not trimmed.nodata_count:
+            return trimmed, None, True, 0, 0
+        # Cropping would lose real terrain: the voids are filled so that
+        # filters see a whole grid; thin ones are terrain again, and no
+        # patch is taken over the others.
+        wide = trimmed.nodata if every_wide else _wide_voids(trimmed.nodata)
+        valid = None
+        if wide.any():
+            valid = ~wide
+            valid.flags.writeable = False
+        n_wide = int(wide.sum())
+        return trimmed.fill_nodata(), valid, False, trimmed.nodata_count - n_wide, n_wide
+
+    return _VOIDS.get((array_key(field.heights), every_wide), make)
 
 
 def _wide_voids(void: np.ndarray) -> np.ndarray:
     """The cells of ``void`` (bool, (H, W)) in a connected void that reaches
-    more than :data:`THIN_VOID` cells from valid ground."""
-    labels, count = ndimage.label(void)
-    depth = ndimage.distance_transform_edt(void)
-    deepest = np.concatenate([[0.0], ndimage.maximum(depth, labels, np.arange(1, count + 1))])
-    return deepest[labels] > THIN_VOID
+    more than :data:`THIN_VOID` cells from valid ground: a component with a
+    cell whose disc of that radius is all void (outside the grid counts as
+    void)."""
+    span = np.arange(-THIN_VOID, THIN_VOID + 1) ** 2
+    deep = ndimage.binary_erosion(void, structure=np.add.outer(span, span) <= THIN_VOID**2, border_value=1)
+    if not deep.any():
+        return np.zeros(void.shape, bool)
+    labels, _ = ndimage.label(void)
+    return np.isin(labels, np.unique(labels[deep]))
 
 
 def _fits(valid: np.ndarray, size: int) -> np.ndarray:

@@ -64,7 +64,8 @@ class _WindowSearch:
         Spacing of the windows on offer, cells.
     void_mask : ndarray of bool, shape (H, W), optional
         The example's voids (filled in ``example``): no window touching
-        one is offered or refined to.
+        one is offered or refined to.  Where they leave no window on the
+        ``coarse_factor`` grid, the grid is made finer until they do.
     """
 
     def __init__(self, example: np.ndarray, window: tuple[int, int], *, feature_mask=None,
@@ -72,21 +73,26 @@ class _WindowSearch:
         self.example = example
         self.window = window
         self._flat = None
-        self.f = f = int(coarse_factor)
         h, w = window
         H, W = example.shape
+        self.clear = None  # full-resolution top-left corners whose window has no void; None: all
+        f = int(coarse_factor)
+        if void_mask is not None and void_mask.any():
+            self.clear = _void_free(void_mask, window)
+            if not self.clear.any():
+                raise ParamsError(f"the example has no {h}x{w} window without nodata")
+            # A finer grid where the voids leave no window on this one.
+            while f > 1 and not self.clear[::f, ::f].any():
+                f -= 1
+        self.f = f
         ch, cw = -(-h // f), -(-w // f)
         self.cwin = (ch, cw)
         # Valid coarse top-left positions: the full-resolution window must fit.
         max_r = (H - h) // f
         max_c = (W - w) // f
         allowed = np.ones((max_r + 1, max_c + 1), dtype=bool)
-        self.clear = None  # full-resolution top-left corners whose window has no void; None: all
-        if void_mask is not None and void_mask.any():
-            self.clear = _void_free(void_mask, window)
+        if self.clear is not None:
             allowed &= self.clear[::f, ::f][: max_r + 1, : max_c + 1]
-            if not allowed.any():
-                raise ParamsError(f"the example has no {h}x{w} window without nodata on its {f}-cell grid")
         if feature_mask is not None and feature_mask.any():
             # A strong feature in the central half of the window rules it out.
             cen = ndimage.uniform_filter(feature_mask.astype(np.float32), size=(max(h // 2, 1), max(w // 2, 1)),
@@ -238,8 +244,8 @@ def _void_free(void: np.ndarray, window: tuple[int, int]) -> np.ndarray:
     ndarray of bool, shape (H - h + 1, W - w + 1)
     """
     h, w = window
-    table = np.zeros((void.shape[0] + 1, void.shape[1] + 1), dtype=np.int64)  # summed-area table
-    np.cumsum(np.cumsum(void, axis=0), axis=1, out=table[1:, 1:])
+    table = np.zeros((void.shape[0] + 1, void.shape[1] + 1), dtype=np.int32)  # summed-area table
+    np.cumsum(np.cumsum(void, axis=0, dtype=np.int32), axis=1, out=table[1:, 1:])
     count = table[h:, w:] - table[:-h, w:] - table[h:, :-w] + table[:-h, :-w]
     return count == 0
 

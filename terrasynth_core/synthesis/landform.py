@@ -34,6 +34,7 @@ from ..errors import ParamsError
 from ..features.network import graph_mask
 from ..features.sketch import sketch_features
 from ..heightfield import HeightField
+from ..exemplars.prepare import WIDE_VOIDS
 from ..measures import surface_gradient
 
 if TYPE_CHECKING:
@@ -710,9 +711,12 @@ def _coarsened(heights: np.ndarray, f: int, cell: float | None, valid: np.ndarra
     blocks = h.reshape(h.shape[0] // f, f, h.shape[1] // f, f).astype(np.float64)
     coarse = blocks.mean(axis=(1, 3)).astype(np.float32)
     whole = _valid_blocks(valid, f, coarse.shape)
+    metadata = {}
     if whole is not None:
         coarse[~whole] = np.nan
-    return HeightField(coarse, cell_size=None if cell is None else (cell, cell))
+        # (However narrow on the coarse grid, these voids were wide.)
+        metadata[WIDE_VOIDS] = True
+    return HeightField(coarse, cell_size=None if cell is None else (cell, cell), metadata=metadata)
 
 
 def _valid_blocks(valid: np.ndarray | None, f: int, shape: tuple[int, int]) -> np.ndarray | None:

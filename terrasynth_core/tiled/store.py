@@ -32,8 +32,10 @@ __all__ = ["STORE_FORMAT", "TileStore", "compose", "run_digest", "store_path"]
 
 #: ``run.json``'s ``"format"``: a folder without it is not a tile store.
 STORE_FORMAT = "terrasynth-tiles"
-#: Bumped when what a tile holds changes meaning.
-STORE_VERSION = 3
+#: Bumped when what a tile holds changes meaning, or the same inputs make
+#: other tiles (4: examples keep their voids inside instead of being
+#: cropped to their largest valid rectangle).
+STORE_VERSION = 4
 
 
 def store_path(out: Path) -> Path:

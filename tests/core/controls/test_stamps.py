@@ -35,3 +35,19 @@ def test_stamp_rotation_turns_counter_clockwise(helens):
     assert np.allclose(np.rot90(plain.detail)[both], quarter.detail[both], atol=1e-3)
     half = render_stamp(Stamp(helens, (80, 120), scale=0.5, window=square), (400, 400), 32)
     assert abs(half.valid.sum() - plain.valid.sum() / 4) < 0.1 * plain.valid.sum() / 4
+
+
+def test_a_basin_clip_stamps_the_basin():
+    """A stamp whose DEM is a basin clip (the Himalaya's: its largest valid
+    rectangle holds half the basin) is the whole basin, its surroundings
+    left to the terrain, as the app's outline of the DEM's shape shows."""
+    from terrasynth_core.examples import builtin_example
+
+    basin = builtin_example("himalaya").load()
+    assert basin.nodata_count > 0
+    r = render_stamp(Stamp(basin, (400, 400), scale=1.0), (800, 800), 48)
+    rows, cols = r.bbox[1] - r.bbox[0], r.bbox[3] - r.bbox[2]
+    assert abs(rows - basin.shape[0]) <= 3 and abs(cols - basin.shape[1]) <= 3
+    share = r.valid.mean()
+    assert abs(share - (~basin.nodata).mean()) < 0.02  # the basin's share of its grid, not the rectangle
+    assert np.isfinite(r.detail).all() and (r.detail[~r.valid] == 0).all()

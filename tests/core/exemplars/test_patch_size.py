@@ -129,3 +129,19 @@ def test_the_whole_basin_is_varied_enough_at_the_size_chosen():
     assert min(path_windows(prepare_example(basin, 72, name="himalaya").samples[k]) for k in BOTH) >= MIN_POOL
     assert min(path_windows(prepare_example(basin, 48, name="himalaya").samples[k]) for k in BOTH) >= VARIED_POOL
     assert len(notes) == 1 and "fewer than 40; at 48" in notes[0]
+
+
+def test_voids_that_leave_no_window_at_a_size_hold_none_there(white_mountains):
+    """An example whose voids (8 x 8 holes every 70 cells) leave no window
+    of 80 + 4 cells holds no window at 80: the automatic size goes down to
+    one that fits, where the analysis would have refused 80."""
+    h = white_mountains.heights.copy()
+    for r in range(0, 400, 70):
+        for c in range(0, 400, 70):
+            h[r + 30:r + 38, c + 30:c + 38] = np.nan
+    field = white_mountains.with_heights(h)
+    with pytest.raises(Exception, match="no 84x84 window without nodata"):
+        prepare_example(field, 80, name="holed")
+    size, _ = fitting_patch_size([field], ["holed"], BOTH)
+    assert size in PATCH_SIZES and size < 80
+    prepare_example(field, size, name="holed")  # (a size the example can host)

@@ -87,3 +87,15 @@ def test_thin_voids_are_filled_and_used(white_mountains):
     assert "holed: 7200 nodata cells" in analysis.note
     assert analysis.valid[100:104, 50:300].all() and analysis.valid[300, 300]
     assert not analysis.valid[200:260, 100:220].any() and analysis.valid.sum() == 400 * 400 - 7200
+
+
+def test_voids_a_field_says_are_wide_are_kept_out_however_thin(white_mountains):
+    """A landform pass's coarse blocks over an example's wide voids may be a
+    cell or two across on its grid: they stay out of every patch."""
+    h = white_mountains.heights.copy()
+    h[100:102, 50:300] = np.nan  # thin on this grid
+    plain = prepare.prepare_example(white_mountains.with_heights(h), 48, name="fine")
+    assert plain.valid is None
+    coarse = white_mountains.with_heights(h, metadata={prepare.WIDE_VOIDS: True})
+    kept = prepare.prepare_example(coarse, 48, name="coarse")
+    np.testing.assert_array_equal(kept.valid, ~np.isnan(h))

@@ -104,3 +104,19 @@ def test_no_window_touching_a_void_is_offered_or_refined_to(white_mountains, sea
         assert picks and not any(touches(*pos) for pos, *_ in picks)
     # Without the mask the flat fill is what a flat target finds.
     assert touches(*plain.best(np.full(window, float(E[~void].mean())), filled, 1, rng)[0][0])
+
+
+def test_voids_that_leave_no_window_on_the_grid_make_it_finer(white_mountains):
+    """The only void-free windows start at rows and columns 3-6: none on
+    the 8-cell grid, so the search takes the largest grid that has one."""
+    E = white_mountains.heights[:200, :200].copy()
+    void = np.ones(E.shape, bool)
+    void[3:30, 3:30] = False
+    search = FillSearch(E, (24, 24), coarse_factor=8, void_mask=void)
+    assert search.f == 6 and search.allowed.sum() == 1
+    filled = np.zeros((24, 24), bool)
+    filled[:, :6] = True
+    for pos, *_ in search.best(E[10:34, 10:34], filled, 3, np.random.default_rng(0)):
+        assert not void[pos[0]:pos[0] + 24, pos[1]:pos[1] + 24].any()
+    with pytest.raises(Exception, match="no 24x24 window without nodata"):
+        FillSearch(E, (24, 24), void_mask=np.ones(E.shape, bool))
