@@ -437,6 +437,45 @@ def apply_sidecar_nodata(values: np.ndarray, sidecar: dict | None) -> np.ndarray
     return heights
 
 
+#: Fill values a grid without nodata metadata is taken to mark nodata with,
+#: besides the lowest value of an integer type (SRTM's -32768 in int16):
+#: no ground lies this far down (the deepest ocean is about -11,000 m) ...
+FILL_VALUES = (-9999.0, -32767.0)
+#: ... and floats below this (GDAL's float32 default, -3.4e38).
+FILL_BELOW = -1e30
+
+
+def fill_value_nodata(values: np.ndarray, heights: np.ndarray) -> float | None:
+    """Set to NaN in ``heights`` the cells of ``values`` (the grid as read,
+    any real dtype) that hold a conventional fill value, for a format that
+    cannot say which value is nodata.
+
+    Returns
+    -------
+    float or None
+        The fill value found (the commonest, when several), None when none.
+    """
+    marks = np.zeros(values.shape, bool)
+    found = {}
+    candidates = list(FILL_VALUES)
+    if values.dtype.kind == "i":
+        candidates.append(float(np.iinfo(values.dtype).min))
+    for v in candidates:
+        hit = values == v
+        if hit.any():
+            found[v] = int(hit.sum())
+            marks |= hit
+    if values.dtype.kind == "f":
+        low = values < FILL_BELOW
+        if low.any():
+            found[float(values[low].min())] = int(low.sum())
+            marks |= low
+    if not found:
+        return None
+    heights[marks] = np.nan
+    return max(found, key=found.get)
+
+
 def sidecar_placement(sidecar: dict | None) -> dict:
     """``cell_size`` and ``georef`` keyword arguments from a sidecar."""
     if sidecar is None:

@@ -9,7 +9,8 @@ import numpy as np
 
 from ..errors import DEMFormatError
 from ..heightfield import HeightField
-from ._common import apply_sidecar_nodata, make_sidecar, read_field, read_sidecar, sidecar_placement
+from ._common import (apply_sidecar_nodata, fill_value_nodata, make_sidecar, read_field, read_sidecar,
+                      sidecar_placement)
 
 
 def read_npy(path: Path) -> HeightField:
@@ -25,6 +26,10 @@ def read_npy(path: Path) -> HeightField:
     HeightField
         NaN stays nodata; with a TerraSynth sidecar, its ``nodata_value``
         also becomes NaN and its cell size and georeference are used.
+        Without a sidecar's nodata value, conventional fill values are
+        nodata (:func:`~._common.fill_value_nodata`: -9999, -32767, the
+        integer type's lowest value such as SRTM's -32768, floats below
+        -1e30), named in ``metadata["nodata_value"]``.
 
     Raises
     ------
@@ -40,8 +45,14 @@ def read_npy(path: Path) -> HeightField:
     if array.dtype.kind not in "iuf":
         raise DEMFormatError(f"{path}: array of type {array.dtype}; expected real integer or float heights")
     sidecar = read_sidecar(path)
-    return read_field(path, "npy", apply_sidecar_nodata(array, sidecar), **sidecar_placement(sidecar),
-                      metadata={"dtype": str(array.dtype), "sidecar": sidecar is not None})
+    heights = apply_sidecar_nodata(array, sidecar)
+    metadata = {"dtype": str(array.dtype), "sidecar": sidecar is not None}
+    if sidecar is None or sidecar.get("nodata_value") is None:
+        # No file says what nodata is: a conventional fill value is.
+        fill = fill_value_nodata(array, heights)
+        if fill is not None:
+            metadata["nodata_value"] = fill
+    return read_field(path, "npy", heights, **sidecar_placement(sidecar), metadata=metadata)
 
 
 def write_npy(field: HeightField, fh: BinaryIO) -> dict:

@@ -394,6 +394,27 @@ def test_npy_integer_array_with_sidecar_nodata(tmp_path):
     assert dem.cell_size == (5.0, 6.0) and dem.georef is None
 
 
+def test_npy_without_sidecar_reads_conventional_fill_values_as_nodata(tmp_path, dems_dir):
+    """A bare ``.npy`` cannot say what nodata is: SRTM's -32768 (an int16's
+    lowest value), -9999, -32767 and GDAL's float32 -3.4e38 are; real low
+    ground and an unsigned zero are not."""
+    helens = np.where(load_dem(dems_dir / "SainteHelens.dem").nodata, -32768,
+                      np.nan_to_num(load_dem(dems_dir / "SainteHelens.dem").heights)).astype(np.int16)
+    np.save(tmp_path / "helens.npy", helens)
+    dem = load_dem(tmp_path / "helens.npy")
+    assert dem.nodata_count == int((helens == -32768).sum()) > 3000
+    assert dem.min == 682.0 and dem.metadata["nodata_value"] == -32768.0
+    cases = {"float": (np.array([[10.5, -9999.0], [-3.4028235e38, -420.0]], np.float32), 2, -9999.0),
+             "int32": (np.array([[1, -32767], [np.iinfo(np.int32).min, -11000]], np.int32), 2, -32767.0),
+             "uint16": (np.array([[0, 1], [2, 65535]], np.uint16), 0, None),
+             "dead sea": (np.array([[-430.0, -415.5], [-9998.0, 12.0]], np.float64), 0, None)}
+    for name, (array, voids, fill) in cases.items():
+        np.save(tmp_path / "grid.npy", array)
+        dem = load_dem(tmp_path / "grid.npy")
+        assert dem.nodata_count == voids, name
+        assert dem.metadata.get("nodata_value") == fill, name
+
+
 def _terragen(elevations, *, scale=(30.0, 30.0, 30.0), height_scale=100, base=50, square_only=False):
     rows, cols = elevations.shape
     content = b"TERRAGENTERRAIN " + b"SIZE" + struct.pack("<hh", min(rows, cols) - 1, 0)
