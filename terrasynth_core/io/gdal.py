@@ -24,7 +24,7 @@ from rasterio.transform import Affine
 
 from ..errors import DEMFormatError
 from ..heightfield import GeoReference, HeightField
-from ._common import geographic_cell, looks_geographic, read_field
+from ._common import fill_value_nodata, geographic_cell, looks_geographic, read_field
 
 #: Metres per height unit, by normalised unit name (see :func:`metres_per_unit`).
 _UNITS_M = {
@@ -115,11 +115,16 @@ def read_gdal(path: Path, *, band: int | None = None, fmt: str = "gdal") -> Heig
     scaled = scale != 1 or offset != 0
     # float64 only when scale and offset need it: a large DEM takes half the memory.
     heights = data.astype(np.float64 if scaled else np.float32).filled(np.nan)
-    if scaled:
-        heights = heights * scale + offset
     metadata = {"driver": driver, "dtype": str(dtype), "band": index, "bands": count}
     if nodata is not None:
         metadata["nodata_value"] = float(nodata)
+    else:
+        # The file does not say what nodata is: a conventional fill value is.
+        fill = fill_value_nodata(np.ma.getdata(data), heights)
+        if fill is not None:
+            metadata["nodata_value"] = fill
+    if scaled:
+        heights = heights * scale + offset
     if scaled:
         metadata["scale"], metadata["offset"] = float(scale), float(offset)
 

@@ -385,3 +385,17 @@ def test_geotiff_without_georeference_keeps_its_cell_size(tmp_path, cog):
     back = load_dem(tmp_path / "g.tif")
     assert back.cell_size == (10.0, 12.5) and back.georef is None
     np.testing.assert_array_equal(back.heights, field.heights)
+
+
+def test_a_raster_without_a_nodata_tag_reads_srtm_voids_as_nodata(tmp_path, crop):
+    """An int16 GeoTIFF whose voids are SRTM's -32768 but which carries no
+    nodata tag (older conversions): the voids are nodata, and the value
+    found is named; a tagged file keeps its tag."""
+    data = np.asarray(crop, dtype=np.int16).copy()
+    data[3:5, 3:5] = -32768
+    dem = load_dem(_write(tmp_path / "untagged.tif", data))
+    assert dem.nodata_count == 4 and dem.nodata[3, 3]
+    assert dem.metadata["nodata_value"] == -32768.0
+    assert dem.min == float(data[data != -32768].min())
+    plain = np.asarray(crop, dtype=np.int16)
+    assert load_dem(_write(tmp_path / "plain.tif", plain)).nodata_count == 0
