@@ -216,8 +216,7 @@ class HeightField:
         r0, r1, c0, c1 = largest_valid_rectangle(valid)
         if (r1 - r0) * (c1 - c0) >= CROP_KEEPS * int(valid.sum()):
             return self.window(r0, r1, c0, c1)
-        rows, cols = np.flatnonzero(valid.any(axis=1)), np.flatnonzero(valid.any(axis=0))
-        box = (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
+        box = _bounds(valid)
         return self if box == (0, self.shape[0], 0, self.shape[1]) else self.window(*box)
 
     def window(self, r0: int, r1: int, c0: int, c1: int) -> "HeightField":
@@ -243,8 +242,8 @@ class HeightField:
         # Only the voids' bounding box and a ring of valid cells around it
         # take part: every void cell's nearest valid cell lies there, and the
         # smoothing reads one cell further per pass from void cells only.
-        rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-        box = (slice(max(rows[0] - 1, 0), rows[-1] + 2), slice(max(cols[0] - 1, 0), cols[-1] + 2))
+        r0, r1, c0, c1 = _bounds(mask)
+        box = (slice(max(r0 - 1, 0), r1 + 1), slice(max(c0 - 1, 0), c1 + 1))
         hole, part = mask[box], self.heights[box]
         idx = ndimage.distance_transform_edt(hole, return_distances=False, return_indices=True)
         filled = part[tuple(idx)]
@@ -256,6 +255,32 @@ class HeightField:
         heights = self.heights.copy()
         heights[box] = filled
         return replace(self, heights=heights.astype(np.float32, copy=False))
+
+
+def _bounds(mask: np.ndarray) -> tuple[int, int, int, int]:
+    """Half-open ``(r0, r1, c0, c1)`` of the ``True`` cells of a boolean
+    grid that has some."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+
+
+def whole_windows(valid: np.ndarray, size) -> np.ndarray:
+    """Where a window of ``valid`` cells is wholly valid.
+
+    Parameters
+    ----------
+    valid : ndarray of bool, shape (H, W)
+    size : int or (h, w)
+        Window side(s), cells.
+
+    Returns
+    -------
+    ndarray of bool, shape (H, W)
+        At each cell, whether the window centred on it as ``scipy.ndimage``
+        centres one (rows ``i - h // 2`` to ``i + (h - 1) // 2``) lies
+        inside the grid and holds only valid cells.
+    """
+    return ndimage.minimum_filter(valid, size=size, mode="constant", cval=False)
 
 
 def largest_valid_rectangle(valid: np.ndarray) -> tuple[int, int, int, int]:

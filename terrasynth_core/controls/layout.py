@@ -140,7 +140,8 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
         if analysis.note:
             notes.append(analysis.note)
         examples.append(analysis)
-    medians = np.array([float(np.median(ex.valid_values(ex.heights))) for ex in examples])
+    real = [ex.valid_values(ex.heights) for ex in examples]  # (their filled voids left out)
+    medians = np.array([float(np.median(h)) for h in real])
     scales = np.array(scales)
     base = np.array([float(np.mean(medians[m])) if b is None else float(b) for m, b in zip(members, bases)])
 
@@ -157,10 +158,8 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
     if controls.height_range is not None:
         lo, hi = controls.height_range
         used = np.unique(group_map)
-        low = min(base[g] + scales[i] * (float(examples[i].valid_values(examples[i].heights).min()) - medians[i])
-                  for g in used for i in members[g])
-        high = max(base[g] + scales[i] * (float(examples[i].valid_values(examples[i].heights).max()) - medians[i])
-                   for g in used for i in members[g])
+        low = min(base[g] + scales[i] * (float(real[i].min()) - medians[i]) for g in used for i in members[g])
+        high = max(base[g] + scales[i] * (float(real[i].max()) - medians[i]) for g in used for i in members[g])
         factor = (hi - lo) / max(high - low, 1e-6)
         shift = lo - factor * low
         base = factor * base + shift

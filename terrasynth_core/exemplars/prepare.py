@@ -19,7 +19,7 @@ from ..measures import topographic_position_index
 from ..errors import ParamsError
 from ..features import FeatureMaps, extract_features
 from ..features.ppa import spare_core
-from ..heightfield import HeightField
+from ..heightfield import HeightField, whole_windows
 from ..memo import Memo, array_key
 from . import cache
 from ..features.samples import example_samples
@@ -96,7 +96,7 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
             f"{name} is {field.shape[0]}x{field.shape[1]} cells (valid part), smaller than a patch of "
             f"{patch_size}x{patch_size}: use a larger example or a smaller patch size"
         )
-    if valid is not None and not _fits(valid, patch_size + 4).any():
+    if valid is not None and not whole_windows(valid, patch_size + 4).any():
         raise ParamsError(
             f"{name} has no {patch_size + 4}x{patch_size + 4} window without nodata, which a patch of "
             f"{patch_size}x{patch_size} needs: use an example with fewer voids or a smaller patch size"
@@ -125,6 +125,10 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
 #: An example whose heights span less than this (metres, between their
 #: 0.5th and 99.5th percentiles) is said to be nearly flat.
 NEARLY_FLAT_M = 10.0
+
+#: A sample centre keeps this many patch radii from the example's edges
+#: (and voids): room for the patch and a little warp.
+SAMPLE_MARGIN = 1.1
 
 #: Example feature samples weaker than this quantile of their kind are dropped...
 STRONG_QUANTILE = 0.5
@@ -169,18 +173,19 @@ def without_voids(field: HeightField) -> tuple:
 
     def make() -> tuple:
         trimmed = field.trim_nodata()
-        if not trimmed.nodata_count:
+        void = trimmed.nodata
+        if not void.any():
             return trimmed, None, True, 0, 0
         # Cropping would lose real terrain: the voids are filled so that
         # filters see a whole grid; thin ones are terrain again, and no
         # patch is taken over the others.
-        wide = trimmed.nodata if every_wide else _wide_voids(trimmed.nodata)
+        wide = void if every_wide else _wide_voids(void)
+        n_wide = int(wide.sum())
         valid = None
-        if wide.any():
+        if n_wide:
             valid = ~wide
             valid.flags.writeable = False
-        n_wide = int(wide.sum())
-        return trimmed.fill_nodata(), valid, False, trimmed.nodata_count - n_wide, n_wide
+        return trimmed.fill_nodata(), valid, False, int(void.sum()) - n_wide, n_wide
 
     return _VOIDS.get((array_key(field.heights), every_wide), make)
 
@@ -198,12 +203,6 @@ def _wide_voids(void: np.ndarray) -> np.ndarray:
     return np.isin(labels, np.unique(labels[deep]))
 
 
-def _fits(valid: np.ndarray, size: int) -> np.ndarray:
-    """Cells of ``valid`` (bool, (H, W)) whose ``size`` x ``size`` square
-    (centred, as ``ndimage`` centres an even size) is all valid."""
-    return ndimage.minimum_filter(valid, size=size, mode="constant", cval=False)
-
-
 def _analyse(heights: np.ndarray, patch_size: int, valid: np.ndarray | None = None) -> tuple:
     """The analysis :data:`_CACHE` stores: ``(features, samples, strong, relief)``.
 
@@ -214,18 +213,20 @@ def _analyse(heights: np.ndarray, patch_size: int, valid: np.ndarray | None = No
     are then taken on two threads.  Every part is computed exactly as alone.
     """
     radius = patch_size / 2
+    # Sample centres need the same room from every void as from the edges.
+    room = None if valid is None else whole_windows(valid, 2 * int(np.ceil(SAMPLE_MARGIN * radius)) + 3)
     if spare_core():
         with ThreadPoolExecutor(max_workers=2, thread_name_prefix="analysis") as pool:
             tpi_and_relief = pool.submit(_tpi_and_relief, heights, radius, patch_size, valid)
             features = extract_features(heights)
             tpi, relief = tpi_and_relief.result()
             pools = list(pool.map(_sample_pool, (features.ridges, features.valleys), (1.0, -1.0),
-                                  (tpi, tpi), (radius, radius), (valid, valid)))
+                                  (tpi, tpi), (radius, radius), (room, room)))
     else:
         features = extract_features(heights)
         tpi, relief = _tpi_and_relief(heights, radius, patch_size, valid)
-        pools = [_sample_pool(features.ridges, 1.0, tpi, radius, valid),
-                 _sample_pool(features.valleys, -1.0, tpi, radius, valid)]
+        pools = [_sample_pool(features.ridges, 1.0, tpi, radius, room),
+                 _sample_pool(features.valleys, -1.0, tpi, radius, room)]
     samples = {"ridge": pools[0], "valley": pools[1]}
     strong = np.zeros(heights.shape, dtype=bool)
     for graph in (features.ridges, features.valleys):
@@ -252,23 +253,23 @@ def _tpi_and_relief(heights: np.ndarray, radius: float, patch_size: int,
     mean2 = ndimage.uniform_filter(heights.astype(np.float64) ** 2, patch_size)
     local_std = np.sqrt(np.maximum(mean2 - mean**2, 0.0))
     if valid is not None:
-        local_std = local_std[_fits(valid, patch_size)]
+        local_std = local_std[whole_windows(valid, patch_size)]
     return tpi, float(np.median(local_std)) or 1.0
 
 
-def _sample_pool(graph, sign: float, tpi: np.ndarray, radius: float, valid: np.ndarray | None = None) -> list:
+def _sample_pool(graph, sign: float, tpi: np.ndarray, radius: float, room: np.ndarray | None = None) -> list:
     """The candidate samples of one network: centres that leave room for
-    the patch (and a little warp) inside the example's valid cells,
-    standing out enough by TPI (``sign`` +1 for ridges, -1 for valleys)."""
-    margin = radius * 1.1
+    the patch (and a little warp, :data:`SAMPLE_MARGIN`) inside the
+    example and, where ``room`` (bool, shape of ``tpi``) is given, only
+    where it is True (clear of the example's voids), standing out enough
+    by TPI (``sign`` +1 for ridges, -1 for valleys)."""
+    margin = radius * SAMPLE_MARGIN
     H, W = tpi.shape
     pool = [
         s for s in example_samples(graph, radius, spacing=radius / 2)
         if margin <= s.center[0] <= H - 1 - margin and margin <= s.center[1] <= W - 1 - margin
     ]
-    if pool and valid is not None:
-        # The same room from every void as from the edges.
-        room = _fits(valid, 2 * int(np.ceil(margin)) + 3)
+    if pool and room is not None:
         pool = [s for s in pool if room[int(round(s.center[0])), int(round(s.center[1]))]]
     if pool:
         rc = np.rint([s.center for s in pool]).astype(int)

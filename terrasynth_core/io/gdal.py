@@ -125,7 +125,6 @@ def read_gdal(path: Path, *, band: int | None = None, fmt: str = "gdal") -> Heig
             metadata["nodata_value"] = fill
     if scaled:
         heights = heights * scale + offset
-    if scaled:
         metadata["scale"], metadata["offset"] = float(scale), float(offset)
 
     crs_wkt = crs.to_wkt() if crs is not None else None

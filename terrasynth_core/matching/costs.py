@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from ..heightfield import whole_windows
+
 #: Weight of the squared height shift (in reliefs) against the overlap SSD
 #: when the examples' spread of window levels is not known.
 OFFSET_WEIGHT = 0.2
@@ -80,7 +82,7 @@ def level_spread(detail: np.ndarray, patch_size: int, valid: np.ndarray | None =
     inside = (slice(p // 2, h.shape[0] - p // 2 or None), slice(p // 2, h.shape[1] - p // 2 or None))
     means = ndimage.uniform_filter(h, p, mode="reflect")[inside]
     if valid is not None:
-        whole = ndimage.minimum_filter(valid, p, mode="constant", cval=False)[inside]
+        whole = whole_windows(valid, p)[inside]
         if whole.any():
             means = means[whole]
     return max(float(means.std()), 1e-3)

@@ -41,6 +41,7 @@ from skimage.transform import downscale_local_mean
 
 from ..errors import ParamsError
 from ..exemplars import cache
+from ..heightfield import whole_windows
 from .costs import ROUGHNESS_WEIGHT
 from .window_index import LazyIndexes, ZoneIndex, zone_of
 
@@ -244,10 +245,9 @@ def _void_free(void: np.ndarray, window: tuple[int, int]) -> np.ndarray:
     ndarray of bool, shape (H - h + 1, W - w + 1)
     """
     h, w = window
-    table = np.zeros((void.shape[0] + 1, void.shape[1] + 1), dtype=np.int32)  # summed-area table
-    np.cumsum(np.cumsum(void, axis=0, dtype=np.int32), axis=1, out=table[1:, 1:])
-    count = table[h:, w:] - table[:-h, w:] - table[h:, :-w] + table[:-h, :-w]
-    return count == 0
+    H, W = void.shape
+    # (The centred windows of whole_windows, shifted to their corners.)
+    return whole_windows(~void, window)[h // 2: H - (h - 1) // 2, w // 2: W - (w - 1) // 2]
 
 
 class FftFillSearch(_WindowSearch):

@@ -23,7 +23,7 @@ import numpy as np
 from ..features.samples import FeatureSample
 from ..matching.usage import UsageRegistry
 from .feature_patches import Stations, prepare_feature
-from .workers import KitFile, executor, ready, with_kit
+from .workers import KitWorkers, ready
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,8 +77,7 @@ class PrepareAhead:
     def __init__(self, kit: FeatureKit, *, processes: int):
         self.kit = kit
         self.processes = max(1, int(processes))
-        self._file = None  # the kit file and the workers, once they are first used
-        self._pool = None
+        self._workers = KitWorkers(kit, self.processes) if self.processes > 1 else None
         self._thread = None
 
     def __enter__(self) -> "PrepareAhead":
@@ -87,22 +86,16 @@ class PrepareAhead:
     def __exit__(self, *exc) -> None:
         if self._thread is not None:
             self._thread.shutdown(wait=True, cancel_futures=True)
-        if self._file is not None:
-            self._file.__exit__(*exc)
+        if self._workers is not None:
+            self._workers.__exit__(*exc)
 
     def submit(self, sample: FeatureSample, pool: tuple, count: int, rng: np.random.Generator,
                usage: UsageRegistry, cap: int) -> Future:
         """Start preparing ``sample``: a future of what
         :func:`~.feature_patches.prepare_feature` returns.  ``usage`` must be
         a snapshot (:meth:`UsageRegistry.snapshot`)."""
-        if self.processes > 1 and (self._pool is not None or ready()):
-            if self._pool is None:
-                # Written when the workers are first used, not before: a run
-                # whose workers never warm up in time pays nothing for it.
-                self._file = KitFile(self.kit).__enter__()
-                # The fill's executor (same size): resizing it would restart warm workers.
-                self._pool = executor(self.processes - 1)
-            return self._pool.submit(with_kit, self._file.path, prepare_with, sample, pool, count, rng, usage, cap)
+        if self._workers is not None and (self._workers.started or ready()):
+            return self._workers.submit(prepare_with, sample, pool, count, rng, usage, cap)
         if self._thread is None:
             self._thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-prefetch")
         return self._thread.submit(prepare_with, self.kit, sample, pool, count, rng, usage, cap)

@@ -23,7 +23,7 @@ import numpy as np
 from ..placing.canvas import Canvas
 from .fill_patches import choose_fill, search_fill
 from .result import PatchRecord
-from .workers import KitFile, executor, with_kit
+from .workers import KitWorkers
 
 #: Windows per wave; fixed (not the process count) so the result does not
 #: depend on how many processes fill them.
@@ -140,25 +140,22 @@ class FillWorkers:
     def __init__(self, kit: FillKit, processes: int):
         self.kit = kit
         self.processes = max(1, int(processes))
-        self._file = None
-        self._pool = None
+        self._workers = None
 
     def __enter__(self) -> "FillWorkers":
         if self.processes > 1:
-            self._file = KitFile(self.kit).__enter__()
-            self._pool = executor(self.processes - 1)
+            self._workers = KitWorkers(self.kit, self.processes)
         return self
 
     def __exit__(self, *exc) -> None:
-        if self._file is not None:
-            self._file.__exit__(*exc)
+        if self._workers is not None:
+            self._workers.__exit__(*exc)
 
     def run(self, tasks: list[WindowTask]) -> list[tuple[Canvas, PatchRecord]]:
         """Fill the windows of one wave; results in the tasks' order."""
-        if self._pool is None:
+        if self._workers is None:
             return [fill_window(self.kit, t) for t in tasks]
         # Every ``processes``-th task here, the others to the workers.
-        futures = {i: self._pool.submit(with_kit, self._file.path, fill_window, t)
-                   for i, t in enumerate(tasks) if i % self.processes}
+        futures = {i: self._workers.submit(fill_window, t) for i, t in enumerate(tasks) if i % self.processes}
         here = {i: fill_window(self.kit, t) for i, t in enumerate(tasks) if i not in futures}
         return [here[i] if i in here else futures[i].result() for i in range(len(tasks))]

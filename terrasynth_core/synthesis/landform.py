@@ -335,8 +335,8 @@ def drawn_relief(sketch, shape: tuple[int, int], layout, patch_size: int) -> tup
     strokes = sketch_features(sketch.resized(grid))
     if not (strokes.ridges.paths or strokes.valleys.paths):
         return None
-    q1, q3 = np.quantile(np.concatenate([layout.examples[i].valid_values(layout.detail[i]) for i in layout.members[0]]),
-                         [0.25, 0.75])
+    detail = [layout.examples[i].valid_values(layout.detail[i]) for i in layout.members[0]]
+    q1, q3 = np.quantile(np.concatenate(detail), [0.25, 0.75])
     return (DRAWN_UPLIFT * float(q3 - q1) * _stroke_regions(strokes, reach / f, grid)).astype(np.float32), f
 
 

@@ -8,7 +8,7 @@ and exec, safe beside Qt and BLAS threads; no ``if __name__ ==
 "__main__"`` guard needed in a user's script) and reused by every later run.
 What a stage's tasks need from the examples (their detail, feature pools,
 fill searches) goes to the workers once per stage, as a *kit* file
-(:class:`KitFile`) that a worker loads on its first task of the stage
+(:class:`KitWorkers`) that a worker loads on its first task of the stage
 (:func:`with_kit`).  Which process did a task changes nothing: tasks are
 pure functions of what they are given.
 """
@@ -19,6 +19,7 @@ import os
 import pickle
 import tempfile
 import threading
+from concurrent.futures import Future
 from pathlib import Path
 
 #: Seconds an idle worker process waits for more work before it exits.
@@ -81,34 +82,58 @@ def ready() -> bool:
     return bool(futures) and all(f.done() and not f.cancelled() and f.exception() is None for f in futures)
 
 
-class KitFile:
-    """What a stage's tasks share, pickled to a temporary file for the
-    workers (removed on exit); use as a context manager.
+class KitWorkers:
+    """A stage's tasks on the worker processes; use as a context manager.
+
+    What the tasks share (the *kit*) is pickled to a temporary file, and
+    the executor fetched, when the first task is sent: a stage whose
+    workers are never used pays nothing.  The file is removed on exit.
 
     Parameters
     ----------
     kit : object
         Picklable.
+    processes : int
+        The run's processes, this one included (above 1).
     """
 
-    def __init__(self, kit):
+    def __init__(self, kit, processes: int):
         self.kit = kit
-        self.path: str | None = None
+        self.processes = processes
+        self._path: str | None = None
+        self._pool = None
 
-    def __enter__(self) -> "KitFile":
-        fd, path = tempfile.mkstemp(prefix="terrasynth-kit-", suffix=".pkl")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                pickle.dump(self.kit, f, protocol=pickle.HIGHEST_PROTOCOL)
-        except BaseException:  # a full disk, an interrupt: no file left behind
-            Path(path).unlink(missing_ok=True)
-            raise
-        self.path = path
+    @property
+    def started(self) -> bool:
+        """Whether a task has been sent (the kit is with the workers)."""
+        return self._pool is not None
+
+    def submit(self, task, *args) -> Future:
+        """``task(kit, *args)`` on a worker (:func:`with_kit`)."""
+        if self._pool is None:
+            self._path = _kit_file(self.kit)
+            # (Every stage asks for the same size: resizing would restart warm workers.)
+            self._pool = executor(self.processes - 1)
+        return self._pool.submit(with_kit, self._path, task, *args)
+
+    def __enter__(self) -> "KitWorkers":
         return self
 
     def __exit__(self, *exc) -> None:
-        if self.path is not None:
-            Path(self.path).unlink(missing_ok=True)
+        if self._path is not None:
+            Path(self._path).unlink(missing_ok=True)
+
+
+def _kit_file(kit) -> str:
+    """``kit`` pickled to a new temporary file: its path."""
+    fd, path = tempfile.mkstemp(prefix="terrasynth-kit-", suffix=".pkl")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            pickle.dump(kit, f, protocol=pickle.HIGHEST_PROTOCOL)
+    except BaseException:  # a full disk, an interrupt: no file left behind
+        Path(path).unlink(missing_ok=True)
+        raise
+    return path
 
 
 #: In a worker: the kit it works with, and the file it came from (path,

@@ -12,17 +12,6 @@ from terrasynth_core.features import read_sketch
 from terrasynth_core.synthesis import Session, SynthesisParams, feature_ahead, pipeline, workers
 
 
-class _Counting:
-    """An executor that notes each task it is given in ``sent``."""
-
-    def __init__(self, pool, sent: list):
-        self.pool, self.sent = pool, sent
-
-    def submit(self, *args):
-        self.sent.append(args[1])
-        return self.pool.submit(*args)
-
-
 def _warm() -> bool:
     """The workers once their warm-up is done (a test must not depend on
     whether a fresh process imported in time)."""
@@ -36,9 +25,9 @@ def test_features_prepared_on_a_process_give_the_same_bytes(white_mountains, ske
     worker is still importing) on the thread for the first five and on the
     worker for the rest."""
     sketch = read_sketch(sketch_dir / "s_valley_1000.png").resized((256, 256))
-    sent = []  # preparations sent to a worker process
-    executor = feature_ahead.executor
-    monkeypatch.setattr(feature_ahead, "executor", lambda n: _Counting(executor(n), sent))
+    sent = []  # tasks sent to a worker process
+    submit = workers.KitWorkers.submit
+    monkeypatch.setattr(workers.KitWorkers, "submit", lambda self, task, *a: sent.append(task) or submit(self, task, *a))
     asked = []
     monkeypatch.setattr(feature_ahead, "ready", lambda: len(asked) >= thread_first and _warm() or asked.append(1))
     params = dict(patch_size=32, k=2, seed=5, landform=False)
@@ -46,7 +35,7 @@ def test_features_prepared_on_a_process_give_the_same_bytes(white_mountains, ske
     assert sent == []
     there = Session([white_mountains], sketch, params=SynthesisParams(**params, workers=2)).run()
     assert len(asked) == thread_first
-    assert len(sent) >= pipeline.MIN_AHEAD_SAMPLES - thread_first
+    assert sent.count(feature_ahead.prepare_with) >= pipeline.MIN_AHEAD_SAMPLES - thread_first
     np.testing.assert_array_equal(here.heights, there.heights)
     assert [(p.kind, p.example, p.source, p.mirrored) for p in here.patches] == \
         [(p.kind, p.example, p.source, p.mirrored) for p in there.patches]

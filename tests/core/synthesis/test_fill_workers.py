@@ -16,7 +16,7 @@ def test_one_or_two_processes_give_the_same_bytes(white_mountains, sketch_dir, m
 
     def recording(self):
         out = enter(self)
-        pools.append(self._pool is not None)
+        pools.append(self._workers is not None)
         return out
 
     monkeypatch.setattr(FillWorkers, "__enter__", recording)
