@@ -87,6 +87,8 @@ from fidelity_measures import (
 from terrasynth_core.examples import builtin_example
 from terrasynth_core.exemplars.patch_size import MIN_POOL, held_windows
 from terrasynth_core.features import read_sketch
+from terrasynth_core.heightfield import HeightField
+from terrasynth_core.io import load_dem
 from terrasynth_core.features.network import graph_mask
 from terrasynth_core.matching.usage import FEATURE_KINDS, source_reuse
 from terrasynth_core.measures import feature_tpi_score
@@ -102,8 +104,8 @@ ORDERS = ("bfs", "raster")
 DRAIN_DISTANCE, CROSS_DISTANCE = 5, 2
 #: Side of the Welch tiles (cells), unless the example is smaller.
 SPECTRUM_TILE = 256
-#: Contact sheets: pixels per panel and the file budget.
-PANEL, SHEET_BYTES = 256, 400_000
+#: Contact sheets: pixels per panel and the file budget per sketch row.
+PANEL, ROW_BYTES = 256, 134_000
 
 #: Issue 10's targets: key, title, (low, high) (None = open).
 TARGETS = (
@@ -201,7 +203,7 @@ def write_sheet(path: Path, key: str, example, rows: list[tuple[str, object, np.
                    f"example, centre {crop.shape[0]}x{crop.shape[1]}"]
     size = rows[0][2].shape
     title = f"{key}: sketch | output ({size[0]}x{size[1]}, seed 0, {order}) | example; same colours"
-    save_png(compose(panels, labels, title, columns=3), path, max_bytes=SHEET_BYTES)
+    save_png(compose(panels, labels, title, columns=3), path, max_bytes=ROW_BYTES * max(3, len(rows)))
     return path.stat().st_size
 
 
@@ -287,8 +289,8 @@ def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=p
     for key in examples:
         # The example as the engine sees it: square cells of the run's size
         # (its finer side), so spectra and slopes compare cell for cell.
-        raw = builtin_example(key).load()
-        example, _ = on_ground(raw, run_cell_size(None, [raw]), name=key)
+        raw, name = load_example(key), example_name(key)
+        example, _ = on_ground(raw, run_cell_size(None, [raw]), name=name)
         # Its heights and relief over every valid cell; its roughness and
         # spectrum on its largest valid rectangle (they need a whole grid;
         # the engine keeps patches off the voids of a basin clip such as
@@ -309,20 +311,33 @@ def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=p
                     pk = (sketch_file, result.params.patch_size)
                     if pk not in pools:
                         pools[pk] = pool_windows(example, result.params.patch_size, loaded[sketch_file])
-                    row = {"sketch": sketch_file, "example": key, "seed": seed, "order": order,
+                    row = {"sketch": Path(sketch_file).name, "example": name, "seed": seed, "order": order,
                            "shape": list(shape), "patch_size": result.params.patch_size, "fallback": fallback,
                            "seconds": seconds, "warnings": list(result.warnings),
                            "pool_windows": pools[pk], **fig}
                     rows.append(row)
                     log(_line(row))
                     if sheets is not None and seed == seeds[0] and order == orders[0]:
-                        sheet_rows.append((sketch_file, loaded[sketch_file], result.heights, fig))
+                        sheet_rows.append((Path(sketch_file).name, loaded[sketch_file], result.heights, fig))
         if sheet_rows:
             sheets.mkdir(parents=True, exist_ok=True)
-            path = sheets / f"fidelity_{key}.png"
+            path = sheets / f"fidelity_{name}.png"
             log(f"  wrote {path.relative_to(REPO) if path.is_relative_to(REPO) else path} "
-                f"({write_sheet(path, key, example, sheet_rows, orders[0]) // 1000} kB)")
+                f"({write_sheet(path, name, example, sheet_rows, orders[0]) // 1000} kB)")
     return rows
+
+
+def load_example(key: str) -> HeightField:
+    """A built-in example by its key, or any DEM file ``load_dem`` reads
+    by its path (an example the evaluation has never seen)."""
+    if Path(key).is_file():
+        return load_dem(key)
+    return builtin_example(key).load()
+
+
+def example_name(key: str) -> str:
+    """What the tables call an example: its key, or a file's stem."""
+    return Path(key).stem if Path(key).is_file() else key
 
 
 def pool_windows(example, patch_size: int, sketch) -> int:
@@ -380,8 +395,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one seed, white-mountains and gabon-plateau, bfs only")
     parser.add_argument("--size", type=int, default=512, help="output side in cells (default 512)")
-    parser.add_argument("--examples", type=_names, default=None, help="comma-separated built-in keys")
-    parser.add_argument("--sketches", type=_names, default=None, help="comma-separated files in resources/sketches")
+    parser.add_argument("--examples", type=_names, default=None,
+                        help="comma-separated built-in keys or DEM files (any format the CLI reads)")
+    parser.add_argument("--sketches", type=_names, default=None,
+                        help="comma-separated files in resources/sketches, or paths to sketch images")
     parser.add_argument("--seeds", type=int, default=None, metavar="N", help="seeds 0..N-1 (default 3)")
     parser.add_argument("--orders", type=_names, default=None, help="bfs,raster (default both)")
     parser.add_argument("--json", type=Path, default=None, metavar="OUT", help="also write every figure as JSON")
@@ -421,7 +438,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = evaluate(examples, sketches, seeds, orders, args.size, None if args.no_sheets else args.sheets, log=log,
                     extra=extra)
     wall = time.perf_counter() - start
-    report(rows, examples, orders, wall, log)
+    report(rows, [example_name(e) for e in examples], orders, wall, log)
     if args.json is not None:
         args.json.write_text(json.dumps(_json_ready({"rows": rows, "wall_seconds": wall}), indent=2))
     return 0
