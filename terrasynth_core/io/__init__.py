@@ -227,6 +227,9 @@ def load_dem(
         Unknown extension, missing file, or content that cannot be read;
         always one line naming the file.
     """
+    if str(path).startswith("builtin:") and not Path(path).exists():
+        raise DEMFormatError(f"{path} is a built-in example, not a file: load it with "
+                             "terrasynth_core.examples.resolve_dem (files and builtin:KEY alike)")
     path = Path(path)
     name = format_name(path)
     if not path.is_file():
@@ -269,7 +272,8 @@ def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False,
 
     * ``.tif``: float32 heights exactly, NaN nodata, georeference and CRS
       (EPSG code, else WKT); DEFLATE with the floating-point predictor.
-    * ``.asc``: float32 heights exactly, nodata, georeference (no CRS).
+    * ``.asc``: float32 heights exactly, nodata, georeference; the CRS in
+      ``<same stem>.prj`` (ESRI WKT).
     * ``.npy``, ``.r32``: float32 heights exactly, NaN nodata; placement
       in the sidecar.
     * ``.png``, ``.r16``: 16-bit levels between min and max (error at most
@@ -305,13 +309,19 @@ def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False,
             _PATH_WRITERS[name](field, temp, cog=cog)
         return
     targets = (path, sidecar_path(path)) if name in _SIDECAR_FORMATS else (path,)
+    prj = esri_ascii.prj_text(field, path) if name == "esri-ascii" else None
+    if prj is not None:
+        targets += (path.with_suffix(".prj"),)
     with wrap_errors(path, "write"), atomic_outputs(*targets) as temps:
         with open_new(temps[0]) as fh:
             options = {"level_range": level_range} if level_range is not None else {}
             sidecar = _WRITERS[name](field, fh, **options)
-        if len(temps) > 1:
+        if name in _SIDECAR_FORMATS:
             check_sidecar_free(path, sidecar)
             write_sidecar(sidecar, temps[1])
+        if prj is not None:
+            with open_new(temps[-1]) as fh:
+                fh.write(prj.encode("ascii"))
 
 
 def save_mesh(

@@ -1,6 +1,6 @@
 """ESRI ASCII grids (``.asc``): a short ``key value`` header, then the rows
 of the grid from north to south as whitespace-separated numbers; the CRS,
-if any, in ``<same stem>.prj``.
+if any, in ``<same stem>.prj`` (read and written).
 
 Read here rather than through GDAL, whose AAIGrid driver silently shifts
 the values when a header line is indented, and pads a short grid or an
@@ -144,6 +144,30 @@ def _prj_crs(path: Path) -> CRS | None:
             except CRSError as exc:
                 raise DEMFormatError(f"{prj}: not a CRS GDAL understands ({exc})") from exc
     return None
+
+
+def prj_text(field: HeightField, path: Path) -> str | None:
+    """The ``.prj`` to write beside ``path`` for ``field``: its CRS as ESRI
+    WKT (what ArcGIS, QGIS and GDAL read), or None without a CRS.
+
+    Raises
+    ------
+    DEMFormatError
+        ``field`` has no CRS but a ``.prj`` of that stem exists: the grid
+        would be read back in a CRS that is not its own.
+    """
+    from rasterio.enums import WktVersion
+
+    from .gdal import field_crs
+
+    crs = field_crs(field.georef)
+    if crs is None:
+        for prj in (path.with_suffix(".prj"), path.with_suffix(".PRJ")):
+            if prj.exists():
+                raise DEMFormatError(f"cannot write {path}: {prj} beside it names a CRS this terrain does not "
+                                     "have (it has none); remove it or choose another name")
+        return None
+    return crs.to_wkt(version=WktVersion.WKT1_ESRI)
 
 
 def write_esri_ascii(field: HeightField, fh: BinaryIO) -> None:

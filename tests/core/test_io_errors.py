@@ -30,6 +30,10 @@ def _field():
     return HeightField(np.arange(12, dtype=np.float32).reshape(3, 4), cell_size=(30.0, 30.0))
 
 
+def test_a_builtin_key_given_to_load_dem_says_how_to_load_it():
+    _raises(load_dem, "builtin:himalaya", name="builtin:himalaya", match="resolve_dem")
+
+
 def test_unknown_extension_lists_supported(tmp_path):
     path = tmp_path / "terrain.xyz"
     path.write_bytes(b"1 2 3")

@@ -57,8 +57,8 @@ def test_exact_round_trip(tmp_path, ext):
     np.testing.assert_array_equal(back.heights, field.heights)  # NaN where nodata
     assert back.cell_size == field.cell_size
     assert back.georef.x_origin == field.georef.x_origin and back.georef.y_origin == field.georef.y_origin
-    # ESRI ASCII has no CRS; every other exact format keeps the EPSG code.
-    assert back.georef.epsg == (None if ext == ".asc" else 32611)
+    # Every exact format keeps the CRS (ESRI ASCII in its .prj, as ESRI WKT).
+    assert back.georef.epsg == 32611 or (ext == ".asc" and "UTM_Zone_11N" in back.georef.crs_wkt)
 
 
 @pytest.mark.parametrize("ext", LEVELS)
@@ -171,6 +171,19 @@ def test_rasterio_reads_our_terragen(tmp_path):
     # Same orientation and values: GDAL and our reader agree to float32 precision.
     np.testing.assert_allclose(ours.heights, gdal, rtol=1e-6)
     assert np.abs(gdal - field.heights).max() < (field.max - field.min) / 30000
+
+
+def test_esri_ascii_writes_its_crs_as_a_prj_and_never_leaves_a_stale_one(tmp_path):
+    field = _field()
+    save_dem(field, tmp_path / "g.asc")
+    assert "PROJCS[" in (tmp_path / "g.prj").read_text()
+    with rasterio.open(tmp_path / "g.asc") as ds:
+        assert ds.crs.to_epsg() == 32611
+    # A terrain without a CRS next to a .prj of that stem: refused, both kept.
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    with pytest.raises(DEMFormatError, match=r"g\.prj beside it names a CRS"):
+        save_dem(HeightField(np.ones((4, 4), np.float32)), tmp_path / "g.asc")
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
 
 
 def test_esri_ascii_non_square_cells_and_colliding_nodata(tmp_path):
