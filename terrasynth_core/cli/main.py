@@ -109,6 +109,51 @@ def _check_cog(args: argparse.Namespace, out: Path) -> None:
         raise TerraSynthError(f"--cog writes GeoTIFF only: {out} is not a .tif/.tiff file")
 
 
+#: Options that name what a command writes, not what it reads.
+_OUTPUT_OPTIONS = ("out", "output", "report", "debug_dir")
+
+
+def _input_files(args: argparse.Namespace) -> list[Path]:
+    """Every existing file the command's options name as an input: plain
+    paths (``--example``, ``--sketch``, ``--water``, ``--project``, ...) and the
+    paths inside specs such as ``--style "#3070c0=DEM,relief=1.5"`` and
+    ``--stamp "DEM@row,col"``."""
+    import re
+
+    found = []
+    for name, value in vars(args).items():
+        if name in _OUTPUT_OPTIONS or callable(value):
+            continue
+        for item in value if isinstance(value, (list, tuple)) else [value]:
+            if not isinstance(item, (str, os.PathLike)):
+                continue
+            text = os.fspath(item)
+            for token in [text, *re.split(r"[=,@]", text)]:
+                if token and Path(token).is_file():
+                    found.append(Path(token))
+    return found
+
+
+def _refuse_replacing(args: argparse.Namespace, outputs) -> None:
+    """Refuse, before any work, to write over a file the command reads (ever)
+    or over any existing file (unless ``--overwrite``): a run never loses
+    what the user owns.
+
+    Raises
+    ------
+    TerraSynthError
+        One line naming the file.
+    """
+    inputs = _input_files(args)
+    for out in map(Path, outputs):
+        if not out.exists():
+            continue
+        if any(os.path.samefile(out, i) for i in inputs):
+            raise TerraSynthError(f"{out} is an input of this command; write the output to another file")
+        if not getattr(args, "overwrite", False):
+            raise TerraSynthError(f"{out} exists; give --overwrite to replace it, or choose another output")
+
+
 # -- convert ------------------------------------------------------------------
 def cmd_convert(args: argparse.Namespace) -> int:
     from ..examples import resolve_dem
@@ -116,6 +161,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
 
     out = Path(args.output)
     _check_cog(args, out)
+    _refuse_replacing(args, [out])
     is_mesh = out.suffix.lower() in MESH_EXTENSIONS
     if (args.texture or args.triangles) and not is_mesh:
         raise TerraSynthError(f"--texture and --triangles are for meshes; {out} is not one "
@@ -314,6 +360,7 @@ def _synth_tiled(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise TerraSynthError(f"--workers must be at least 1, got {args.workers}")
     out = check_tiled_output(Path(args.out))
+    _refuse_replacing(args, [out])
     if args.project:
         spec = _project_spec(args, "--out, --size, --seed, --tile, --workers, --scheduler, --keep-tiles")
         examples, sketch, params, controls = tiled_project_inputs(spec)
@@ -497,6 +544,8 @@ def _check_output(args) -> Path:
         raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
     _check_cog(args, out)
     _check_report_path(args, out)
+    outs = _variation_paths(out, args.variations) if getattr(args, "variations", 1) > 1 else [out]
+    _refuse_replacing(args, [*outs, *([args.report] if getattr(args, "report", None) else [])])
     return out
 
 
@@ -617,8 +666,15 @@ def _write_json_atomic(path: Path, data: dict) -> None:
 
 
 # -- entry point --------------------------------------------------------------
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a bad option is one line (no usage block before it)."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="terrasynth-cli",
         description="Example-based terrain synthesis from real DEMs. "
         "A DEM argument is a file or builtin:KEY (see 'terrasynth-cli examples').",
@@ -635,6 +691,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("convert", help="convert a DEM between formats (by extension), or to a mesh")
     p.add_argument("input")
     p.add_argument("output")
+    _add_overwrite(p)
     p.add_argument("--size", type=parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
     p.add_argument("--vertical-scale", type=float, default=1.0, help="height multiplier for meshes")
     p.add_argument("--triangles", type=positive_count, metavar="N",
@@ -694,6 +751,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="example DEM (repeatable); with --styles, the style of unlisted colours")
     p.add_argument("--sketch", help="sketch PNG: red ridges, blue valleys")
     p.add_argument("--out", required=True, help="output file; the format follows the extension")
+    _add_overwrite(p)
     p.add_argument("--size", type=parse_size, help="output ROWSxCOLS (default: the sketch's; it is scaled)")
     # Run options default to None here (their defaults: _RUN_OPTIONS), so
     # --project can tell which were given.
@@ -732,6 +790,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--map", choices=("default", "middle-earth"), default="default",
                    help="middle-earth: four styles, water, a stamp and pins (the paper's Middle-earth map)")
     p.add_argument("--out", required=True)
+    _add_overwrite(p)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--report", metavar="REPORT.json")
     p.add_argument("--debug-dir", metavar="DIR")
@@ -781,6 +840,11 @@ def _add_band(p: argparse.ArgumentParser, text: str = "band to read (1-based; ne
 
 def _add_cog(p: argparse.ArgumentParser):
     p.add_argument("--cog", action="store_true", help="write a Cloud-Optimized GeoTIFF (.tif output only)")
+
+
+def _add_overwrite(p: argparse.ArgumentParser):
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing output (never one of the command's inputs)")
 
 
 def cmd_examples(args: argparse.Namespace) -> int:
@@ -837,13 +901,20 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     try:
-        return args.func(args)
+        code = args.func(args)
+        sys.stdout.flush()  # (a reader that left shows here, not at exit)
+        return code
     except TerraSynthError as exc:
         print(f"terrasynth-cli: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except FileNotFoundError as exc:
         print(f"terrasynth-cli: error: {exc.filename or exc}: no such file", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except BrokenPipeError:
+        # The reader left (``| head``): stop quietly, as Unix tools do; what
+        # is still buffered goes nowhere instead of failing at exit.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
     except OSError as exc:
         print(f"terrasynth-cli: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

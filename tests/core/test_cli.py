@@ -296,6 +296,38 @@ def test_synth_writes_output_of_requested_shape(synth_run, example_200):
     assert field.cell_size == pytest.approx((min(example.cell_size),) * 2)
 
 
+def test_synth_never_writes_over_its_inputs_and_replaces_an_output_only_when_asked(capsys, example_200, sketch_dir,
+                                                                                  tmp_path, synth_run):
+    """An output that is one of the run's inputs (the sketch, an example DEM,
+    a style's DEM) is refused even with --overwrite; an existing output is
+    refused without it; both before any work, the files untouched."""
+    sketch = tmp_path / "my_sketch.png"
+    shutil.copy(sketch_dir / Y_JUNCTION, sketch)
+    dem = tmp_path / "my_dem.npy"
+    shutil.copy(example_200, dem)
+    before = {p: p.read_bytes() for p in (sketch, dem)}
+    for out, extra in ((sketch, ()), (dem, ("--overwrite",)), (sketch, ("--overwrite",))):
+        code, _, err = run(capsys, *synth_args(dem, sketch, out, *extra))
+        assert code == EXIT_BAD_INPUT and f"{out} is an input of this command" in err, err
+    code, _, err = run(capsys, "convert", dem, dem, "--overwrite")
+    assert code == EXIT_BAD_INPUT and "is an input of this command" in err
+    assert all(p.read_bytes() == b for p, b in before.items())
+
+    existing = synth_run / "out.tif"
+    kept = existing.read_bytes()
+    code, _, err = run(capsys, *synth_args(dem, sketch, existing))
+    assert code == EXIT_BAD_INPUT and f"{existing} exists; give --overwrite" in err
+    assert err.count("\n") == 1 and existing.read_bytes() == kept
+    report = tmp_path / "report.json"
+    report.write_text("{}")
+    code, _, err = run(capsys, *synth_args(dem, sketch, tmp_path / "new.tif", "--report", report))
+    assert code == EXIT_BAD_INPUT and f"{report} exists" in err and not (tmp_path / "new.tif").exists()
+    code, _, err = run(capsys, *synth_args(dem, sketch, report.with_suffix(".tif"), "--overwrite"))
+    assert code == EXIT_OK, err
+    code, _, err = run(capsys, "convert", report.with_suffix(".tif"), existing, "--overwrite")
+    assert code == EXIT_OK and existing.read_bytes() != kept
+
+
 def test_synth_report_counts_and_timings(synth_run):
     report = json.loads((synth_run / "report.json").read_text())
     assert {"params", "patch_counts", "timings", "total_seconds"} <= set(report)
@@ -514,3 +546,26 @@ def test_demo_synthesizes_builtin_example_with_builtin_sketch(capsys, tmp_path):
     assert len(summary["examples"]) == 1 and summary["examples"][0].endswith("N44W072.hgt")
     assert summary["params"]["patch_size"] == 80
     assert summary["patch_counts"]["branch"] >= 1
+
+
+def test_a_reader_that_leaves_early_ends_the_command_quietly(monkeypatch, capsys):
+    """``terrasynth-cli examples | head -1``: the pipe's reader closes it, and
+    the command stops with exit 0 and no error line (it said ': Broken pipe')."""
+    import os
+
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    with os.fdopen(write_end, "w") as closed_pipe:
+        monkeypatch.setattr(sys, "stdout", closed_pipe)
+        code = main(["examples"])
+        monkeypatch.undo()
+    assert code == EXIT_OK
+    assert capsys.readouterr().err == ""
+
+
+def test_a_bad_option_is_one_line_without_the_usage_block(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["synth", "--example", "builtin:white-mountains", "--out", "x.tif", "--size", "-512"])
+    err = capsys.readouterr().err
+    assert exit_.value.code == EXIT_BAD_INPUT
+    assert err.count("\n") == 1 and "usage:" not in err and "size '-512'" in err and "--help" in err
