@@ -173,10 +173,15 @@ def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[s
     for i in deciding:
         if size < sizes[0] and held(i, sizes[0]) < VARIED_POOL:
             short = {k: n for k, n in count(i, sizes[0]).items() if n < VARIED_POOL}
+            at_size = count(i, size)
+            # Say which rule chose the size: the varied pool, or (no size
+            # holding that many) the largest size meeting the floor.
+            rule = (f"the largest size where it holds {VARIED_POOL} of each" if held(i, size) >= VARIED_POOL else
+                    f"no size holds {VARIED_POOL} of each, so the largest where it holds {MIN_POOL}")
             notes.append(f"patch size {size} cells (automatic, not {sizes[0]}): at {sizes[0]} cells {names[i]} "
                          f"holds only {_listed(short)} windows (distinct pieces of its lines), fewer than "
-                         f"{VARIED_POOL}; at {size}: {_listed({k: count(i, size)[k] for k in short})}. Set a patch "
-                         "size to choose another")
+                         f"{VARIED_POOL}; {size} is {rule} ({_listed({k: at_size[k] for k in short})}). Set a "
+                         "patch size to choose another")
     for i in lacking:
         short = {k: n for k, n in count(i, size).items() if 0 < n < MIN_POOL}
         if not short:

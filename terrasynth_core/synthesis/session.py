@@ -42,6 +42,11 @@ from .result import SynthesisResult
 
 __all__ = ["Session"]
 
+#: Largest change of aspect ratio a sketch is stretched by without a note
+#: (the style map and water mask are refused beyond it, as painted for the
+#: output; a sketch is a drawing, so it is stretched, but said).
+STRETCH_TOLERANCE = 0.02
+
 #: Detail bands kept between sessions (:func:`_memo_detail_above`).
 _DETAIL_BANDS = Memo(4)
 
@@ -126,7 +131,13 @@ class Session:
                 f"output {rows}x{cols} is smaller than a patch ({params.patch_size}): "
                 "make the output larger or the patch smaller"
             )
+        stretch_notes = []
         if sketch is not None and sketch.shape != (rows, cols):
+            sr, sc = sketch.shape
+            if abs((sr / sc) / (rows / cols) - 1) > STRETCH_TOLERANCE:
+                stretch_notes.append(f"the sketch ({sr}x{sc}) is stretched to the output's {rows}x{cols}, another "
+                                     "aspect ratio, so its strokes are distorted; give an output size with the "
+                                     "sketch's proportions to keep them")
             sketch = sketch.resized((rows, cols))
         self.shape = (rows, cols)
         self.sketch = sketch
@@ -145,7 +156,7 @@ class Session:
         self.n_plain = len(examples)
         self._detail_above: dict[float, list] = {}
         self._coarse = None
-        self.warnings: list[str] = [*size_notes, *self.layout.notes]
+        self.warnings: list[str] = [*stretch_notes, *size_notes, *self.layout.notes]
         self.sketch_maps = self._sketch_maps()
         self._check_features()
         #: Cells of the selection kept as terrain that may be replaced (see ``band``).

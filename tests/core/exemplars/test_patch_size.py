@@ -113,7 +113,8 @@ def test_an_example_short_of_the_varied_pool_takes_the_size_that_meets_the_floor
     assert fitting_patch_size([np.zeros((500, 500))], ["rich"], ("ridge",)) == (80, [])
     size, notes = fitting_patch_size([np.zeros((500, 500))] * 3, ["rich", "mid", "poor"], ("ridge",))
     assert size == 64
-    assert any("at 80 cells mid holds only 12 ridge" in n for n in notes)
+    assert any("at 80 cells mid holds only 12 ridge" in n and "no size holds 40 of each, so the largest where it holds 20" in n
+               for n in notes)
     assert any("poor holds only 4 ridge windows" in n and "repeat" in n for n in notes)
 
 
@@ -128,7 +129,7 @@ def test_the_whole_basin_is_varied_enough_at_the_size_chosen():
     assert size == 48
     assert min(path_windows(prepare_example(basin, 72, name="himalaya").samples[k]) for k in BOTH) >= MIN_POOL
     assert min(path_windows(prepare_example(basin, 48, name="himalaya").samples[k]) for k in BOTH) >= VARIED_POOL
-    assert len(notes) == 1 and "fewer than 40; at 48" in notes[0]
+    assert len(notes) == 1 and "fewer than 40; 48 is the largest size where it holds 40 of each" in notes[0]
 
 
 def test_voids_that_leave_no_window_at_a_size_hold_none_there(white_mountains):

@@ -179,5 +179,9 @@ def test_voids_inside_the_example_are_never_copied(white_mountains, y_sketch):
 def test_sketch_is_scaled_to_the_output_size(white_mountains, y_sketch):
     session = Session([white_mountains], y_sketch, shape=(128, 160), params=SMALL)
     assert session.sketch.shape == (128, 160)
+    # (The square sketch stretched to 4:5: said; scaled in proportion: not.)
+    assert any("sketch (" in w and "stretched" in w and "128x160" in w for w in session.warnings)
+    same = Session([white_mountains], y_sketch, shape=(160, 160), params=SMALL)
+    assert not any("stretched" in w for w in same.warnings)
     with pytest.raises(ParamsError, match="smaller than a patch"):
         Session([white_mountains], y_sketch, shape=(20, 300), params=SMALL)
