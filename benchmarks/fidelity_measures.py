@@ -89,6 +89,20 @@ def d8_streams(heights: np.ndarray, *, area_share: float = 1 / 2000) -> np.ndarr
     return d8_accumulation(heights) >= area_share * heights.size
 
 
+def closed_depressions(heights: np.ndarray, *, depth_share: float = 0.01) -> float:
+    """Share of cells in a closed depression deeper than ``depth_share`` of
+    the relief (:func:`relief`): how far below their spill level (RichDEM's
+    depression filling, water leaving at the grid's border) they lie.  Real
+    terrain drains: the built-in examples hold 0-2.4 % at 1 %."""
+    import richdem as rd
+
+    h = np.asarray(heights, dtype=np.float64)
+    dem = rd.rdarray(h.copy(), no_data=-1e30, geotransform=(0.0, 1.0, 0.0, 0.0, 0.0, -1.0))
+    with _quiet_fds():
+        filled = np.asarray(rd.FillDepressions(dem, epsilon=False), dtype=np.float64)
+    return float(np.mean(filled - h > depth_share * relief(h)))
+
+
 def relief(heights: np.ndarray, *, tail: float = 0.5) -> float:
     """Height span between the ``tail`` and ``100 - tail`` percentiles."""
     low, high = np.percentile(heights, [tail, 100.0 - tail])

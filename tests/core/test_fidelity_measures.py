@@ -88,3 +88,16 @@ def test_reuse_counted_where_the_issue_asks_it():
             {"example": "old", "reuse": 0.05}]  # (a run saved before pools were counted)
     line = reuse_where_it_applies(rows)
     assert "1/2 runs met" in line and "1 runs have smaller pools (volcano)" in line
+
+
+def test_closed_depressions_count_a_basin_below_its_rim_and_nothing_on_a_slope():
+    """A bowl 100 m deep inside a rim: its cells deeper than 1 % of the
+    relief count; a tilted plane (drains off its low edge) holds none."""
+    pytest.importorskip("richdem")
+    rr, cc = np.mgrid[0:80, 0:80].astype(float)
+    r = np.hypot(rr - 40, cc - 40)
+    bowl = np.where(r < 30, r / 30 * 100.0, 100.0 - 2 * (r - 30))  # floor 0 m, rim 100 m, falling outside
+    share = fm.closed_depressions(bowl)
+    inside = np.mean(100.0 - bowl[r < 30] > 0.01 * fm.relief(bowl)) * np.mean(r < 30)
+    assert share == pytest.approx(inside, abs=0.02) and share > 0.3  # (the rim is 100 m only to a cell)
+    assert fm.closed_depressions(rr * 2.0 + cc) == 0.0
