@@ -94,8 +94,11 @@ class RunStatus:
         self.time_label.setText(time_left)
 
     def show_finished(self, result) -> None:
-        """The run that made the core's ``SynthesisResult`` ``result`` is over."""
-        self.progress.setValue(self.progress.maximum())
+        """The run that made the core's ``SynthesisResult`` ``result`` is over:
+        all its patches done (not the 1 of 1 the document's new result left)."""
+        placed = len(result.patches)
+        self.progress.setRange(0, max(placed, 1))
+        self.progress.setValue(max(placed, 1))
         self.time_label.setText(f"{result.total_seconds:.1f} s")
 
     def show_readout(self, text: str | None) -> None:

@@ -70,7 +70,7 @@ def test_a_run_updates_the_views_patch_by_patch_then_shows_the_result(qtbot, win
     np.testing.assert_array_equal(view.heights, result.heights)
     assert window.document.dirty and not synthesis.running
     assert not window.actions.cancel.isEnabled()
-    assert window.run_status.progress.value() == window.run_status.progress.maximum()
+    assert window.run_status.progress.value() == window.run_status.progress.maximum() == len(patches)
     np.testing.assert_array_equal(window.document.sketch.ridge, sketch_before)
 
     view.set_overlay("patch_ids", True)
