@@ -75,7 +75,8 @@ def cmd_info(args: argparse.Namespace) -> int:
         "shape": list(field.shape),
         "min": round(field.min, 3),
         "max": round(field.max, 3),
-        "nodata": field.nodata_count,
+        "nodata": field.nodata_count,  # (cells; kept under this key for scripts that read it)
+        "nodata_value": field.metadata.get("nodata_value"),
         "cell_size": None if field.cell_size is None else [round(v, 4) for v in field.cell_size],
         "epsg": None if field.georef is None else field.georef.epsg,
         "crs": crs_name,
@@ -87,7 +88,8 @@ def cmd_info(args: argparse.Namespace) -> int:
     cell = "unknown" if field.cell_size is None else "{:.2f} m x {:.2f} m (dy x dx)".format(*field.cell_size)
     print(f"{args.dem}: {info['format']}, {rows} x {cols} cells")
     print(f"  heights   {info['min']} .. {info['max']} m")
-    print(f"  nodata    {info['nodata']} cells ({100 * info['nodata'] / (rows * cols):.1f} %)")
+    value = "" if info["nodata_value"] is None else f", value {info['nodata_value']:g}"
+    print(f"  nodata    {info['nodata']} cells ({100 * info['nodata'] / (rows * cols):.1f} %){value}")
     print(f"  cell size {cell}")
     if info["epsg"]:
         print(f"  CRS       EPSG:{info['epsg']}")

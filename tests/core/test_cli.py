@@ -92,6 +92,7 @@ def test_info_json_on_every_dem(capsys, dems_dir, name):
 
 def test_info_mandakini_is_about_45_percent_nodata(capsys, dems_dir):
     info = info_json(capsys, dems_dir / "Mandakini.bil")
+    assert info["nodata_value"] == -9999.0  # the value; "nodata" counts the cells
     rows, cols = info["shape"]
     assert info["nodata"] / (rows * cols) == pytest.approx(0.45, abs=0.01)
 
