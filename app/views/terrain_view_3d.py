@@ -15,7 +15,9 @@ the 2D view.
 
 from __future__ import annotations
 
+import importlib
 import logging
+import threading
 import time
 
 import numpy as np
@@ -50,6 +52,24 @@ WATER_OPACITY = 0.6
 _HEADLESS_PLATFORMS = {"offscreen", "minimal", "vnc"}
 
 
+def _import_ahead() -> None:
+    """Import pyvistaqt (VTK) on a helper thread while the app starts: on
+    the GUI thread, the first showing of the 3D view froze the window for
+    1-2.5 s importing it (measured under Xvfb); now it only makes the
+    widget.  A failed import is left for :meth:`TerrainView3D.start` to
+    report, and a start that comes first waits on the import lock."""
+    if QGuiApplication.platformName() in _HEADLESS_PLATFORMS:
+        return
+
+    def load() -> None:
+        try:
+            importlib.import_module("pyvistaqt")
+        except Exception:  # (start() imports it again and shows why)
+            pass
+
+    threading.Thread(target=load, name="terrasynth-import-3d", daemon=True).start()
+
+
 class TerrainView3D(QWidget):
     """A shaded 3D surface of the live or last terrain.
 
@@ -67,6 +87,7 @@ class TerrainView3D(QWidget):
 
     def __init__(self, parent: QWidget | None = None) -> None:
         super().__init__(parent)
+        _import_ahead()
         self.plotter = None  # pyvistaqt QtInteractor once started
         self._starting = False
         self.unavailable_reason: str | None = None

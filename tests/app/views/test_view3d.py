@@ -35,6 +35,7 @@ def test_3d_view_builds_its_mesh_updates_it_draws_water_and_takes_screenshots(x_
     assert proc.returncode == 0, proc.stderr[-2000:]
     out = json.loads(proc.stdout.strip().splitlines()[-1])
     assert out["platform"] == "xcb"
+    assert out["imported_ahead"]
     assert out["available"] and out["reason"] is None, out["reason"]
     assert out["mesh_shape"] == [150, 100]
     assert out["patch_in_mesh"] and out["floor_elsewhere"] and out["result_in_mesh"]

@@ -17,12 +17,16 @@ def main(screenshot_path: str) -> None:
     from terrasynth_app.model import TerrainResult
     from terrasynth_app.views.terrain_view_3d import MAX_SIDE, TerrainView3D
 
+    import threading
+
     view = TerrainView3D()
+    # (VTK is imported on a helper thread from construction, not on first show.)
+    out_ahead = any(t.name == "terrasynth-import-3d" for t in threading.enumerate()) or "pyvistaqt" in sys.modules
     view.resize(500, 400)
     view.show()
     app.processEvents()
     out = {"platform": QApplication.platformName(), "available": view.available,
-           "reason": view.unavailable_reason}
+           "reason": view.unavailable_reason, "imported_ahead": out_ahead}
     out["frame_ms"] = round(view.render_ms, 1)
     out["live_updates"] = view.live_updates
     if view.available:
