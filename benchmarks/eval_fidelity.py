@@ -293,7 +293,7 @@ def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=p
              extra: dict | None = None) -> list[dict]:
     rows = []
     shape = (size, size)
-    loaded = {f: read_sketch(SKETCH_DIR / f) for f in sketches}
+    loaded = {f: read_sketch(f if Path(f).is_file() else SKETCH_DIR / f) for f in sketches}
     log(_header())
     for key in examples:
         # The example as the engine sees it: square cells of the run's size

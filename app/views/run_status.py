@@ -17,6 +17,8 @@ from .overlay_widgets import ElidedLabel
 
 #: Widths of the readout, stage and time labels, px.
 READOUT_WIDTH, STAGE_WIDTH, TIME_WIDTH = 380, 170, 110
+#: The progress bar's text while patches are counted.
+PATCHES_FORMAT = "%v / %m patches"
 
 
 class ElidingStatusBar(QStatusBar):
@@ -67,7 +69,7 @@ class RunStatus:
         self.readout.setToolTip("Row, column, height, slope and style under the mouse in the 2D terrain")
         self.stage_label = ElidedLabel("Ready", width_hint=STAGE_WIDTH)
         self.progress = QProgressBar(maximumWidth=260, textVisible=True)
-        self.progress.setFormat("%v / %m patches")
+        self.progress.setFormat(PATCHES_FORMAT)
         self.progress.setValue(0)
         self.time_label = ElidedLabel(width_hint=TIME_WIDTH)
         for widget, width in ((self.readout, READOUT_WIDTH), (self.stage_label, STAGE_WIDTH),
@@ -89,6 +91,7 @@ class RunStatus:
         # The controller throttles these: QProgressBar.setValue repaints at
         # once, and with an OpenGL widget in the window every repaint
         # composites the whole window.
+        self.progress.setFormat(PATCHES_FORMAT)
         self.progress.setRange(0, total)
         self.progress.setValue(done)
         self.time_label.setText(time_left)
@@ -97,6 +100,7 @@ class RunStatus:
         """The run that made the core's ``SynthesisResult`` ``result`` is over:
         all its patches done (not the 1 of 1 the document's new result left)."""
         placed = len(result.patches)
+        self.progress.setFormat(PATCHES_FORMAT if placed else "done")
         self.progress.setRange(0, max(placed, 1))
         self.progress.setValue(max(placed, 1))
         self.time_label.setText(f"{result.total_seconds:.1f} s")
@@ -106,6 +110,7 @@ class RunStatus:
 
     def reset(self, *_args, stage: str | None = None) -> None:
         """Empty progress and time; ``stage`` replaces the stage text when given."""
+        self.progress.setFormat(PATCHES_FORMAT)
         self.progress.setRange(0, 1)
         self.progress.setValue(0)
         self.time_label.clear()

@@ -21,6 +21,11 @@ from ..errors import TerraSynthError
 EXIT_OK = 0
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
+#: A run stopped because its output pipe closed (128 + SIGPIPE, as a shell
+#: reports a tool killed by it).
+EXIT_BROKEN_PIPE = 141
+#: Commands whose product is what they print: a closed pipe ends them quietly.
+_STDOUT_COMMANDS = ("info", "examples", "features")
 
 #: ``export --preset`` and ``masks --preset`` values: the names of
 #: :data:`terrasynth_core.export.PRESETS`, and ``masks --format`` values:
@@ -136,24 +141,52 @@ def _input_files(args: argparse.Namespace) -> list[Path]:
     return found
 
 
-def _refuse_replacing(args: argparse.Namespace, outputs) -> None:
+def _refuse_replacing(args: argparse.Namespace, outputs, inputs=()) -> None:
     """Refuse, before any work, to write over a file the command reads (ever)
     or over any existing file (unless ``--overwrite``): a run never loses
     what the user owns.
+
+    Parameters
+    ----------
+    outputs : iterable of path
+        What the command writes; a heightmap's sidecar (``<stem>.json``) and
+        an ESRI grid's ``<stem>.prj`` are counted with it.
+    inputs : iterable of path, optional
+        Files read that the options do not name (a project's DEMs, a
+        built-in's file), besides :func:`_input_files`.
 
     Raises
     ------
     TerraSynthError
         One line naming the file.
     """
-    inputs = _input_files(args)
+    from ..io import sidecar_of
+
+    inputs = [*_input_files(args), *(Path(i) for i in inputs if i and Path(i).is_file())]
+    written = []
     for out in map(Path, outputs):
+        written.append(out)
+        side = sidecar_of(out)
+        if side is not None:
+            written.append(side)
+        if out.suffix.lower() == ".asc":
+            written.append(out.with_suffix(".prj"))
+    for out in written:
         if not out.exists():
             continue
         if any(os.path.samefile(out, i) for i in inputs):
             raise TerraSynthError(f"{out} is an input of this command; write the output to another file")
         if not getattr(args, "overwrite", False):
             raise TerraSynthError(f"{out} exists; give --overwrite to replace it, or choose another output")
+
+
+def _sources(examples=(), controls=None, *paths) -> list[str]:
+    """The files a run reads, from what was loaded: its examples', styles'
+    and stamps' DEMs (a project's or a built-in's too), and ``paths``."""
+    fields = [*examples]
+    if controls is not None:
+        fields += [s.example for s in controls.styles] + [s.field for s in controls.stamps]
+    return [*(getattr(f, "source", None) for f in fields), *paths]
 
 
 # -- convert ------------------------------------------------------------------
@@ -171,6 +204,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
     if args.texture and out.suffix.lower() != ".glb":
         raise TerraSynthError(f"--texture needs a .glb output, got {out}")
     field = resolve_dem(args.input, size=args.size, band=args.band)
+    _refuse_replacing(args, [out], _sources([field]))  # (a builtin:KEY's file too)
     if is_mesh:
         texture = None
         if args.texture:
@@ -369,6 +403,7 @@ def _synth_tiled(args: argparse.Namespace) -> int:
         size = spec.shape
     else:
         examples, sketch, params, size, controls = _tiled_run_options(args)
+    _refuse_replacing(args, [out], _sources(examples, controls, getattr(sketch, "source", None)))
     bar = tqdm(total=0, desc="tiles", unit="tile", file=sys.stderr, disable=None, leave=False)
 
     def progress(event) -> None:
@@ -475,6 +510,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         params = SynthesisParams(seed=args.seed, cell_size=preset.cell_size)
         return _synthesize([], preset.sketch, preset.shape, params, args, preset.controls)
     examples = [builtin_example(DEFAULT_EXAMPLE).load()]
+    _refuse_replacing(args, _run_outputs(args, Path(args.out)), [resource_path("sketches", DEFAULT_SKETCH)])
     sketch = read_sketch(resource_path("sketches", DEFAULT_SKETCH))
     return _synthesize(examples, sketch, None, SynthesisParams(seed=args.seed), args)
 
@@ -489,6 +525,8 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     from ..project import check_stamp_footprints
 
     out = _check_output(args)
+    # (Again with what was loaded: a project's DEMs, a built-in's file.)
+    _refuse_replacing(args, _run_outputs(args, out), _sources(examples, controls, getattr(sketch, "source", None)))
     if getattr(args, "workers", None) is not None:
         if args.workers < 1:
             raise TerraSynthError(f"--workers must be at least 1, got {args.workers}")
@@ -546,9 +584,14 @@ def _check_output(args) -> Path:
         raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
     _check_cog(args, out)
     _check_report_path(args, out)
-    outs = _variation_paths(out, args.variations) if getattr(args, "variations", 1) > 1 else [out]
-    _refuse_replacing(args, [*outs, *([args.report] if getattr(args, "report", None) else [])])
+    _refuse_replacing(args, _run_outputs(args, out))
     return out
+
+
+def _run_outputs(args, out: Path) -> list[Path]:
+    """The files a run writes: ``out`` (or its variations) and the report."""
+    outs = _variation_paths(out, args.variations) if getattr(args, "variations", 1) > 1 else [out]
+    return [*outs, *([Path(args.report)] if getattr(args, "report", None) else [])]
 
 
 def _check_report_path(args, out: Path) -> None:
@@ -903,9 +946,28 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     try:
-        code = args.func(args)
+        code = _run_command(args)
+    except BrokenPipeError:
+        if args.command not in _STDOUT_COMMANDS:
+            # A run's progress or notes had nowhere to go (``2>&1 | head``):
+            # it stopped unfinished, so it must not look like a success.
+            return EXIT_BROKEN_PIPE
+        code = EXIT_OK  # what it printed is all the reader wanted
+    try:
         sys.stdout.flush()  # (a reader that left shows here, not at exit)
+    except BrokenPipeError:
+        pass
+    else:
         return code
+    # The reader left (``| head``): end quietly, as Unix tools do; what is
+    # still buffered goes nowhere instead of failing at exit.
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return code
+
+
+def _run_command(args: argparse.Namespace) -> int:
+    try:
+        return args.func(args)
     except TerraSynthError as exc:
         print(f"terrasynth-cli: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -913,10 +975,7 @@ def _run(args: argparse.Namespace) -> int:
         print(f"terrasynth-cli: error: {exc.filename or exc}: no such file", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:
-        # The reader left (``| head``): stop quietly, as Unix tools do; what
-        # is still buffered goes nowhere instead of failing at exit.
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return EXIT_OK
+        raise  # (a reader that left, not bad input: see _run)
     except OSError as exc:
         print(f"terrasynth-cli: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

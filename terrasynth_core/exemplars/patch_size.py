@@ -168,16 +168,24 @@ def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[s
     def placeable(s: int) -> bool:
         return all(sum(count(i, s)[k] for i in range(len(fields))) > 0 for k in kinds)
 
+    chosen = size
     if not placeable(size):
         size = next((s for s in sizes[sizes.index(size) + 1:] if placeable(s)), size)
     for i in deciding:
         if size < sizes[0] and held(i, sizes[0]) < VARIED_POOL:
             short = {k: n for k, n in count(i, sizes[0]).items() if n < VARIED_POOL}
             at_size = count(i, size)
-            # Say which rule chose the size: the varied pool, or (no size
-            # holding that many) the largest size meeting the floor.
-            rule = (f"the largest size where it holds {VARIED_POOL} of each" if held(i, size) >= VARIED_POOL else
-                    f"no size holds {VARIED_POOL} of each, so the largest where it holds {MIN_POOL}")
+            # Say which rule chose the size: this example's varied pool, or
+            # (no size holding that many) its floor; another example's
+            # need; or the first size with a window of every kind drawn.
+            if size != chosen:
+                rule = "the largest size where the examples hold a window of every kind drawn"
+            elif wants[i] != size:
+                rule = "the size another example needs"
+            elif held(i, size) >= VARIED_POOL:
+                rule = f"the largest size where it holds {VARIED_POOL} of each"
+            else:
+                rule = f"no size holds {VARIED_POOL} of each, so the largest where it holds {MIN_POOL}"
             notes.append(f"patch size {size} cells (automatic, not {sizes[0]}): at {sizes[0]} cells {names[i]} "
                          f"holds only {_listed(short)} windows (distinct pieces of its lines), fewer than "
                          f"{VARIED_POOL}; {size} is {rule} ({_listed({k: at_size[k] for k in short})}). Set a "

@@ -570,3 +570,48 @@ def test_a_bad_option_is_one_line_without_the_usage_block(capsys):
     err = capsys.readouterr().err
     assert exit_.value.code == EXIT_BAD_INPUT
     assert err.count("\n") == 1 and "usage:" not in err and "size '-512'" in err and "--help" in err
+
+
+def test_builtin_files_sidecars_and_the_demo_s_sketch_are_inputs_or_outputs_too(capsys, example_200, sketch_dir,
+                                                                                tmp_path):
+    """A built-in's own file and the demo's sketch are refused as outputs
+    even with --overwrite; a heightmap's existing sidecar needs --overwrite,
+    and is refused before the run, not after it."""
+    from terrasynth_core.examples import DEFAULT_SKETCH, builtin_example, resource_path
+
+    builtin_file = Path(builtin_example("st-helens").load().source)
+    kept = builtin_file.read_bytes()
+    code, _, err = run(capsys, "convert", "builtin:st-helens", builtin_file, "--overwrite")
+    assert code == EXIT_BAD_INPUT and "is an input of this command" in err and builtin_file.read_bytes() == kept
+    demo_sketch = Path(resource_path("sketches", DEFAULT_SKETCH))
+    kept = demo_sketch.read_bytes()
+    code, _, err = run(capsys, "demo", "--out", demo_sketch, "--overwrite")
+    assert code == EXIT_BAD_INPUT and "is an input of this command" in err and demo_sketch.read_bytes() == kept
+
+    (tmp_path / "user.json").write_text('{"mine": true}')
+    code, _, err = run(capsys, *synth_args(example_200, sketch_dir / Y_JUNCTION, tmp_path / "user.png"))
+    assert code == EXIT_BAD_INPUT and "user.json exists" in err and " in " not in err.split("exists")[0]
+    assert not (tmp_path / "user.png").exists()
+
+
+def test_a_run_whose_progress_pipe_closes_does_not_report_success(monkeypatch, capsys, example_200, sketch_dir,
+                                                                  tmp_path):
+    """``synth ... 2>&1 | head -1``: the run stops at its first note with
+    nowhere to go, and exits 141 (as a shell shows SIGPIPE), not 0."""
+    import os
+
+    from terrasynth_core.cli.main import EXIT_BROKEN_PIPE
+
+    import contextlib
+
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    closed_pipe = os.fdopen(write_end, "w", buffering=1)
+    monkeypatch.setattr(sys, "stderr", closed_pipe)
+    try:
+        code = main([str(a) for a in synth_args(example_200, sketch_dir / Y_JUNCTION, tmp_path / "t.tif")])
+    finally:
+        monkeypatch.undo()
+        with contextlib.suppress(BrokenPipeError):
+            closed_pipe.close()
+    assert code == EXIT_BROKEN_PIPE

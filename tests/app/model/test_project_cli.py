@@ -100,3 +100,29 @@ def test_a_selection_of_another_size_is_a_damaged_project(tmp_path):
         zf.writestr("selection.npy", buf.getvalue())
     with pytest.raises(ProjectError, match="p.tsproj is damaged: selection.npy is 10 x 10 cells"):
         load_project(path)
+
+
+def test_a_project_s_own_dem_is_never_the_output(tmp_path, capsys):
+    """The DEMs a project refers to are inputs too, though no option names
+    them: refused as the output even with --overwrite, whole or tiled."""
+    from terrasynth_core.heightfield import HeightField
+    from terrasynth_core.io import save_dem
+
+    dem = tmp_path / "mine.tif"  # (a tiled run writes GeoTIFF only)
+    save_dem(HeightField(np.asarray(load_dem_crop(), np.float32), cell_size=(30.0, 30.0)), dem)
+    sketch = Sketch.blank((128, 128))
+    sketch.draw_polyline([(20, 64), (100, 64)], "ridge", radius=2, hardness=1.0)
+    doc = Document(sketch, [ExampleRef(path=str(dem))], params=SynthesisParams(patch_size=32, seed=1))
+    path = save_project(doc, tmp_path / "mine.tsproj")
+    before = dem.read_bytes()
+    for extra in ([], ["--tile", "64"]):
+        code = main(["synth", "--project", str(path), "--out", str(dem), "--overwrite", *extra])
+        err = capsys.readouterr().err
+        assert code == EXIT_BAD_INPUT and "is an input of this command" in err, err
+    assert dem.read_bytes() == before
+
+
+def load_dem_crop():
+    from terrasynth_core.examples import builtin_example
+
+    return builtin_example("white-mountains").load().heights[400:700, 400:700]

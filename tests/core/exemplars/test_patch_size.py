@@ -116,6 +116,13 @@ def test_an_example_short_of_the_varied_pool_takes_the_size_that_meets_the_floor
     assert any("at 80 cells mid holds only 12 ridge" in n and "no size holds 40 of each, so the largest where it holds 20" in n
                for n in notes)
     assert any("poor holds only 4 ridge windows" in n and "repeat" in n for n in notes)
+    # Two deciding examples: each note names the rule that set the size for it.
+    held.update(a={80: 30, 72: 40, 64: 45, 56: 50, 48: 55}, b={80: 20, 72: 30, 64: 35, 56: 40, 48: 45})
+    size, notes = fitting_patch_size([np.zeros((500, 500))] * 2, ["a", "b"], ("ridge",))
+    assert size == 56
+    assert any(n.startswith("patch size 56") and " a holds" in n and "the size another example needs" in n
+               for n in notes)
+    assert any(" b holds" in n and "56 is the largest size where it holds 40 of each" in n for n in notes)
 
 
 def test_the_whole_basin_is_varied_enough_at_the_size_chosen():
