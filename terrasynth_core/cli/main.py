@@ -149,8 +149,9 @@ def _refuse_replacing(args: argparse.Namespace, outputs, inputs=()) -> None:
     Parameters
     ----------
     outputs : iterable of path
-        What the command writes; a heightmap's sidecar (``<stem>.json``) and
-        an ESRI grid's ``<stem>.prj`` are counted with it.
+        What the command writes; an ESRI grid's ``<stem>.prj`` is counted
+        with it, and a heightmap's ``<stem>.json`` sidecar is checked as
+        the writer will check it (never a file not ours).
     inputs : iterable of path, optional
         Files read that the options do not name (a project's DEMs, a
         built-in's file), besides :func:`_input_files`.
@@ -161,14 +162,14 @@ def _refuse_replacing(args: argparse.Namespace, outputs, inputs=()) -> None:
         One line naming the file.
     """
     from ..io import sidecar_of
+    from ..io._common import check_sidecar_ours
 
     inputs = [*_input_files(args), *(Path(i) for i in inputs if i and Path(i).is_file())]
     written = []
     for out in map(Path, outputs):
         written.append(out)
-        side = sidecar_of(out)
-        if side is not None:
-            written.append(side)
+        if sidecar_of(out) is not None:
+            check_sidecar_ours(out)
         if out.suffix.lower() == ".asc":
             written.append(out.with_suffix(".prj"))
     for out in written:

@@ -282,12 +282,7 @@ def check_sidecar_free(path: Path, content: dict) -> None:
     """
     side = sidecar_path(path)
     if side.exists():
-        existing = _our_sidecar(side)
-        if existing is None:
-            raise DEMFormatError(
-                f"cannot write {path}: its sidecar {side} would replace an existing file that is not a "
-                "TerraSynth sidecar; move that file away or choose another output name"
-            )
+        existing = check_sidecar_ours(path)
         if existing == json.loads(json.dumps(content)):
             return
     # One sidecar serves every heightmap of its stem: another one would be read
@@ -298,6 +293,29 @@ def check_sidecar_free(path: Path, content: dict) -> None:
                 f"cannot write {path}: its sidecar {side} is also read with {other}, which it would "
                 "change; choose another output name"
             )
+
+
+def check_sidecar_ours(path: Path) -> dict | None:
+    """The existing sidecar of the heightmap ``path`` (None without one),
+    refused when that ``<stem>.json`` is not a TerraSynth sidecar: the
+    part of :func:`check_sidecar_free` that needs no new content, so a
+    command can make it before it works.
+
+    Raises
+    ------
+    DEMFormatError
+        Naming the JSON file and what to do.
+    """
+    side = sidecar_path(path)
+    if not side.exists():
+        return None
+    existing = _our_sidecar(side)
+    if existing is None:
+        raise DEMFormatError(
+            f"cannot write {path}: its sidecar {side} would replace an existing file that is not a "
+            "TerraSynth sidecar; move that file away or choose another output name"
+        )
+    return existing
 
 
 def check_not_sidecar(path: Path, what: str = "JSON") -> None:

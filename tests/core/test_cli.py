@@ -575,8 +575,8 @@ def test_a_bad_option_is_one_line_without_the_usage_block(capsys):
 def test_builtin_files_sidecars_and_the_demo_s_sketch_are_inputs_or_outputs_too(capsys, example_200, sketch_dir,
                                                                                 tmp_path):
     """A built-in's own file and the demo's sketch are refused as outputs
-    even with --overwrite; a heightmap's existing sidecar needs --overwrite,
-    and is refused before the run, not after it."""
+    even with --overwrite; a user's JSON where a heightmap's sidecar would
+    go is refused before the run, not after it."""
     from terrasynth_core.examples import DEFAULT_SKETCH, builtin_example, resource_path
 
     builtin_file = Path(builtin_example("st-helens").load().source)
@@ -589,9 +589,9 @@ def test_builtin_files_sidecars_and_the_demo_s_sketch_are_inputs_or_outputs_too(
     assert code == EXIT_BAD_INPUT and "is an input of this command" in err and demo_sketch.read_bytes() == kept
 
     (tmp_path / "user.json").write_text('{"mine": true}')
-    code, _, err = run(capsys, *synth_args(example_200, sketch_dir / Y_JUNCTION, tmp_path / "user.png"))
-    assert code == EXIT_BAD_INPUT and "user.json exists" in err and " in " not in err.split("exists")[0]
-    assert not (tmp_path / "user.png").exists()
+    code, _, err = run(capsys, *synth_args(example_200, sketch_dir / Y_JUNCTION, tmp_path / "user.png", "--overwrite"))
+    assert code == EXIT_BAD_INPUT and "user.json would replace an existing file that is not a TerraSynth" in err
+    assert "patches" not in err and not (tmp_path / "user.png").exists()  # (refused before the run)
 
 
 def test_a_run_whose_progress_pipe_closes_does_not_report_success(monkeypatch, capsys, example_200, sketch_dir,
