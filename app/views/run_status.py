@@ -69,7 +69,8 @@ class RunStatus:
         self.readout.setToolTip("Row, column, height, slope and style under the mouse in the 2D terrain")
         self.stage_label = ElidedLabel("Ready", width_hint=STAGE_WIDTH)
         self.progress = QProgressBar(maximumWidth=260, textVisible=True)
-        self.progress.setFormat(PATCHES_FORMAT)
+        self.progress.setFormat("")  # (idle: no count; Qt's default range would read "0 / 100 patches")
+        self.progress.setRange(0, 1)
         self.progress.setValue(0)
         self.time_label = ElidedLabel(width_hint=TIME_WIDTH)
         for widget, width in ((self.readout, READOUT_WIDTH), (self.stage_label, STAGE_WIDTH),
@@ -110,7 +111,7 @@ class RunStatus:
 
     def reset(self, *_args, stage: str | None = None) -> None:
         """Empty progress and time; ``stage`` replaces the stage text when given."""
-        self.progress.setFormat(PATCHES_FORMAT)
+        self.progress.setFormat("")
         self.progress.setRange(0, 1)
         self.progress.setValue(0)
         self.time_label.clear()

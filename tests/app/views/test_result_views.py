@@ -271,11 +271,15 @@ def test_the_sketch_and_the_terrain_zoom_and_pan_together(lake_window, cell_pos)
 # -- 6: status follows every change ---------------------------------------------------------------
 def test_progress_and_time_clear_on_a_variation_a_project_and_a_new_run(qtbot, window, tmp_path):
     status = window.run_status
+    assert status.progress.text() == ""  # idle: no count (not Qt's "0 / 100")
     run(qtbot, window)
     assert status.progress.value() == status.progress.maximum() > 0
+    n = status.progress.maximum()
+    assert status.progress.text() == f"{n} / {n} patches"
     assert status.time_label.text().endswith(" s") and status.stage_label.text() == "Done"
     window.variations.use(7, fake_terrain())  # a variation chosen
     assert status.progress.value() == 0 and status.time_label.text() == "" and status.stage_label.text() == "Ready"
+    assert status.progress.text() == ""
     run(qtbot, window)
     path = tmp_path / "p.tsproj"
     assert window.file_controller.save_to(path)
