@@ -89,11 +89,10 @@ from fidelity_measures import (
     relief,
     share_out_of_range,
 )
-from terrasynth_core.examples import builtin_example
+from terrasynth_core.examples import resolve_dem
 from terrasynth_core.exemplars.patch_size import MIN_POOL, held_windows
 from terrasynth_core.features import read_sketch
 from terrasynth_core.heightfield import HeightField
-from terrasynth_core.io import load_dem
 from terrasynth_core.features.network import graph_mask
 from terrasynth_core.matching.usage import FEATURE_KINDS, source_reuse
 from terrasynth_core.measures import feature_tpi_score
@@ -189,11 +188,12 @@ def example_crop(heights: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return heights[r0:r0 + rows, c0:c0 + cols]
 
 
-def write_sheet(path: Path, key: str, example, rows: list[tuple[str, object, np.ndarray, dict]], order: str) -> int:
-    """One contact sheet: per row the sketch, the output and the example crop."""
-    # Coloured over all its valid heights; shown on its largest valid rectangle.
+def write_sheet(path: Path, key: str, example, ex_h: np.ndarray, rows: list[tuple[str, object, np.ndarray, dict]],
+                order: str) -> int:
+    """One contact sheet: per row the sketch, the output and the example
+    crop; the example coloured over all its valid heights, shown from
+    ``ex_h`` (its largest valid rectangle)."""
     vrange = height_range(np.asarray(example.heights, dtype=np.float32), tail=0.5)
-    ex_h = np.asarray(example.crop_valid().heights, dtype=np.float32)
     cell = example.cell_size or (1.0, 1.0)
     panels, labels = [], []
     for sketch_file, sketch, heights, fig in rows:
@@ -332,16 +332,14 @@ def evaluate(examples, sketches, seeds, orders, size, sheets: Path | None, log=p
             sheets.mkdir(parents=True, exist_ok=True)
             path = sheets / f"fidelity_{name}.png"
             log(f"  wrote {path.relative_to(REPO) if path.is_relative_to(REPO) else path} "
-                f"({write_sheet(path, name, example, sheet_rows, orders[0]) // 1000} kB)")
+                f"({write_sheet(path, name, example, ex_h, sheet_rows, orders[0]) // 1000} kB)")
     return rows
 
 
 def load_example(key: str) -> HeightField:
-    """A built-in example by its key, or any DEM file ``load_dem`` reads
-    by its path (an example the evaluation has never seen)."""
-    if Path(key).is_file():
-        return load_dem(key)
-    return builtin_example(key).load()
+    """A built-in example by its key, or any DEM file the CLI reads by its
+    path (an example the evaluation has never seen)."""
+    return resolve_dem(key if Path(key).is_file() else f"builtin:{key}")
 
 
 def example_name(key: str) -> str:

@@ -15,6 +15,7 @@ the 2D view.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import logging
 import threading
@@ -52,6 +53,7 @@ WATER_OPACITY = 0.6
 _HEADLESS_PLATFORMS = {"offscreen", "minimal", "vnc"}
 
 
+@functools.cache  # (once per process, however many views are made)
 def _import_ahead() -> None:
     """Import pyvistaqt (VTK) on a helper thread while the app starts: on
     the GUI thread, the first showing of the 3D view froze the window for

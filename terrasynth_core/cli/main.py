@@ -197,7 +197,6 @@ def cmd_convert(args: argparse.Namespace) -> int:
 
     out = Path(args.output)
     _check_cog(args, out)
-    _refuse_replacing(args, [out])
     is_mesh = out.suffix.lower() in MESH_EXTENSIONS
     if (args.texture or args.triangles) and not is_mesh:
         raise TerraSynthError(f"--texture and --triangles are for meshes; {out} is not one "
@@ -205,7 +204,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
     if args.texture and out.suffix.lower() != ".glb":
         raise TerraSynthError(f"--texture needs a .glb output, got {out}")
     field = resolve_dem(args.input, size=args.size, band=args.band)
-    _refuse_replacing(args, [out], _sources([field]))  # (a builtin:KEY's file too)
+    _refuse_replacing(args, [out], _sources([field]))  # (the file a builtin:KEY names too)
     if is_mesh:
         texture = None
         if args.texture:
@@ -397,14 +396,13 @@ def _synth_tiled(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise TerraSynthError(f"--workers must be at least 1, got {args.workers}")
     out = check_tiled_output(Path(args.out))
-    _refuse_replacing(args, [out])
     if args.project:
         spec = _project_spec(args, "--out, --size, --seed, --tile, --workers, --scheduler, --keep-tiles")
         examples, sketch, params, controls = tiled_project_inputs(spec)
         size = spec.shape
     else:
         examples, sketch, params, size, controls = _tiled_run_options(args)
-    _refuse_replacing(args, [out], _sources(examples, controls, getattr(sketch, "source", None)))
+    _refuse_replacing(args, [out], _sources(examples, controls))
     bar = tqdm(total=0, desc="tiles", unit="tile", file=sys.stderr, disable=None, leave=False)
 
     def progress(event) -> None:
@@ -511,12 +509,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
         params = SynthesisParams(seed=args.seed, cell_size=preset.cell_size)
         return _synthesize([], preset.sketch, preset.shape, params, args, preset.controls)
     examples = [builtin_example(DEFAULT_EXAMPLE).load()]
-    _refuse_replacing(args, _run_outputs(args, Path(args.out)), [resource_path("sketches", DEFAULT_SKETCH)])
-    sketch = read_sketch(resource_path("sketches", DEFAULT_SKETCH))
-    return _synthesize(examples, sketch, None, SynthesisParams(seed=args.seed), args)
+    path = resource_path("sketches", DEFAULT_SKETCH)
+    return _synthesize(examples, read_sketch(path), None, SynthesisParams(seed=args.seed), args, inputs=[path])
 
 
-def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
+def _synthesize(examples, sketch, size, params, args, controls=None, *, inputs=()) -> int:
+    """Run and write a whole-map synthesis; ``inputs``: files it reads that
+    neither the options nor the loaded DEMs name (the demo's sketch)."""
     import dataclasses
 
     from tqdm import tqdm
@@ -525,9 +524,8 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
 
     from ..project import check_stamp_footprints
 
-    out = _check_output(args)
-    # (Again with what was loaded: a project's DEMs, a built-in's file.)
-    _refuse_replacing(args, _run_outputs(args, out), _sources(examples, controls, getattr(sketch, "source", None)))
+    # (With what was loaded: a project's DEMs, a built-in's file.)
+    out = _check_output(args, _sources(examples, controls, *inputs))
     if getattr(args, "workers", None) is not None:
         if args.workers < 1:
             raise TerraSynthError(f"--workers must be at least 1, got {args.workers}")
@@ -570,9 +568,10 @@ def _synthesize(examples, sketch, size, params, args, controls=None) -> int:
     return EXIT_OK
 
 
-def _check_output(args) -> Path:
+def _check_output(args, inputs=()) -> Path:
     """``--out`` (and ``--report``), checked before the run so a typo in the
-    path does not cost a whole synthesis."""
+    path does not cost a whole synthesis; ``inputs`` as for
+    :func:`_refuse_replacing`."""
     from ..io import MESH_EXTENSIONS, WRITE_EXTENSIONS
 
     out = Path(args.out)
@@ -585,7 +584,7 @@ def _check_output(args) -> Path:
         raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
     _check_cog(args, out)
     _check_report_path(args, out)
-    _refuse_replacing(args, _run_outputs(args, out))
+    _refuse_replacing(args, _run_outputs(args, out), inputs)
     return out
 
 

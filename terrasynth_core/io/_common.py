@@ -281,10 +281,9 @@ def check_sidecar_free(path: Path, content: dict) -> None:
         Naming the JSON file and what to do.
     """
     side = sidecar_path(path)
-    if side.exists():
-        existing = check_sidecar_ours(path)
-        if existing == json.loads(json.dumps(content)):
-            return
+    existing = check_sidecar_ours(path)
+    if existing is not None and existing == json.loads(json.dumps(content)):
+        return
     # One sidecar serves every heightmap of its stem: another one would be read
     # through the new content (a PNG's levels as another range, an .npy's nodata).
     for other in path.parent.glob(glob.escape(path.stem) + ".*"):
