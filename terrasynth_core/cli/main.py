@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import signal
 import sys
+import tempfile
 import threading
 from pathlib import Path
 
@@ -69,6 +71,15 @@ class _Stages:
 
 
 # -- info ---------------------------------------------------------------------
+def _json_number(value: float | None) -> float | str | None:
+    """``value`` as strict JSON holds it: a NaN or infinite nodata value
+    (a float GeoTIFF's usual NaN) as the string GDAL's own JSON writes,
+    ``"nan"``, ``"inf"`` or ``"-inf"``."""
+    if value is None or math.isfinite(value):
+        return value
+    return str(float(value))
+
+
 def cmd_info(args: argparse.Namespace) -> int:
     from ..examples import resolve_dem
 
@@ -81,19 +92,19 @@ def cmd_info(args: argparse.Namespace) -> int:
         "min": round(field.min, 3),
         "max": round(field.max, 3),
         "nodata": field.nodata_count,  # (cells; kept under this key for scripts that read it)
-        "nodata_value": field.metadata.get("nodata_value"),
+        "nodata_value": _json_number(field.metadata.get("nodata_value")),
         "cell_size": None if field.cell_size is None else [round(v, 4) for v in field.cell_size],
         "epsg": None if field.georef is None else field.georef.epsg,
         "crs": crs_name,
     }
     if args.json:
-        print(json.dumps(info))
+        print(json.dumps(info, allow_nan=False))
         return EXIT_OK
     rows, cols = field.shape
     cell = "unknown" if field.cell_size is None else "{:.2f} m x {:.2f} m (dy x dx)".format(*field.cell_size)
     print(f"{args.dem}: {info['format']}, {rows} x {cols} cells")
     print(f"  heights   {info['min']} .. {info['max']} m")
-    value = "" if info["nodata_value"] is None else f", value {info['nodata_value']:g}"
+    value = "" if info["nodata_value"] is None else f", value {float(info['nodata_value']):g}"
     print(f"  nodata    {info['nodata']} cells ({100 * info['nodata'] / (rows * cols):.1f} %){value}")
     print(f"  cell size {cell}")
     if info["epsg"]:
@@ -568,6 +579,20 @@ def _synthesize(examples, sketch, size, params, args, controls=None, *, inputs=(
     return EXIT_OK
 
 
+def _check_writable(out: Path) -> None:
+    """Refuse an output whose folder takes no new file (read-only, full of
+    permissions), before the run: found only when the result is written,
+    it cost the whole synthesis.  A probe file is made and removed, as the
+    writer will make its temporary file there."""
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".terrasynth-probe-", dir=out.parent)
+    except OSError as exc:
+        raise TerraSynthError(f"cannot write {out}: folder {out.parent} takes no new file "
+                              f"({exc.strerror or exc})") from exc
+    os.close(fd)
+    os.unlink(probe)
+
+
 def _check_output(args, inputs=()) -> Path:
     """``--out`` (and ``--report``), checked before the run so a typo in the
     path does not cost a whole synthesis; ``inputs`` as for
@@ -582,6 +607,7 @@ def _check_output(args, inputs=()) -> Path:
         )
     if not out.parent.is_dir():
         raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
+    _check_writable(out)
     _check_cog(args, out)
     _check_report_path(args, out)
     _refuse_replacing(args, _run_outputs(args, out), inputs)

@@ -97,6 +97,25 @@ def test_info_mandakini_is_about_45_percent_nodata(capsys, dems_dir):
     assert info["nodata"] / (rows * cols) == pytest.approx(0.45, abs=0.01)
 
 
+def test_info_json_is_strict_json_with_a_nan_nodata_value(capsys, tmp_path):
+    """A float GeoTIFF's NaN nodata value is written as GDAL's JSON writes
+    it, the string "nan": Python's json.dumps would write a bare NaN,
+    which strict JSON readers refuse."""
+    import rasterio
+    from rasterio.transform import Affine
+
+    path = tmp_path / "nan_nodata.tif"
+    heights = np.arange(600, dtype=np.float32).reshape(20, 30)
+    heights[0, 0] = np.nan
+    with rasterio.open(path, "w", driver="GTiff", height=20, width=30, count=1, dtype="float32",
+                       nodata=float("nan"), transform=Affine(30.0, 0.0, 0.0, 0.0, -30.0, 0.0), crs="EPSG:32611") as dst:
+        dst.write(heights, 1)
+    assert main(["info", str(path), "--json"]) == 0
+    text = capsys.readouterr().out
+    info = json.loads(text, parse_constant=lambda name: pytest.fail(f"non-standard JSON constant {name}"))
+    assert info["nodata_value"] == "nan" and info["nodata"] == 1
+
+
 def test_info_builtin_is_trimmed_to_valid_cells(capsys):
     """St. Helens' ragged quadrangle is cropped; the Himalayan basin keeps
     every valid cell, its surroundings nodata."""
@@ -504,6 +523,30 @@ def test_bad_input_exits_2_with_one_line(capsys, tmp_path, sketch_dir, example_2
     for word in words:
         assert word in lines[0]
     assert not (tmp_path / "out.tif").exists()
+
+
+def test_unwritable_output_folder_is_refused_before_the_run(capsys, monkeypatch, tmp_path, sketch_dir,
+                                                            example_200):
+    """A folder that takes no new file is said before the synthesis (found
+    when the result was written, it cost the whole run), naming the output
+    and the folder, not the writer's temporary file.  Root writes through
+    permission bits, so the file creation fails here as a read-only mount
+    fails it."""
+    import errno
+    import tempfile
+
+    def read_only(*args, **kwargs):
+        raise OSError(errno.EROFS, "Read-only file system")
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("the synthesis started")
+
+    monkeypatch.setattr(tempfile, "mkstemp", read_only)
+    monkeypatch.setattr("terrasynth_core.synthesis.Session.iter_run", no_run)
+    code, out, err = run(capsys, *synth_args(example_200, sketch_dir / Y_JUNCTION, tmp_path / "out.tif"))
+    assert code == EXIT_BAD_INPUT and not out
+    assert err.strip().splitlines() == [f"terrasynth-cli: error: cannot write {tmp_path / 'out.tif'}: folder "
+                                        f"{tmp_path} takes no new file (Read-only file system)"]
 
 
 @pytest.mark.parametrize("size", ["12by3", "1x100", "axb", "3x4x5"])
