@@ -1,0 +1,342 @@
+"""Closed depressions breached: the terrain drains to the map's border.
+
+Pieced from patches, a synthesized terrain holds closed depressions that
+real terrain of its kind does not: basins with no outlet, whose water would
+pool into a lake.  Measured with RichDEM on 30 runs (five built-ins, three
+sketches, two seeds), 3 to 15 % of the output's cells lay in depressions
+deeper than 1 % of its relief, against 0 to 2.4 % in the examples; most of
+the area in a few basins 10 to 27 % of the relief deep that the landform
+pass (the coarse terrain) leaves, the rest patch-sized pits.
+
+:func:`breach_depressions` opens them the way water would (least-cost
+breaching, Lindsay 2016): for each depression, from its lowest cell, the
+path that needs the least total cut to reach a cell lower than it (or the
+map's border) is found (:class:`skimage.graph.MCP_Geometric` on the height
+above the depression's floor) and cut so that it descends all the way.
+The cut is then widened into a gorge whose walls are no steeper than the
+terrain's steep slopes, as a smooth offset, so the ground keeps its own
+detail, and never below the channel, so the walls drain into it.  Filling
+(raising the depression to its spill level, Priority-Flood) would leave
+flat lakes of land: a closed basin on dry land reads as a crater, a flat
+as an artefact.
+
+Painted ridges are walls: no breach crosses them, so a ring of ridges the
+artist drew stays closed (its basin is the drawing's).  Locked cells never
+change.
+
+References
+----------
+Lindsay, J. B. (2016). Efficient hybrid breaching-filling sink removal
+methods for flow path enforcement in digital elevation models.
+Hydrological Processes 30(6).
+Barnes, R., Lehman, C., Mulla, D. (2014). Priority-flood: An optimal
+depression-filling and watershed-labeling algorithm for digital elevation
+models. Computers & Geosciences 62 (the fill that finds the depressions:
+:func:`skimage.morphology.reconstruction` by erosion is the same flood).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy import ndimage
+from skimage.graph import MCP_Geometric
+from skimage.morphology import reconstruction
+
+from .water import smoothstep
+
+#: Least depth of a depression that is breached, as a share of the
+#: terrain's relief (its 0.5th to 99.5th height percentile): shallower pits
+#: do not show.
+MIN_DEPTH = 0.005
+
+#: Least channel gradient, as a share of the terrain's height span per
+#: cell (as the drainage step's floors).
+MIN_SLOPE = 2e-5
+
+#: The search window about a depression grows from this margin (cells) by
+#: doubling, up to :data:`MAX_MARGIN`; a depression with no way out within
+#: it is left.
+FIRST_MARGIN = 8
+MAX_MARGIN = 256
+
+#: Cells a patch spans on the grid a finished terrain is breached on
+#: (:func:`drain_terrain`): its depressions are patch-sized.
+CELLS_PER_PATCH = 20
+
+#: Narrowest half-width of a widened cut, cells.
+MIN_HALF_WIDTH = 2.0
+
+#: Least rise of a cut's walls above the channel, as a share of the steep
+#: slope per cell of distance from it.
+WALL_RISE = 0.1
+
+
+class Breached(NamedTuple):
+    """What :func:`breach_depressions` did."""
+
+    heights: np.ndarray
+    breached: int
+    left: int
+
+
+def breach_depressions(heights: np.ndarray, *, walls: np.ndarray | None = None,
+                       locked: np.ndarray | None = None, outlets: np.ndarray | None = None,
+                       min_depth: float = MIN_DEPTH,
+                       min_half_width: float = MIN_HALF_WIDTH) -> Breached:
+    """Breach every closed depression deeper than ``min_depth`` of the relief.
+
+    Parameters
+    ----------
+    heights : ndarray of float, shape (rows, cols)
+        Metres; not modified.
+    walls : ndarray of bool, shape (rows, cols), optional
+        Cells no breach may cross (painted ridges).
+    locked : ndarray of bool, shape (rows, cols), optional
+        Cells that must not change; no breach crosses them either.
+    outlets : ndarray of bool, shape (rows, cols), optional
+        Where water leaves besides the map's border (painted water).
+    min_depth : float
+        Shallowest depression breached, as a share of the relief.
+    min_half_width : float
+        Narrowest half-width of a cut's gorge, cells (a terrain that will
+        be low-passed needs gorges wider than the low-pass).
+
+    Returns
+    -------
+    Breached
+        ``heights`` (float32, shape (rows, cols): lowered only, along the
+        breaches and their walls; every other cell keeps its bytes), the
+        number of depressions breached and of those left (no way out within
+        :data:`MAX_MARGIN` cells, or only across a wall).
+    """
+    h = np.array(heights, dtype=np.float64)
+    rows, cols = h.shape
+    if h.size == 0 or min(rows, cols) < 3:
+        return Breached(h.astype(np.float32), 0, 0)
+    relief = float(np.percentile(h, 99.5) - np.percentile(h, 0.5))
+    if not np.isfinite(relief) or relief <= 0:
+        return Breached(h.astype(np.float32), 0, 0)
+    blocked = np.zeros(h.shape, bool)
+    for mask in (walls, locked):
+        if mask is not None:
+            blocked |= mask
+    frozen = locked if locked is not None and locked.any() else None
+    eps = MIN_SLOPE * float(np.ptp(h))
+    steep = float(np.percentile(np.hypot(*np.gradient(h)), 90))
+    if outlets is not None and not outlets.any():
+        outlets = None
+    lakes, pits = _depressions(h, min_depth * relief, outlets)
+    objects = ndimage.find_objects(lakes)
+    breached = left = 0
+    # Lowest first: a higher depression's way out may run through a lower
+    # one, which is open by then.
+    for k in sorted(pits, key=lambda k: h[pits[k]]):
+        if blocked[pits[k]]:
+            continue  # (a locked cell's, or a wall's own: not ours to open)
+        path = _least_cut_path(h, objects[k - 1], pits[k], blocked, outlets, 1e-3 * relief)
+        if path is None:
+            left += 1
+            continue
+        _cut(h, path, eps, steep, frozen, min_half_width)
+        breached += 1
+    return Breached(h.astype(np.float32), breached, left)
+
+
+def _depressions(h: np.ndarray, min_depth: float, outlets: np.ndarray | None) -> tuple[np.ndarray, dict]:
+    """The closed depressions of ``h`` deeper than ``min_depth`` metres,
+    water leaving at the border and at ``outlets``.
+
+    Returns
+    -------
+    lakes : ndarray of int32, shape (rows, cols)
+        Labels of every depression (0: drained ground), 8-connected.
+    pits : dict label -> (row, col)
+        Lowest cell of each depression kept.
+    """
+    seed = np.full(h.shape, h.max())
+    seed[[0, -1], :] = h[[0, -1], :]
+    seed[:, [0, -1]] = h[:, [0, -1]]
+    if outlets is not None:
+        seed[outlets] = h[outlets]
+    filled = reconstruction(seed, h, method="erosion")
+    lakes, n = ndimage.label(filled > h, structure=np.ones((3, 3), bool))
+    if n == 0:
+        return lakes, {}
+    index = np.arange(1, n + 1)
+    spill = np.asarray(ndimage.maximum(filled, lakes, index))
+    floor = np.asarray(ndimage.minimum(h, lakes, index))
+    deep = np.flatnonzero(spill - floor > min_depth)
+    where = ndimage.minimum_position(h, lakes, index[deep])
+    return lakes, {int(k + 1): w for k, w in zip(deep, where)}
+
+
+def _least_cut_path(h: np.ndarray, box: tuple[slice, slice], pit: tuple[int, int],
+                    blocked: np.ndarray, outlets: np.ndarray | None, step: float) -> np.ndarray | None:
+    """The path from ``pit`` to the nearest cell lower than it (or the map's
+    border, or an outlet) that needs the least total cut, searched in a window about the
+    depression's ``box`` that grows until it holds one; ``step`` (metres)
+    is added per cell, so that among equal cuts the shortest path wins.
+
+    Returns
+    -------
+    ndarray of int, shape (n, 2), or None
+        Cells (row, col) from the pit outward; None when there is no way
+        out within :data:`MAX_MARGIN` cells.
+    """
+    rows, cols = h.shape
+    floor = float(h[pit])
+    margin = FIRST_MARGIN
+    while margin <= MAX_MARGIN:
+        a0, a1 = max(box[0].start - margin, 0), min(box[0].stop + margin, rows)
+        b0, b1 = max(box[1].start - margin, 0), min(box[1].stop + margin, cols)
+        window = h[a0:a1, b0:b1]
+        free = ~blocked[a0:a1, b0:b1]
+        ends = window < floor
+        if outlets is not None:
+            ends |= outlets[a0:a1, b0:b1]
+        ends[0, :] |= a0 == 0
+        ends[-1, :] |= a1 == rows
+        ends[:, 0] |= b0 == 0
+        ends[:, -1] |= b1 == cols
+        ends &= free
+        whole = a0 == 0 and b0 == 0 and a1 == rows and b1 == cols
+        if ends.any():
+            cost = np.where(free, np.maximum(window - floor, 0.0) + step, np.inf)
+            start = (pit[0] - a0, pit[1] - b0)
+            cost[start] = 0.0
+            mcp = MCP_Geometric(cost)
+            targets = np.argwhere(ends)
+            total, _ = mcp.find_costs([start], [tuple(t) for t in targets], find_all_ends=False)
+            reach = total[targets[:, 0], targets[:, 1]]
+            best = int(np.argmin(reach))
+            if np.isfinite(reach[best]):
+                return np.asarray(mcp.traceback(tuple(targets[best]))) + (a0, b0)
+        if whole:
+            return None
+        margin *= 2
+    return None
+
+
+def _cut(h: np.ndarray, path: np.ndarray, eps: float, steep: float, frozen: np.ndarray | None,
+         min_half_width: float) -> None:
+    """Cut ``path`` into ``h`` (in place) so that it descends from its first
+    cell by at least ``eps`` a cell, widened into a gorge with walls no
+    steeper than ``steep`` (metres a cell) and at least ``min_half_width``
+    cells wide on either side."""
+    rows, cols = h.shape
+    rr, cc = path[:, 0], path[:, 1]
+    s = np.arange(len(path)) * eps
+    channel = np.minimum(h[rr, cc], float(h[rr[0], cc[0]]) - s)
+    cut = h[rr, cc] - channel
+    if not (cut > 0).any():
+        return
+    # Each cell near the channel is lowered by the largest of the channel
+    # cells' cuts, each easing by a smoothstep of the distance to its cell
+    # over twice that cut over the steep slope (the step's steepest slope is
+    # 1.5 cut / width: three quarters of the steep slope); the largest, so
+    # the lowering is continuous however the cut varies along the channel.
+    # Never below the channel: a cell is lowered at most to the height of
+    # the nearest channel cell plus a gentle rise, so the walls drain into
+    # it instead of pitting beside it (a cell beside a deep cut through a
+    # rim may lie far lower than the rim).
+    half = np.maximum(min_half_width, 2.0 * cut / max(steep, 1e-9))
+    reach = int(np.ceil(half.max())) + 1
+    a0, a1 = max(int(rr.min()) - reach, 0), min(int(rr.max()) + reach + 1, rows)
+    b0, b1 = max(int(cc.min()) - reach, 0), min(int(cc.max()) + reach + 1, cols)
+    lower = np.zeros((a1 - a0, b1 - b0))
+    above = np.full(lower.shape, np.inf)
+    for i in range(len(path)):
+        r = int(np.ceil(half[i]))
+        y0, y1 = max(rr[i] - r, a0), min(rr[i] + r + 1, a1)
+        x0, x1 = max(cc[i] - r, b0), min(cc[i] + r + 1, b1)
+        d = np.hypot(*np.ogrid[y0 - rr[i]:y1 - rr[i], x0 - cc[i]:x1 - cc[i]])
+        box = (slice(y0 - a0, y1 - a0), slice(x0 - b0, x1 - b0))
+        if cut[i] > 0:
+            np.maximum(lower[box], cut[i] * smoothstep(1.0 - d / half[i]), out=lower[box])
+        np.minimum(above[box], channel[i] + WALL_RISE * steep * d, out=above[box])
+    window = h[a0:a1, b0:b1]
+    walls = np.where(lower > 0, np.maximum(window - lower, np.minimum(above, window)), window)
+    if frozen is not None:
+        walls = np.where(frozen[a0:a1, b0:b1], window, walls)
+    h[a0:a1, b0:b1] = walls
+    # The channel itself, last: descending all the way (a wall's lowering
+    # of another breach may have reached below it).
+    here = np.minimum(h[rr, cc], channel)
+    h[rr, cc] = np.minimum.accumulate(here + s) - s
+
+
+def grid_factor(patch_size: int) -> int:
+    """The down-sampling :func:`drain_terrain` is run at for ``patch_size``."""
+    return max(1, int(patch_size) // CELLS_PER_PATCH)
+
+
+def drain_terrain(heights: np.ndarray, *, factor: int, walls: np.ndarray | None = None,
+                  water: np.ndarray | None = None, locked: np.ndarray | None = None) -> np.ndarray:
+    """:func:`breach_depressions` on a grid ``factor`` times coarser,
+    brought back as a smooth lowering.
+
+    The depressions a finished terrain holds are patch-sized (50-100 cells
+    across, up to a fifth of the relief deep): a grid four times coarser
+    still holds them, and is breached 16 times faster than the full grid
+    (0.5 s against about 2.5 s at 1000x1000).  The change is brought up
+    cubically and only lowers; cells within a coarse cell of a locked cell
+    do not change.
+
+    Parameters
+    ----------
+    heights : ndarray of float32, shape (rows, cols)
+        Metres; not modified.
+    factor : int
+        The coarse grid's down-sampling (block means; 1: the full grid).
+    walls, water, locked : ndarray of bool, shape (rows, cols), optional
+        Painted ridges, painted water (an outlet) and cells that must not
+        change, as :func:`breach_depressions` takes them.
+
+    Returns
+    -------
+    ndarray of float32, shape (rows, cols)
+        Every cell not lowered keeps its bytes.
+    """
+    rows, cols = heights.shape
+    f = max(1, int(factor))
+    grid = (-(-rows // f), -(-cols // f))
+    if min(grid) < 3:
+        return heights
+
+    def coarse(a: np.ndarray, how) -> np.ndarray:
+        pad = ((0, grid[0] * f - rows), (0, grid[1] * f - cols))
+        return how(np.pad(a, pad, mode="edge").reshape(grid[0], f, grid[1], f), axis=(1, 3))
+
+    h = coarse(heights.astype(np.float64), np.mean)
+    masks = [None if m is None or not m.any() else coarse(m, np.any) for m in (walls, water, locked)]
+    frozen = masks[2]
+    if frozen is not None:
+        # A coarse cell beside a locked one would bring a lowering into it.
+        frozen = ndimage.binary_dilation(frozen, np.ones((3, 3), bool))
+    done = breach_depressions(h, walls=masks[0], outlets=masks[1], locked=frozen)
+    if done.breached == 0:
+        return heights
+    change = done.heights.astype(np.float64) - h
+    if f > 1:
+        change = _upsampled(change, f, (rows, cols))
+    # Only lowering, and none where the cubic's ringing far from a breach
+    # asks for less than a ten-thousandth of the relief (shifted by that
+    # much, not cut off: no step where the lowering starts).
+    tol = 1e-4 * float(np.ptp(h))
+    lower = np.minimum(change + tol, 0.0)
+    if locked is not None:
+        lower[locked] = 0.0
+    out = heights.copy()
+    moved = lower < 0
+    out[moved] = (heights[moved] + lower[moved]).astype(np.float32)
+    return out
+
+
+def _upsampled(coarse: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
+    """Block grid ``coarse`` (blocks of ``f`` x ``f`` cells from the first
+    cell) brought to ``shape`` by cubic interpolation at the fine cells'
+    centres."""
+    fine = ndimage.zoom(coarse, f, order=3, mode="nearest", grid_mode=True)
+    return fine[:shape[0], :shape[1]]

@@ -1,0 +1,130 @@
+"""Closed depressions breached (terrasynth_core.controls.depressions).
+
+Depressions are found here with a flood of our own (a Priority-Flood fill in
+plain Python, not the module's morphological reconstruction), so the module
+is checked against an independent answer.
+"""
+
+from __future__ import annotations
+
+import heapq
+
+import numpy as np
+import pytest
+
+from terrasynth_core.controls.depressions import breach_depressions, drain_terrain, grid_factor
+
+N = 96
+
+
+def _filled(h: np.ndarray, outlets: np.ndarray | None = None) -> np.ndarray:
+    """Priority-Flood (Barnes et al. 2014): every cell raised to the lowest
+    level at which its water reaches the border or an outlet."""
+    rows, cols = h.shape
+    out = h.astype(np.float64).copy()
+    done = np.zeros(h.shape, bool)
+    heap = []
+    for r in range(rows):
+        for c in range(cols):
+            if r in (0, rows - 1) or c in (0, cols - 1) or (outlets is not None and outlets[r, c]):
+                heapq.heappush(heap, (out[r, c], r, c))
+                done[r, c] = True
+    while heap:
+        z, r, c = heapq.heappop(heap)
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                y, x = r + dr, c + dc
+                if 0 <= y < rows and 0 <= x < cols and not done[y, x]:
+                    done[y, x] = True
+                    out[y, x] = max(out[y, x], z)
+                    heapq.heappush(heap, (out[y, x], y, x))
+    return out
+
+
+def _deepest(h, outlets=None) -> float:
+    """Depth of the deepest closed depression, metres."""
+    return float((_filled(h, outlets) - h).max())
+
+
+def _slope_with_bowls(seed: int = 0) -> np.ndarray:
+    """A slope falling to the east (3 m a cell, 30 cm of noise) with three
+    round bowls 40-60 m deep sunk in it (closed 15-20 m deep on their
+    downhill side)."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:N, 0:N].astype(float)
+    h = 400.0 - 3.0 * xx + 0.3 * rng.standard_normal((N, N))
+    for r, c, depth in ((30, 30, 60.0), (60, 50, 40.0), (70, 20, 50.0)):
+        h -= depth * np.exp(-((yy - r) ** 2 + (xx - c) ** 2) / (2 * 6.0**2))
+    return h.astype(np.float32)
+
+
+def test_every_depression_is_breached_and_only_lowered():
+    h = _slope_with_bowls()
+    relief = np.percentile(h, 99.5) - np.percentile(h, 0.5)
+    assert _deepest(h) > 15.0  # (the bowls are closed to begin with)
+    done = breach_depressions(h)
+    assert done.breached >= 3 and done.left == 0
+    assert _deepest(done.heights) <= 0.005 * relief + 1e-3
+    assert (done.heights <= h).all()
+    # The breaches are local: most of the slope keeps its bytes.
+    assert np.mean(done.heights == h) > 0.6
+
+
+def test_a_ring_of_walls_keeps_its_basin():
+    """A basin enclosed by a painted ridge stays closed: no breach crosses a wall."""
+    yy, xx = np.mgrid[0:N, 0:N].astype(float)
+    d = np.hypot(yy - N / 2, xx - N / 2)
+    h = (100.0 + 0.5 * d + 80.0 * np.exp(-((d - 30.0) ** 2) / 20.0)).astype(np.float32)
+    h[d < 10] -= 30.0
+    walls = np.abs(d - 30.0) < 2.0
+    done = breach_depressions(h, walls=walls)
+    assert done.left >= 1
+    assert np.array_equal(done.heights[d < 28], h[d < 28])  # the basin inside, untouched
+    opened = breach_depressions(h)  # without the wall it is opened
+    assert opened.breached >= 1 and _deepest(opened.heights) < 1.0
+
+
+def test_locked_cells_keep_their_bytes():
+    h = _slope_with_bowls()
+    locked = np.zeros(h.shape, bool)
+    locked[:, 36:40] = True  # a band east of the first bowl, across its way out
+    done = breach_depressions(h, locked=locked)
+    assert np.array_equal(done.heights[locked], h[locked])
+
+
+def test_water_is_an_outlet():
+    """A bowl holding painted water drains into it: nothing to breach there."""
+    h = _slope_with_bowls()
+    water = np.zeros(h.shape, bool)
+    water[26:36, 26:38] = True
+    done = breach_depressions(h, outlets=water)
+    untouched = np.hypot(*np.mgrid[-30:N - 30, -32:N - 32]) < 10
+    assert np.array_equal(done.heights[untouched], h[untouched])
+    assert _deepest(done.heights, water) < 1.0
+    assert _deepest(done.heights) > 15.0  # (without the water, that bowl is closed)
+
+
+@pytest.mark.parametrize("factor", [1, 2, 4])
+def test_drain_terrain_on_a_coarser_grid(factor):
+    h = _slope_with_bowls(1)
+    out = drain_terrain(h, factor=factor)
+    assert out.dtype == np.float32 and out.shape == h.shape
+    assert (out <= h).all()
+    # The bowls are opened.  A grid f times coarser sees a rim as its block
+    # means, lower than its crest: on bowls this small (a 6-cell sigma, 1.5
+    # cells of the grid at f = 4) a fifth of the depth is left there.
+    assert _deepest(out) < (0.05 if factor == 1 else 0.25) * _deepest(h)
+
+
+def test_drain_terrain_keeps_locked_cells_and_flat_ground():
+    h = _slope_with_bowls(2)
+    locked = np.zeros(h.shape, bool)
+    locked[50:, :] = True
+    out = drain_terrain(h, factor=4, locked=locked)
+    assert np.array_equal(out[locked], h[locked])
+    flat = np.full((40, 40), 7.0, np.float32)
+    assert drain_terrain(flat, factor=4) is flat
+
+
+def test_grid_factor():
+    assert grid_factor(80) == 4 and grid_factor(48) == 2 and grid_factor(16) == 1
