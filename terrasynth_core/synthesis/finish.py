@@ -1,5 +1,6 @@
 """The finished heights: height range, drainage (valleys drain, ridges
-divide), the examples' range (without a height range), water, then pins
+divide, closed depressions breached), the examples' range (without a
+height range), water, then pins
 (all in final metres), keeping every locked cell of a local re-synthesis
 bit for bit."""
 
@@ -7,12 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..controls.depressions import drain_terrain, grid_factor
 from ..controls.drainage import apply_drainage
 from ..controls.layout import StyleLayout
 from ..controls.options import Controls
 from ..controls.pins import PinError, apply_pins
 from ..controls.water import apply_water, flooded_land
 from ..features import FeatureMaps
+from ..features.network import graph_mask
 
 
 #: Share of the examples' height range, at either end, over which heights
@@ -88,7 +91,8 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
         a patch).
     sketch : FeatureMaps, optional
         The sketch's ridges and valleys in output cells: given, valleys are
-        made to drain and ridges to divide (None: no drainage step).
+        made to drain and ridges to divide, and the terrain's other closed
+        depressions are breached (None: no drainage step).
 
     Returns
     -------
@@ -104,8 +108,13 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
         if span > 0:
             heights = (lo + (heights.astype(np.float64) - heights.min()) * ((hi - lo) / span)).astype(np.float32)
     if sketch is not None:
-        heights = apply_drainage(heights, sketch.valleys, sketch.ridges, patch_size=patch_size,
-                                 water=None if controls.water is None else controls.water.mask, locked=locked)
+        water = None if controls.water is None else controls.water.mask
+        heights = apply_drainage(heights, sketch.valleys, sketch.ridges, patch_size=patch_size, water=water,
+                                 locked=locked)
+        # The rest of the terrain drains too: its closed depressions are
+        # breached, the painted ridges as walls.
+        walls = graph_mask(sketch.ridges, width=3) if sketch.ridges.paths else None
+        heights = drain_terrain(heights, factor=grid_factor(patch_size), walls=walls, water=water, locked=locked)
     if layout.remap is None:
         # (After drainage, which may carve a valley floor below the range:
         # the knee keeps every descent a descent.)

@@ -67,7 +67,9 @@ class SynthesisParams:
     drainage : bool, default True
         Shape the finished heights so painted valleys drain to an outlet
         (the border, water or their lowest end) and painted ridges are not
-        cut by a stream (:mod:`~terrasynth_core.controls.drainage`).
+        cut by a stream (:mod:`~terrasynth_core.controls.drainage`), and
+        breach the rest of the terrain's closed depressions, the painted
+        ridges as walls (:mod:`~terrasynth_core.controls.depressions`).
     landform : bool, default True
         First synthesize the problem on a grid four times coarser, where a
         patch spans whole landforms, and build the detail on that terrain

@@ -85,9 +85,9 @@ CASES = {
 #: cropped from the basin's largest valid rectangle but from the whole
 #: basin, its nodata kept out of the patches).
 GOLDEN = {
-    "y_junction": "23d329ceaadc41df38e65615f6d69a2c1d9fb030bcd84d73b800c056c487e104",
-    "ring_cross_raster": "19091e58c870a4de2007619add0a6e99523d6f397a559190afcc67d93d5f9e49",
-    "styles_stamp_water_pin": "1e9023a13aa9e020ea26e8e88d53c6a0f56ced79bc13f059378c4b4ba238cf4b",
+    "y_junction": "e7869950f1e0c121fb94be90e262e7440be7002f22880d4c7e77d0d5c6986a8b",
+    "ring_cross_raster": "15e394621287ce33857993ef8422005bacd623a9d8aa65d368eb098f22b29003",
+    "styles_stamp_water_pin": "98a3620d6878ea30cf3f4340bf2bc12e996349b3086e9f6cd3cfe0b514a28d53",
 }
 
 
