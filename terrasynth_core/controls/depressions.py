@@ -5,8 +5,10 @@ real terrain of its kind does not: basins with no outlet, whose water would
 pool into a lake.  Measured with RichDEM on 30 runs (five built-ins, three
 sketches, two seeds), 3 to 15 % of the output's cells lay in depressions
 deeper than 1 % of its relief, against 0 to 2.4 % in the examples; most of
-the area in a few basins 10 to 27 % of the relief deep that the landform
-pass (the coarse terrain) leaves, the rest patch-sized pits.
+the area in a few basins a tenth to a quarter of the relief deep (the
+landform pass's coarse terrain and the patches' own relief leave them
+alike), the rest patch-sized pits.  The finish stage breaches them on the
+finished terrain (:func:`drain_terrain`, on a grid of 20 cells a patch).
 
 :func:`breach_depressions` opens them the way water would (least-cost
 breaching, Lindsay 2016): for each depression, from its lowest cell, the
@@ -83,8 +85,7 @@ class Breached(NamedTuple):
 
 def breach_depressions(heights: np.ndarray, *, walls: np.ndarray | None = None,
                        locked: np.ndarray | None = None, outlets: np.ndarray | None = None,
-                       min_depth: float = MIN_DEPTH,
-                       min_half_width: float = MIN_HALF_WIDTH) -> Breached:
+                       min_depth: float = MIN_DEPTH) -> Breached:
     """Breach every closed depression deeper than ``min_depth`` of the relief.
 
     Parameters
@@ -99,9 +100,6 @@ def breach_depressions(heights: np.ndarray, *, walls: np.ndarray | None = None,
         Where water leaves besides the map's border (painted water).
     min_depth : float
         Shallowest depression breached, as a share of the relief.
-    min_half_width : float
-        Narrowest half-width of a cut's gorge, cells (a terrain that will
-        be low-passed needs gorges wider than the low-pass).
 
     Returns
     -------
@@ -139,7 +137,7 @@ def breach_depressions(heights: np.ndarray, *, walls: np.ndarray | None = None,
         if path is None:
             left += 1
             continue
-        _cut(h, path, eps, steep, frozen, min_half_width)
+        _cut(h, path, eps, steep, frozen)
         breached += 1
     return Breached(h.astype(np.float32), breached, left)
 
@@ -219,12 +217,11 @@ def _least_cut_path(h: np.ndarray, box: tuple[slice, slice], pit: tuple[int, int
     return None
 
 
-def _cut(h: np.ndarray, path: np.ndarray, eps: float, steep: float, frozen: np.ndarray | None,
-         min_half_width: float) -> None:
+def _cut(h: np.ndarray, path: np.ndarray, eps: float, steep: float, frozen: np.ndarray | None) -> None:
     """Cut ``path`` into ``h`` (in place) so that it descends from its first
     cell by at least ``eps`` a cell, widened into a gorge with walls no
-    steeper than ``steep`` (metres a cell) and at least ``min_half_width``
-    cells wide on either side."""
+    steeper than ``steep`` (metres a cell) and at least
+    :data:`MIN_HALF_WIDTH` cells wide on either side."""
     rows, cols = h.shape
     rr, cc = path[:, 0], path[:, 1]
     s = np.arange(len(path)) * eps
@@ -241,7 +238,7 @@ def _cut(h: np.ndarray, path: np.ndarray, eps: float, steep: float, frozen: np.n
     # the nearest channel cell plus a gentle rise, so the walls drain into
     # it instead of pitting beside it (a cell beside a deep cut through a
     # rim may lie far lower than the rim).
-    half = np.maximum(min_half_width, 2.0 * cut / max(steep, 1e-9))
+    half = np.maximum(MIN_HALF_WIDTH, 2.0 * cut / max(steep, 1e-9))
     reach = int(np.ceil(half.max())) + 1
     a0, a1 = max(int(rr.min()) - reach, 0), min(int(rr.max()) + reach + 1, rows)
     b0, b1 = max(int(cc.min()) - reach, 0), min(int(cc.max()) + reach + 1, cols)

@@ -27,7 +27,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import interpolate, ndimage
 
-from ..controls.depressions import breach_depressions
 from ..controls.levels import steer_level
 from ..controls.options import Controls
 from ..controls.water import smoothstep
@@ -241,70 +240,10 @@ def landform_from(session: Session, coarse, f: int) -> Landform:
     sigma = split_sigma(p.patch_size)
     if c.height_range is None:  # (a height range maps the result onto itself at the end)
         heights = fitted_to_examples(heights, lay, f, sigma, coarse.sketch_features)
-    weight = coherence(coarse.sketch_features, p.patch_size, f)
-    heights = drained_landforms(heights, coarse.sketch_features, sigma / f, weight)
     up = _upsampled(heights, session.shape)
+    weight = coherence(coarse.sketch_features, p.patch_size, f)
     level = landform_lowpass(up, sigma, None if weight is None else _upsampled(weight, session.shape))
     return Landform(_settled(session, level), sigma, coarse, f)
-
-
-def drained_landforms(heights: np.ndarray, strokes: FeatureMaps | None, sigma: float,
-                      coherent: np.ndarray | None) -> np.ndarray:
-    """The coarse terrain changed so that its level field has no closed
-    basin (:func:`~terrasynth_core.controls.depressions.breach_depressions`),
-    the sketch's ridges as walls no breach crosses.
-
-    The coarse pass pieces landforms together as the full pass pieces
-    hillsides, and leaves basins no real landscape of its kind has: on the
-    White Mountains' S-valley at 1000x1000, 11 % of the level field's cells
-    lay in closed basins deeper than 1 % of its relief, 6.6 % in basins
-    deeper than a tenth of it.  What must drain is the level, the coarse
-    terrain low-passed: the low-pass alone closes basins (it fills a narrow
-    valley from its sides), so the breaches are found on the low-passed
-    coarse terrain and their change, made wider than the low-pass
-    (:data:`BREACH_SIGMAS`) so that it outlasts it, is added to the coarse
-    terrain.  Brought up to the output, a breach is a valley as wide as a
-    landform.
-
-    Parameters
-    ----------
-    heights : ndarray of float32, shape (h, w)
-        The coarse terrain, metres.
-    strokes : FeatureMaps or None
-        The sketch's features on the coarse grid.
-    sigma : float
-        The split's low-pass (:func:`split_sigma`) in coarse cells.
-    coherent : ndarray of float32, shape (h, w), or None
-        The low-pass's coherence weights (:func:`coherence`).
-
-    Returns
-    -------
-    ndarray of float32, shape (h, w)
-    """
-    walls = None
-    if strokes is not None and strokes.ridges.paths:
-        # Three cells wide: a breach stepping diagonally would slip between
-        # the cells of a one-cell line.
-        walls = graph_mask(strokes.ridges, width=3)
-    out = np.asarray(heights, dtype=np.float64)
-    for _ in range(BREACH_ROUNDS):
-        # (The low-pass blunts a breach a little: what it closes again is
-        # opened on the next round.)
-        level = landform_lowpass(out, sigma, coherent)
-        drained = breach_depressions(level, walls=walls, min_half_width=BREACH_SIGMAS * sigma)
-        if drained.breached == 0:
-            break
-        out += drained.heights - level
-    return out.astype(np.float32)
-
-
-#: Most rounds of breaching the level.
-BREACH_ROUNDS = 3
-
-#: Narrowest half-width of a landform breach, in the split's low-pass
-#: sigmas: a narrower gorge is blurred shut by the low-pass, and the basin
-#: closes again.
-BREACH_SIGMAS = 3.0
 
 
 def _settled(session: Session, level: np.ndarray) -> np.ndarray:

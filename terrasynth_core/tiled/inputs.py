@@ -25,8 +25,8 @@ from scipy import ndimage
 
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
-from ..synthesis.landform import (DRAWN_NOTE, coarse_session_for, coherence, drained_landforms, drawn_relief,
-                                  fitted_to_examples, landform_lowpass, split_sigma)
+from ..synthesis.landform import (DRAWN_NOTE, coarse_session_for, coherence, drawn_relief, fitted_to_examples,
+                                  landform_lowpass, split_sigma)
 from ..synthesis.params import SynthesisParams
 from ..synthesis.session import Session
 
@@ -251,5 +251,4 @@ def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap
     sigma = split_sigma(params.patch_size)
     heights = fitted_to_examples(result.heights, probe.layout, factor, sigma, result.sketch_features)
     coherent = coherence(result.sketch_features, params.patch_size, factor)
-    heights = drained_landforms(heights, result.sketch_features, sigma / factor, coherent)
     return CoarseLevel(np.asarray(heights, np.float32), tuple(shape), sigma, factor, coherent), notes

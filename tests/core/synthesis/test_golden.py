@@ -85,7 +85,7 @@ CASES = {
 #: cropped from the basin's largest valid rectangle but from the whole
 #: basin, its nodata kept out of the patches).
 GOLDEN = {
-    "y_junction": "e7869950f1e0c121fb94be90e262e7440be7002f22880d4c7e77d0d5c6986a8b",
+    "y_junction": "83f2784745e2ed608d59d8fa39d5518cfe1924bb5b2a098601d7f63c3d831c6d",
     "ring_cross_raster": "15e394621287ce33857993ef8422005bacd623a9d8aa65d368eb098f22b29003",
     "styles_stamp_water_pin": "98a3620d6878ea30cf3f4340bf2bc12e996349b3086e9f6cd3cfe0b514a28d53",
 }
