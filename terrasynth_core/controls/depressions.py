@@ -50,8 +50,9 @@ from .water import smoothstep
 
 #: Least depth of a depression that is breached, as a share of the
 #: terrain's relief (its 0.5th to 99.5th height percentile): shallower pits
-#: do not show.
-MIN_DEPTH = 0.005
+#: do not show.  Half of it left the same share of cells in depressions
+#: deeper than 1 % (18 runs) and took 1.5-1.7 times as long.
+MIN_DEPTH = 0.01
 
 #: Least channel gradient, as a share of the terrain's height span per
 #: cell (as the drainage step's floors).

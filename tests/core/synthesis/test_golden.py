@@ -85,8 +85,8 @@ CASES = {
 #: cropped from the basin's largest valid rectangle but from the whole
 #: basin, its nodata kept out of the patches).
 GOLDEN = {
-    "y_junction": "83f2784745e2ed608d59d8fa39d5518cfe1924bb5b2a098601d7f63c3d831c6d",
-    "ring_cross_raster": "15e394621287ce33857993ef8422005bacd623a9d8aa65d368eb098f22b29003",
+    "y_junction": "5fbbcebd619e77dc7a381709fbd2d91aaebe8df060c0c2ce5bde6c0b19ecb83a",
+    "ring_cross_raster": "6ec69d1ee427fd75e25c56e0f5b6432b8d10be106503c0f599f7470efea4f898",
     "styles_stamp_water_pin": "98a3620d6878ea30cf3f4340bf2bc12e996349b3086e9f6cd3cfe0b514a28d53",
 }
 
