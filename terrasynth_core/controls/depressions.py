@@ -68,6 +68,9 @@ MAX_MARGIN = 256
 #: (:func:`drain_terrain`): its depressions are patch-sized.
 CELLS_PER_PATCH = 20
 
+#: Rounds of :func:`drain_terrain`.
+ROUNDS = 2
+
 #: Narrowest half-width of a widened cut, cells.
 MIN_HALF_WIDTH = 2.0
 
@@ -280,7 +283,10 @@ def drain_terrain(heights: np.ndarray, *, factor: int, walls: np.ndarray | None 
     still holds them, and is breached 16 times faster than the full grid
     (0.5 s against about 2.5 s at 1000x1000).  The change is brought up
     cubically and only lowers; cells within a coarse cell of a locked cell
-    do not change.
+    do not change.  A second round opens what the first left, seen anew on
+    the lowered terrain's block means (White Mountains S-valley 1000x1000:
+    13.4 % of cells in depressions deeper than 1 % of the relief, 2.7 %
+    after one round, 0.7 % after two, 0.6 % after three).
 
     Parameters
     ----------
@@ -307,28 +313,30 @@ def drain_terrain(heights: np.ndarray, *, factor: int, walls: np.ndarray | None 
         pad = ((0, grid[0] * f - rows), (0, grid[1] * f - cols))
         return how(np.pad(a, pad, mode="edge").reshape(grid[0], f, grid[1], f), axis=(1, 3))
 
-    h = coarse(heights.astype(np.float64), np.mean)
     masks = [None if m is None or not m.any() else coarse(m, np.any) for m in (walls, water, locked)]
     frozen = masks[2]
     if frozen is not None:
         # A coarse cell beside a locked one would bring a lowering into it.
         frozen = ndimage.binary_dilation(frozen, np.ones((3, 3), bool))
-    done = breach_depressions(h, walls=masks[0], outlets=masks[1], locked=frozen)
-    if done.breached == 0:
-        return heights
-    change = done.heights.astype(np.float64) - h
-    if f > 1:
-        change = _upsampled(change, f, (rows, cols))
-    # Only lowering, and none where the cubic's ringing far from a breach
-    # asks for less than a ten-thousandth of the relief (shifted by that
-    # much, not cut off: no step where the lowering starts).
-    tol = 1e-4 * float(np.ptp(h))
-    lower = np.minimum(change + tol, 0.0)
-    if locked is not None:
-        lower[locked] = 0.0
-    out = heights.copy()
-    moved = lower < 0
-    out[moved] = (heights[moved] + lower[moved]).astype(np.float32)
+    out = heights
+    for _ in range(ROUNDS):
+        h = coarse(out.astype(np.float64), np.mean)
+        done = breach_depressions(h, walls=masks[0], outlets=masks[1], locked=frozen)
+        if done.breached == 0:
+            break
+        change = done.heights.astype(np.float64) - h
+        if f > 1:
+            change = _upsampled(change, f, (rows, cols))
+        # Only lowering, and none where the cubic's ringing far from a
+        # breach asks for less than a ten-thousandth of the relief (shifted
+        # by that much, not cut off: no step where the lowering starts).
+        tol = 1e-4 * float(np.ptp(h))
+        lower = np.minimum(change + tol, 0.0)
+        if locked is not None:
+            lower[locked] = 0.0
+        moved = lower < 0
+        out = out.copy()
+        out[moved] = (out[moved] + lower[moved]).astype(np.float32)
     return out
 
 
