@@ -280,7 +280,7 @@ def drain_terrain(heights: np.ndarray, *, factor: int, walls: np.ndarray | None 
 
     The depressions a finished terrain holds are patch-sized (50-100 cells
     across, up to a fifth of the relief deep): a grid four times coarser
-    still holds them, and is breached 16 times faster than the full grid
+    still holds them, and is breached in a fifth of the full grid's time
     (0.5 s against about 2.5 s at 1000x1000).  The change is brought up
     cubically and only lowers; cells within a coarse cell of a locked cell
     do not change.  A second round opens what the first left, seen anew on
