@@ -324,6 +324,8 @@ def cmd_features(args: argparse.Namespace) -> int:
 def cmd_synth(args: argparse.Namespace) -> int:
     if args.tile is not None or args.scheduler is not None:
         return _synth_tiled(args)
+    if args.keep_tiles:
+        raise TerraSynthError("--keep-tiles keeps a tiled synthesis's tiles: give the tile size too (--tile 1024)")
     if args.project:
         return _synth_project(args)
     _fill_run_defaults(args)

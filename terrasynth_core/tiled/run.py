@@ -277,6 +277,10 @@ def run_tiled(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | 
         reused = store.reused
         if not keep_tiles:
             store.remove()
+    except BaseException:
+        if store.created and not store.holds_work():
+            store.remove()  # (failed before anything was kept: a cluster out of reach, say)
+        raise
     finally:
         store.close()  # a failed or cancelled run leaves its tiles for the next
     cell = probe.cell_size

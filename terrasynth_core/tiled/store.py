@@ -114,6 +114,9 @@ class TileStore:
         self.reused = 0
         self._lock = None
         marker = self.folder / "run.json"
+        #: Whether this run made the folder (a run that fails before it
+        #: keeps anything removes a folder it made: :meth:`holds_work`).
+        self.created = not self.folder.exists()
         if self.folder.exists():
             if not self._is_store(marker):
                 raise ParamsError(f"{self.folder} exists and is not a TerraSynth tile store (no run.json of format "
@@ -189,6 +192,11 @@ class TileStore:
         # The description last: it says the pass is complete.
         self._write_json(self.folder / "coarse.json",
                          dict(info, heights=heights is not None, coherent=coherent is not None))
+
+    def holds_work(self) -> bool:
+        """Whether a later run could continue from the store: a finished
+        tile or the landform pass's terrain."""
+        return any(self.folder.glob("tile_*.npy")) or (self.folder / "coarse.json").exists()
 
     def close(self) -> None:
         """Let another run use the store."""

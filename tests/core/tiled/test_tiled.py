@@ -239,12 +239,26 @@ def test_a_folder_that_is_not_a_store_is_left_alone(one_worker, white_mountains,
     assert (store_path(out) / "notes.txt").read_text() == "mine"
 
 
+def test_a_run_failing_before_any_work_leaves_no_store(tmp_path, monkeypatch, white_mountains):
+    """A cluster out of reach fails the run before anything is kept: the
+    tile store it made is removed, not left beside the output."""
+    def unreachable(workers, scheduler):
+        raise OSError("Timed out trying to connect to tcp://127.0.0.1:9 after 15 s")
+
+    monkeypatch.setattr("terrasynth_core.tiled.run._client", unreachable)
+    out = tmp_path / "w.tif"
+    with pytest.raises(OSError, match="Timed out"):
+        run_tiled([white_mountains], None, shape=SHAPE, tile=TILE, out=out, params=P)
+    assert not store_path(out).exists() and not out.exists()
+
+
 # -- the command line ---------------------------------------------------------------------------
 @pytest.mark.parametrize("extra, message", [
     (["--tile", "abc"], "--tile 'abc': expected a tile side in cells"),
     (["--tile", "40"], "tile size 40: expected a whole number of at least 96 cells"),
     (["--tile", "128", "--scheduler", "nowhere"], "scheduler address 'nowhere': expected tcp://HOST:PORT"),
     (["--scheduler", "tcp://h:8786"], "--scheduler runs a tiled synthesis: give the tile size too"),
+    (["--keep-tiles"], "--keep-tiles keeps a tiled synthesis's tiles: give the tile size too"),
     (["--tile", "128", "--height-range", "0,100"], "--height-range is not available with --tile"),
     (["--tile", "128", "--size", "100000000x5"], "output size 100000000x5: each side must be 1 to"),
 ])
