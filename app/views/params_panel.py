@@ -86,7 +86,9 @@ class ParamsPanel(QWidget):
         self.blend = QComboBox()
         self.blend.addItems(["poisson", "c1", "none"])
         self.mirror = QCheckBox("use mirrored patches")
-        self.drainage = QCheckBox("valleys drain, ridges divide")
+        self.drainage = QCheckBox("valleys drain, ridges divide, basins open")
+        self.drainage.setToolTip("Painted valleys descend to an outlet, painted ridges are not cut by a stream, "
+                                 "and the closed basins the patches leave are breached (painted ridges kept)")
         self.landform = QCheckBox("coarse landform pass first")
         self.coarse_factor = QSpinBox(minimum=0, maximum=8, specialValueText="auto")
         self.workers = QSpinBox(minimum=0, maximum=256, specialValueText="all cores")
