@@ -46,6 +46,7 @@ from scipy import ndimage
 from skimage.graph import MCP_Geometric
 from skimage.morphology import reconstruction
 
+from .drainage import MIN_SLOPE  # (a breach's channel falls as the valleys' floors do)
 from .water import smoothstep
 
 #: Least depth of a depression that is breached, as a share of the
@@ -53,10 +54,6 @@ from .water import smoothstep
 #: do not show.  Half of it left the same share of cells in depressions
 #: deeper than 1 % (18 runs) and took 1.5-1.7 times as long.
 MIN_DEPTH = 0.01
-
-#: Least channel gradient, as a share of the terrain's height span per
-#: cell (as the drainage step's floors).
-MIN_SLOPE = 2e-5
 
 #: The search window about a depression grows from this margin (cells) by
 #: doubling, up to :data:`MAX_MARGIN`; a depression with no way out within
