@@ -43,10 +43,7 @@ from typing import NamedTuple
 
 import numpy as np
 from scipy import ndimage
-from skimage.graph import MCP_Geometric
-from skimage.morphology import reconstruction
-
-from .drainage import MIN_SLOPE  # (a breach's channel falls as the valleys' floors do)
+from .drainage import MIN_SLOPE, least_cut_path, spill_levels  # (channels fall as the valleys' floors do)
 from .water import smoothstep
 
 #: Least depth of a depression that is breached, as a share of the
@@ -134,7 +131,7 @@ def breach_depressions(heights: np.ndarray, *, walls: np.ndarray | None = None,
     for k in sorted(pits, key=lambda k: h[pits[k]]):
         if blocked[pits[k]]:
             continue  # (a locked cell's, or a wall's own: not ours to open)
-        path = _least_cut_path(h, objects[k - 1], pits[k], blocked, outlets, 1e-3 * relief)
+        path = _way_out(h, objects[k - 1], pits[k], blocked, outlets, 1e-3 * relief)
         if path is None:
             left += 1
             continue
@@ -154,12 +151,12 @@ def _depressions(h: np.ndarray, min_depth: float, outlets: np.ndarray | None) ->
     pits : dict label -> (row, col)
         Lowest cell of each depression kept.
     """
-    seed = np.full(h.shape, h.max())
-    seed[[0, -1], :] = h[[0, -1], :]
-    seed[:, [0, -1]] = h[:, [0, -1]]
+    exits = np.zeros(h.shape, bool)
+    exits[[0, -1], :] = True
+    exits[:, [0, -1]] = True
     if outlets is not None:
-        seed[outlets] = h[outlets]
-    filled = reconstruction(seed, h, method="erosion")
+        exits |= outlets
+    filled = spill_levels(h, exits)
     lakes, n = ndimage.label(filled > h, structure=np.ones((3, 3), bool))
     if n == 0:
         return lakes, {}
@@ -171,12 +168,13 @@ def _depressions(h: np.ndarray, min_depth: float, outlets: np.ndarray | None) ->
     return lakes, {int(k + 1): w for k, w in zip(deep, where)}
 
 
-def _least_cut_path(h: np.ndarray, box: tuple[slice, slice], pit: tuple[int, int],
-                    blocked: np.ndarray, outlets: np.ndarray | None, step: float) -> np.ndarray | None:
-    """The path from ``pit`` to the nearest cell lower than it (or the map's
-    border, or an outlet) that needs the least total cut, searched in a window about the
-    depression's ``box`` that grows until it holds one; ``step`` (metres)
-    is added per cell, so that among equal cuts the shortest path wins.
+def _way_out(h: np.ndarray, box: tuple[slice, slice], pit: tuple[int, int],
+             blocked: np.ndarray, outlets: np.ndarray | None, step: float) -> np.ndarray | None:
+    """The path from ``pit`` to the nearest cell lower than it (or the
+    map's border, or an outlet) that needs the least total cut
+    (:func:`~terrasynth_core.controls.drainage.least_cut_path`, ``step``
+    metres a cell), searched in a window about the depression's ``box``
+    that grows until it holds one.
 
     Returns
     -------
@@ -202,16 +200,9 @@ def _least_cut_path(h: np.ndarray, box: tuple[slice, slice], pit: tuple[int, int
         ends &= free
         whole = a0 == 0 and b0 == 0 and a1 == rows and b1 == cols
         if ends.any():
-            cost = np.where(free, np.maximum(window - floor, 0.0) + step, np.inf)
-            start = (pit[0] - a0, pit[1] - b0)
-            cost[start] = 0.0
-            mcp = MCP_Geometric(cost)
-            targets = np.argwhere(ends)
-            total, _ = mcp.find_costs([start], [tuple(t) for t in targets], find_all_ends=False)
-            reach = total[targets[:, 0], targets[:, 1]]
-            best = int(np.argmin(reach))
-            if np.isfinite(reach[best]):
-                return np.asarray(mcp.traceback(tuple(targets[best]))) + (a0, b0)
+            steps = least_cut_path(window, (pit[0] - a0, pit[1] - b0), floor, ends, step, passable=free, free_start=True)
+            if steps is not None:
+                return steps + (a0, b0)
         if whole:
             return None
         margin *= 2

@@ -581,7 +581,7 @@ def _breach(h: Surface, cell: np.ndarray, level: float, reach: int, eps: float,
     exits[:, [0, -1]] = True
     if water is not None:
         exits |= water.window((r0, r1, c0, c1))
-    spill = reconstruction(np.where(exits, heights, heights.max()), heights, method="erosion")
+    spill = spill_levels(heights, exits)
     here = (r - r0, c - c0)
     if spill[here] <= level + eps:
         return None
@@ -591,14 +591,9 @@ def _breach(h: Surface, cell: np.ndarray, level: float, reach: int, eps: float,
     ends = spill < level - eps
     if not ends.any():
         return None
-    costs = np.maximum(heights - level, 0.0) + eps
-    search = MCP_Geometric(costs, fully_connected=True)
-    total, _ = search.find_costs([here])
-    total = np.where(ends, total, np.inf)
-    end = np.unravel_index(int(np.argmin(total)), total.shape)
-    if not np.isfinite(total[end]):
+    steps = least_cut_path(heights, here, level, ends, eps)
+    if steps is None:
         return None
-    steps = np.asarray(search.traceback(tuple(int(v) for v in end)))
     if locked is not None:
         # A gorge cannot be cut through cells that must not change, and one
         # cut beside them would overshoot against them: the outlet pools.
@@ -611,6 +606,67 @@ def _breach(h: Surface, cell: np.ndarray, level: float, reach: int, eps: float,
     path = steps.astype(float) + np.array([r0, c0], float)
     gr, gc, _ = surface_gradient(heights, cell_size=1.0)
     return Breach(path, max(float(np.percentile(np.hypot(gr, gc), 90)), 1e-6))
+
+
+def spill_levels(heights: np.ndarray, exits: np.ndarray) -> np.ndarray:
+    """``heights`` filled to their spill levels, water leaving at
+    ``exits`` (bool, same shape): priority flood by morphological
+    reconstruction (Barnes et al. 2014's fill; scikit-image).
+
+    Returns
+    -------
+    ndarray of float64, the shape of ``heights``
+        At or above ``heights``; above it in every closed depression.
+    """
+    heights = np.asarray(heights, dtype=np.float64)
+    return reconstruction(np.where(exits, heights, heights.max()), heights, method="erosion")
+
+
+def least_cut_path(heights: np.ndarray, start: tuple[int, int], level: float, ends: np.ndarray, step: float,
+                   passable: np.ndarray | None = None, free_start: bool = False) -> np.ndarray | None:
+    """The path from ``start`` to one of ``ends`` that needs the least
+    total cut down to ``level`` (least-cost breaching, Lindsay 2016): a
+    cell costs its height above ``level``, plus ``step`` so that of equal
+    cuts the shorter path wins (scikit-image's minimum-cost path, 8
+    neighbours).
+
+    Parameters
+    ----------
+    heights : ndarray of float64, shape (h, w)
+        Metres.
+    start : (row, col)
+    level : float
+        Metres.
+    ends : ndarray of bool, shape (h, w)
+        Where the path may end.
+    step : float
+        Metres a cell.
+    passable : ndarray of bool, shape (h, w), optional
+        Cells the path may cross (None: all).
+    free_start : bool
+        The start costs nothing (a depression's lowest cell, which is not
+        cut); else it costs as any cell.
+
+    Returns
+    -------
+    ndarray of int, shape (n, 2), or None
+        Cells (row, col) from ``start``; None when no end is reachable.
+    """
+    costs = np.maximum(heights - level, 0.0) + step
+    if passable is not None:
+        costs = np.where(passable, costs, np.inf)  # (impassable to the search)
+    if free_start:
+        costs[start] = 0.0
+    search = MCP_Geometric(costs, fully_connected=True)
+    # Told its targets, the search stops at the first it settles: the
+    # cheapest (the whole window's costs took as long again on average).
+    targets = np.argwhere(ends)
+    total, _ = search.find_costs([start], [tuple(t) for t in targets], find_all_ends=False)
+    reach = total[targets[:, 0], targets[:, 1]]
+    best = int(np.argmin(reach))
+    if not np.isfinite(reach[best]):
+        return None
+    return np.asarray(search.traceback(tuple(targets[best])))
 
 
 def _breach_pins(h: Surface, path: np.ndarray, level: float, eps: float) -> tuple[np.ndarray, np.ndarray]:

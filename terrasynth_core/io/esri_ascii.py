@@ -134,9 +134,14 @@ def read_esri_ascii(path: Path) -> HeightField:
                       metadata=metadata)
 
 
+def _prj_paths(path: Path) -> tuple[Path, Path]:
+    """Where the ``.prj`` of the grid ``path`` may be (either case)."""
+    return path.with_suffix(".prj"), path.with_suffix(".PRJ")
+
+
 def _prj_crs(path: Path) -> CRS | None:
     """The CRS of the ``.prj`` beside ``path`` (ESRI or OGC WKT), if there is one."""
-    for prj in (path.with_suffix(".prj"), path.with_suffix(".PRJ")):
+    for prj in _prj_paths(path):
         if prj.is_file():
             text = prj.read_text(encoding="latin-1").strip()
             try:
@@ -162,7 +167,7 @@ def prj_text(field: HeightField, path: Path) -> str | None:
 
     crs = field_crs(field.georef)
     if crs is None:
-        for prj in (path.with_suffix(".prj"), path.with_suffix(".PRJ")):
+        for prj in _prj_paths(path):
             if prj.exists():
                 raise DEMFormatError(f"cannot write {path}: {prj} beside it names a CRS this terrain does not "
                                      "have (it has none); remove it or choose another name")
