@@ -39,11 +39,15 @@ models. Computers & Geosciences 62 (the fill that finds the depressions:
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
 from scipy import ndimage
-from .drainage import MIN_SLOPE, least_cut_path, spill_levels  # (channels fall as the valleys' floors do)
+
+from ..features.graph import FeatureGraph
+from ..features.network import graph_cells
+from .drainage import MIN_SLOPE, ArrayMask, Mask, least_cut_path, spill_levels  # (channels fall as the valleys' floors do)
 from .water import smoothstep
 
 #: Least depth of a depression that is breached, as a share of the
@@ -61,6 +65,14 @@ MAX_MARGIN = 256
 #: Cells a patch spans on the grid a finished terrain is breached on
 #: (:func:`drain_terrain`): its depressions are patch-sized.
 CELLS_PER_PATCH = 20
+
+#: Most cells of the coarse grid (a larger map is breached on a coarser
+#: one, :func:`grid_factor`): its memory and time stay bounded (about
+#: 0.3 GB at its largest).
+MOST_CELLS = 2048 * 2048
+
+#: Width (cells) a painted ridge is drawn at as a wall.
+WALL_WIDTH = 3
 
 #: Rounds of :func:`drain_terrain`.
 ROUNDS = 2
@@ -256,12 +268,77 @@ def _cut(h: np.ndarray, path: np.ndarray, eps: float, steep: float, frozen: np.n
     h[rr, cc] = np.minimum.accumulate(here + s) - s
 
 
-def grid_factor(patch_size: int) -> int:
-    """The down-sampling :func:`drain_terrain` is run at for ``patch_size``."""
-    return max(1, int(patch_size) // CELLS_PER_PATCH)
+def grid_factor(patch_size: int, shape: tuple[int, int] = (0, 0)) -> int:
+    """The down-sampling :func:`drain_terrain` is run at for ``patch_size``
+    on a map of ``shape`` cells: :data:`CELLS_PER_PATCH` cells a patch, or
+    coarser on a map of more than :data:`MOST_CELLS` coarse cells."""
+    rows, cols = shape
+    return max(1, int(patch_size) // CELLS_PER_PATCH, math.ceil(math.sqrt(rows * cols / MOST_CELLS)))
 
 
-def drain_terrain(heights: np.ndarray, *, factor: int, walls: np.ndarray | None = None,
+def coarse_grid(shape: tuple[int, int], factor: int) -> tuple[int, int]:
+    """The block grid of ``shape`` at ``factor`` (a last, partial block
+    counts whole)."""
+    return -(-shape[0] // factor), -(-shape[1] // factor)
+
+
+def block_pool(a: np.ndarray, factor: int, grid: tuple[int, int], how) -> np.ndarray:
+    """``how`` (``np.mean``, ``np.any``) of each ``factor`` x ``factor``
+    block of ``a``, its last rows and columns repeated to fill ``grid``
+    whole blocks.
+
+    Parameters
+    ----------
+    a : ndarray, shape (rows, cols)
+        At most ``grid`` blocks.
+    factor : int
+    grid : (int, int)
+    how : callable
+        A numpy reduction taking ``axis``.
+
+    Returns
+    -------
+    ndarray, shape ``grid``
+    """
+    pad = ((0, grid[0] * factor - a.shape[0]), (0, grid[1] * factor - a.shape[1]))
+    return how(np.pad(a, pad, mode="edge").reshape(grid[0], factor, grid[1], factor), axis=(1, 3))
+
+
+def ridge_blocks(ridges: FeatureGraph | None, factor: int, grid: tuple[int, int]) -> np.ndarray | None:
+    """The blocks of the coarse grid a painted ridge (drawn
+    :data:`WALL_WIDTH` cells wide on the output's cells) meets: the
+    breach's walls.
+
+    Parameters
+    ----------
+    ridges : FeatureGraph or None
+        In the output's cells.
+    factor : int
+    grid : (int, int)
+        The block grid (:func:`coarse_grid`).
+
+    Returns
+    -------
+    ndarray of bool, shape ``grid``, or None
+        None without ridges.  The blocks ``block_pool(graph_mask(ridges,
+        width=WALL_WIDTH), factor, grid, np.any)`` gives, from the lines'
+        cells alone (a world-size map's mask would not fit).
+    """
+    cells = np.zeros((0, 2), np.int64) if ridges is None else graph_cells(ridges)
+    if not len(cells):
+        return None
+    rows, cols = ridges.shape
+    reach = WALL_WIDTH // 2
+    # graph_mask's widening: ``reach`` steps to the four neighbours.
+    near = [(dr, dc) for dr in range(-reach, reach + 1) for dc in range(-reach, reach + 1) if abs(dr) + abs(dc) <= reach]
+    cells = np.concatenate([cells + d for d in near])
+    cells = cells[(cells[:, 0] >= 0) & (cells[:, 0] < rows) & (cells[:, 1] >= 0) & (cells[:, 1] < cols)]
+    blocks = np.zeros(grid, bool)
+    blocks[cells[:, 0] // factor, cells[:, 1] // factor] = True
+    return blocks
+
+
+def drain_terrain(heights: np.ndarray, *, factor: int, ridges: FeatureGraph | None = None,
                   water: np.ndarray | None = None, locked: np.ndarray | None = None) -> np.ndarray:
     """:func:`breach_depressions` on a grid ``factor`` times coarser,
     brought back as a smooth lowering.
@@ -274,7 +351,9 @@ def drain_terrain(heights: np.ndarray, *, factor: int, walls: np.ndarray | None 
     do not change.  A second round opens what the first left, seen anew on
     the lowered terrain's block means (White Mountains S-valley 1000x1000:
     13.4 % of cells in depressions deeper than 1 % of the relief, 2.7 %
-    after one round, 0.7 % after two, 0.6 % after three).
+    after one round, 0.7 % after two, 0.6 % after three).  A tiled run
+    takes the same rounds over its finished tiles
+    (:func:`terrasynth_core.tiled.drainage.breach_tiles`).
 
     Parameters
     ----------
@@ -282,9 +361,12 @@ def drain_terrain(heights: np.ndarray, *, factor: int, walls: np.ndarray | None 
         Metres; not modified.
     factor : int
         The coarse grid's down-sampling (block means; 1: the full grid).
-    walls, water, locked : ndarray of bool, shape (rows, cols), optional
-        Painted ridges, painted water (an outlet) and cells that must not
-        change, as :func:`breach_depressions` takes them.
+    ridges : FeatureGraph, optional
+        The painted ridges, in the output's cells: walls
+        (:func:`ridge_blocks`).
+    water, locked : ndarray of bool, shape (rows, cols), optional
+        Painted water (an outlet) and cells that must not change, as
+        :func:`breach_depressions` takes them.
 
     Returns
     -------
@@ -293,44 +375,134 @@ def drain_terrain(heights: np.ndarray, *, factor: int, walls: np.ndarray | None 
     """
     rows, cols = heights.shape
     f = max(1, int(factor))
-    grid = (-(-rows // f), -(-cols // f))
+    grid = coarse_grid((rows, cols), f)
     if min(grid) < 3:
         return heights
-
-    def coarse(a: np.ndarray, how) -> np.ndarray:
-        pad = ((0, grid[0] * f - rows), (0, grid[1] * f - cols))
-        return how(np.pad(a, pad, mode="edge").reshape(grid[0], f, grid[1], f), axis=(1, 3))
-
-    masks = [None if m is None or not m.any() else coarse(m, np.any) for m in (walls, water, locked)]
-    frozen = masks[2]
-    if frozen is not None:
-        # A coarse cell beside a locked one would bring a lowering into it.
-        frozen = ndimage.binary_dilation(frozen, np.ones((3, 3), bool))
+    walls = ridge_blocks(ridges, f, grid)
+    water, held = (None if m is None or not m.any() else block_pool(m, f, grid, np.any) for m in (water, locked))
     out = heights
     for _ in range(ROUNDS):
-        h = coarse(out.astype(np.float64), np.mean)
-        done = breach_depressions(h, walls=masks[0], outlets=masks[1], locked=frozen)
-        if done.breached == 0:
+        lowering = breach_round(block_pool(out.astype(np.float64), f, grid, np.mean), f, (rows, cols), walls=walls,
+                                water=water, held=held, locked=None if locked is None else ArrayMask(locked))
+        if lowering is None:
             break
-        change = done.heights.astype(np.float64) - h
-        if f > 1:
-            change = _upsampled(change, f, (rows, cols))
-        # Only lowering, and none where the cubic's ringing far from a
-        # breach asks for less than a ten-thousandth of the relief (shifted
-        # by that much, not cut off: no step where the lowering starts).
-        tol = 1e-4 * float(np.ptp(h))
-        lower = np.minimum(change + tol, 0.0)
-        if locked is not None:
-            lower[locked] = 0.0
-        moved = lower < 0
         out = out.copy()
-        out[moved] = (out[moved] + lower[moved]).astype(np.float32)
+        lowering.apply((0, rows, 0, cols), out)
     return out
 
 
-def _upsampled(coarse: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
-    """Block grid ``coarse`` (blocks of ``f`` x ``f`` cells from the first
-    cell) brought to ``shape`` by cubic interpolation at the fine cells'
-    centres."""
-    fine = ndimage.zoom(coarse, f, order=3, mode="nearest", grid_mode=True)
-    return fine[:shape[0], :shape[1]]
+def breach_round(coarse: np.ndarray, factor: int, shape: tuple[int, int], *, walls: np.ndarray | None,
+                 water: np.ndarray | None, held: np.ndarray | None, locked: Mask | None) -> "Lowering | None":
+    """One round of :func:`drain_terrain`: the depressions of the block
+    means ``coarse`` breached, as a :class:`Lowering` of the output's cells.
+
+    Parameters
+    ----------
+    coarse : ndarray of float64, shape (g_rows, g_cols)
+        The terrain's block means (:func:`block_pool`), metres.
+    factor : int
+    shape : (rows, cols)
+        The output's cells.
+    walls, water, held : ndarray of bool, shape (g_rows, g_cols), or None
+        Where painted ridges, painted water and locked cells meet each block.
+    locked : Mask or None
+        The output's locked cells.
+
+    Returns
+    -------
+    Lowering or None
+        None when no depression was breached.
+    """
+    if held is not None:
+        # A coarse cell beside a locked one would bring a lowering into it.
+        held = ndimage.binary_dilation(held, np.ones((3, 3), bool))
+    done = breach_depressions(coarse, walls=walls, outlets=water, locked=held)
+    if done.breached == 0:
+        return None
+    # Shifted by a ten-thousandth of the relief, where the cubic's ringing
+    # far from a breach asks for less (not cut off: no step where the
+    # lowering starts).
+    return Lowering(done.heights.astype(np.float64) - coarse, factor, shape, 1e-4 * float(np.ptp(coarse)), locked)
+
+
+class Lowering:
+    """A breach round's change on the block grid, brought to the output's
+    cells by cubic interpolation at their centres, over any box: only
+    lowering, by at least ``tol`` less than asked, nowhere on locked cells.
+
+    The cubic spline's coefficients are made once for the whole block grid
+    (as :func:`scipy.ndimage.zoom` makes them, its edge padded by
+    :data:`_SPLINE_PAD`), so a box's values are the whole map's to the bit.
+
+    Parameters
+    ----------
+    change : ndarray of float64, shape (g_rows, g_cols)
+        Metres, at most 0 where the breach lowered.
+    factor : int
+    shape : (rows, cols)
+        The output's cells.
+    tol : float
+        Metres.
+    locked : Mask or None
+    """
+
+    def __init__(self, change: np.ndarray, factor: int, shape: tuple[int, int], tol: float, locked: Mask | None):
+        self.factor, self.shape, self.tol, self.locked = factor, tuple(shape), tol, locked
+        self.coeffs = change if factor == 1 else \
+            ndimage.spline_filter(np.pad(change, _SPLINE_PAD, mode="edge"), 3, mode="nearest")
+
+    def _at_grid(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """The interpolated change at the cells ``rows`` x ``cols``."""
+        if self.factor == 1:
+            return self.coeffs[np.ix_(rows, cols)]
+        step = 1.0 / self.factor  # (as zoom maps its cells: bit for bit)
+        r = (rows + 0.5) * step - 0.5 + _SPLINE_PAD
+        c = (cols + 0.5) * step - 0.5 + _SPLINE_PAD
+        out = np.empty((len(r), len(c)))
+        chunk = max(1, _EVAL_CELLS // max(len(c), 1))  # (coordinates for a band of rows at a time)
+        for i in range(0, len(r), chunk):
+            rr, cc = np.meshgrid(r[i:i + chunk], c, indexing="ij")
+            out[i:i + chunk] = ndimage.map_coordinates(self.coeffs, [rr, cc], order=3, prefilter=False,
+                                                       mode="nearest")
+        return out
+
+    def over(self, box: tuple[int, int, int, int]) -> np.ndarray:
+        """The lowering over ``box`` (output cells), float64 metres, at
+        most 0."""
+        r0, r1, c0, c1 = box
+        lower = np.minimum(self._at_grid(np.arange(r0, r1), np.arange(c0, c1)) + self.tol, 0.0)
+        if self.locked is not None:
+            lower[self.locked.window(box)] = 0.0
+        return lower
+
+    def at(self, rr: np.ndarray, cc: np.ndarray) -> np.ndarray:
+        """The lowering at cells ``(rr, cc)`` (integer arrays of one
+        shape), float64 metres."""
+        rr, cc = np.asarray(rr, np.int64), np.asarray(cc, np.int64)
+        if self.factor == 1:
+            change = self.coeffs[rr, cc]
+        else:
+            step = 1.0 / self.factor
+            change = ndimage.map_coordinates(self.coeffs, [(rr + 0.5) * step - 0.5 + _SPLINE_PAD,
+                                                           (cc + 0.5) * step - 0.5 + _SPLINE_PAD],
+                                             order=3, prefilter=False, mode="nearest")
+        lower = np.minimum(change + self.tol, 0.0)
+        if self.locked is not None:
+            lower[self.locked.at(rr, cc)] = 0.0
+        return lower
+
+    def apply(self, box: tuple[int, int, int, int], heights: np.ndarray) -> np.ndarray:
+        """``heights`` (float32, over ``box``) lowered, in place and
+        returned; cells not lowered keep their bytes."""
+        lower = self.over(box)
+        moved = lower < 0
+        heights[moved] = (heights[moved] + lower[moved]).astype(np.float32)
+        return heights
+
+
+#: Edge padding of the block grid before its spline filter, as
+#: :func:`scipy.ndimage.zoom` pads for ``mode="nearest"``.
+_SPLINE_PAD = 12
+
+#: Most output cells whose coordinates :class:`Lowering` holds at once.
+_EVAL_CELLS = 1 << 20

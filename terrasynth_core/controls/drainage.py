@@ -178,7 +178,7 @@ class ArraySurface:
 
     def add(self, correction: "Correction") -> None:
         rows, cols = self.shape
-        self.heights += correction.over((0, rows, 0, cols)).astype(np.float32)
+        correction.apply((0, rows, 0, cols), self.heights)
 
 
 def apply_drainage(heights: np.ndarray, valleys: FeatureGraph | None, ridges: FeatureGraph | None, *,
@@ -790,6 +790,12 @@ class Correction:
         if self.locked is not None:
             field[self.locked.window(box)] = 0.0
         return field
+
+    def apply(self, box: tuple[int, int, int, int], heights: np.ndarray) -> np.ndarray:
+        """``heights`` (float32, over ``box``) with the correction added,
+        in place and returned."""
+        heights += self.over(box).astype(np.float32)
+        return heights
 
     def at(self, rr: np.ndarray, cc: np.ndarray) -> np.ndarray:
         """The correction at cells ``rr, cc`` (integer arrays of one shape),

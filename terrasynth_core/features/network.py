@@ -737,23 +737,17 @@ def chains_to_graph(
     return FeatureGraph(kind, tuple(int(v) for v in shape), nodes, paths)
 
 
-def graph_mask(graph: FeatureGraph, *, width: int = 1) -> np.ndarray:
-    """Cells passed by the paths of a graph; a vectorized
-    :meth:`FeatureGraph.rasterize`.
-
-    Parameters
-    ----------
-    graph : FeatureGraph
-    width : int, default 1
-        Line width in cells (1 = the bare polylines).
+def graph_cells(graph: FeatureGraph) -> np.ndarray:
+    """Cells passed by the paths of a graph, inside its shape: each
+    segment sampled at one point per cell of its longer axis.
 
     Returns
     -------
-    ndarray of bool, shape ``graph.shape``
+    ndarray of int64, shape (n, 2)
+        (row, col), some more than once.
     """
-    mask = np.zeros(graph.shape, dtype=bool)
     if not graph.paths:
-        return mask
+        return np.zeros((0, 2), np.int64)
     points = np.rint(np.concatenate([p.points for p in graph.paths])).astype(np.int64)
     sizes = np.array([len(p.points) for p in graph.paths])
     last = np.cumsum(sizes) - 1
@@ -762,14 +756,33 @@ def graph_mask(graph: FeatureGraph, *, width: int = 1) -> np.ndarray:
     start = points[:-1][segment]
     delta = points[1:][segment] - start
     steps = np.abs(delta).max(axis=1)
-    # Sample every segment at one point per cell of its longer axis.
     seg = np.repeat(np.arange(len(start)), steps + 1)
     k = np.arange(len(seg)) - np.repeat(np.cumsum(steps + 1) - (steps + 1), steps + 1)
     frac = k / np.maximum(steps[seg], 1)
     cells = start[seg] + np.rint(delta[seg] * frac[:, None]).astype(np.int64)
     rows, cols = graph.shape
     inside = (cells[:, 0] >= 0) & (cells[:, 0] < rows) & (cells[:, 1] >= 0) & (cells[:, 1] < cols)
-    mask[cells[inside, 0], cells[inside, 1]] = True
+    return cells[inside]
+
+
+def graph_mask(graph: FeatureGraph, *, width: int = 1) -> np.ndarray:
+    """Cells passed by the paths of a graph (:func:`graph_cells`); a
+    vectorized :meth:`FeatureGraph.rasterize`.
+
+    Parameters
+    ----------
+    graph : FeatureGraph
+    width : int, default 1
+        Line width in cells (1 = the bare polylines; wider ones grown by
+        ``width // 2`` steps to the four neighbours).
+
+    Returns
+    -------
+    ndarray of bool, shape ``graph.shape``
+    """
+    mask = np.zeros(graph.shape, dtype=bool)
+    cells = graph_cells(graph)
+    mask[cells[:, 0], cells[:, 1]] = True
     if width > 1:
         mask = ndimage.binary_dilation(mask, iterations=width // 2)
     return mask

@@ -15,7 +15,6 @@ from ..controls.options import Controls
 from ..controls.pins import PinError, apply_pins
 from ..controls.water import apply_water, flooded_land
 from ..features import FeatureMaps
-from ..features.network import graph_mask
 
 
 #: Share of the examples' height range, at either end, over which heights
@@ -113,8 +112,8 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
                                  locked=locked)
         # The rest of the terrain drains too: its closed depressions are
         # breached, the painted ridges as walls.
-        walls = graph_mask(sketch.ridges, width=3) if sketch.ridges.paths else None
-        heights = drain_terrain(heights, factor=grid_factor(patch_size), walls=walls, water=water, locked=locked)
+        heights = drain_terrain(heights, factor=grid_factor(patch_size, heights.shape), ridges=sketch.ridges,
+                                water=water, locked=locked)
     if layout.remap is None:
         # (After drainage, which may carve a valley floor below the range:
         # the knee keeps every descent a descent.)

@@ -14,6 +14,11 @@ and the GeoTIFF writer adds the corrections band of rows by band of rows
 composed map, to the bit, in memory that grows with the strokes' length,
 not the map's area.
 
+The terrain's other closed depressions are then breached as a whole-map
+finish breaches them (:func:`breach_tiles`): on the block grid of the
+drained map, read band by band, its lowering added as one more
+correction.
+
 Unlike a whole-map run's finish, it comes after the tiles' own finishing
 (their knee into the examples' range, water and pins): painted water and
 its banks are held still (locked; a valley ending in water has its outlet
@@ -29,6 +34,7 @@ import math
 import numpy as np
 from scipy import ndimage
 
+from ..controls.depressions import ROUNDS, Lowering, block_pool, breach_round, coarse_grid, grid_factor, ridge_blocks
 from ..controls.drainage import Correction, drain
 from ..features.graph import FeatureGraph, FeatureMaps, FeatureNode, FeaturePath
 from ..features.sketch import SketchMap, sketch_features
@@ -36,7 +42,7 @@ from .controls import painted_index, window_nearest
 from .plan import TilePlan
 from .store import TileStore, compose
 
-__all__ = ["PaintedMask", "TiledSurface", "drain_tiles", "map_strokes"]
+__all__ = ["PaintedMask", "TiledSurface", "breach_tiles", "drain_tiles", "map_strokes"]
 
 #: Rows of the map composed at a time when its height span is read.
 SPAN_ROWS = 512
@@ -90,23 +96,29 @@ class TiledSurface:
             out += correction.at(rr, cc).astype(np.float32)
         return out.reshape(shape)
 
-    def add(self, correction: Correction) -> None:
+    def add(self, correction: Correction | Lowering) -> None:
         self.corrections.append(correction)
 
     def corrected(self, box: tuple[int, int, int, int], heights: np.ndarray) -> np.ndarray:
         """``heights`` (the tiles over ``box``, float32) with the
-        corrections added, in place and returned."""
+        corrections applied in turn, in place and returned."""
         for correction in self.corrections:
-            heights += correction.over(box).astype(np.float32)
+            correction.apply(box, heights)
         return heights
+
+    def band_boxes(self, rows_at_a_time: int):
+        """Boxes of whole rows that cover the map, ``rows_at_a_time``
+        rows each (the last fewer)."""
+        rows, cols = self.shape
+        for r0 in range(0, rows, rows_at_a_time):
+            yield r0, min(r0 + rows_at_a_time, rows), 0, cols
 
     def span(self) -> float:
         """The composed map's height span (max - min), metres, read
         :data:`SPAN_ROWS` rows at a time."""
-        rows, cols = self.shape
         lowest, highest = np.float32(np.inf), np.float32(-np.inf)
-        for r0 in range(0, rows, SPAN_ROWS):
-            band = compose(self.store, self.plan, (r0, min(r0 + SPAN_ROWS, rows), 0, cols))
+        for box in self.band_boxes(SPAN_ROWS):
+            band = compose(self.store, self.plan, box)
             lowest, highest = min(lowest, band.min()), max(highest, band.max())
         return float(highest - lowest)  # float32, as np.ptp of the whole map
 
@@ -177,8 +189,9 @@ def drain_tiles(store: TileStore, plan: TilePlan, sketch: SketchMap, *, patch_si
     Returns
     -------
     surface : TiledSurface
-        The tiles and their corrections (:meth:`TiledSurface.corrected`
-        gives the drained heights over any box).
+        The tiles and their corrections, the breaches' lowering last
+        (:meth:`TiledSurface.corrected` gives the drained heights over any
+        box).
     notes : list of str
         For the run's warnings.
     """
@@ -193,6 +206,7 @@ def drain_tiles(store: TileStore, plan: TilePlan, sketch: SketchMap, *, patch_si
         banks = PaintedMask(ndimage.binary_dilation(painted.painted, iterations=reach), plan.shape)
     drain(surface, maps.valleys, maps.ridges, patch_size=patch_size, span=surface.span(), water=painted,
           locked=banks)
+    breach_tiles(surface, maps.ridges, patch_size=patch_size, water=painted, locked=banks)
     notes = []
     for p in pins:
         moved = sum(float(c.at(np.array([p.row]), np.array([p.col]))[0]) for c in surface.corrections)
@@ -200,3 +214,57 @@ def drain_tiles(store: TileStore, plan: TilePlan, sketch: SketchMap, *, patch_si
             notes.append(f"the pin at row {p.row}, col {p.col} moved {moved:+.2f} m with the drainage, which a "
                          "tiled run applies after the tiles: move it off the stroke or turn drainage off")
     return surface, notes
+
+
+def breach_tiles(surface: TiledSurface, ridges: FeatureGraph, *, patch_size: int, water: PaintedMask | None = None,
+                 locked: PaintedMask | None = None) -> None:
+    """The closed depressions of a drained tiled map breached, as
+    :func:`~terrasynth_core.controls.depressions.drain_terrain` breaches a
+    whole map's: the same rounds on the same block grid, each round's
+    lowering added to ``surface``.
+
+    The block means are read band by band from the tiles with the
+    corrections so far; the coarse grid is at most
+    :data:`~terrasynth_core.controls.depressions.MOST_CELLS` cells, so the
+    memory is bounded whatever the map's size.
+
+    Parameters
+    ----------
+    surface : TiledSurface
+        Its valleys drained.
+    ridges : FeatureGraph
+        The painted ridges in output cells: walls.
+    patch_size : int
+    water, locked : PaintedMask, optional
+        Painted water (an outlet) and cells held still (its banks).
+    """
+    shape = surface.shape
+    f = grid_factor(patch_size, shape)
+    grid = coarse_grid(shape, f)
+    if min(grid) < 3:
+        return
+    rows_at_a_time = f * max(1, SPAN_ROWS // f)  # (whole blocks)
+    walls = ridge_blocks(ridges, f, grid)
+    water_blocks, held = (None if m is None else _blocks(m, surface, f, grid, rows_at_a_time) for m in (water, locked))
+    for _ in range(ROUNDS):
+        means = np.empty(grid)
+        for box in surface.band_boxes(rows_at_a_time):
+            band = surface.corrected(box, compose(surface.store, surface.plan, box))
+            g0 = box[0] // f
+            g1 = g0 + -(-(box[1] - box[0]) // f)
+            means[g0:g1] = block_pool(band.astype(np.float64), f, (g1 - g0, grid[1]), np.mean)
+        lowering = breach_round(means, f, shape, walls=walls, water=water_blocks, held=held, locked=locked)
+        if lowering is None:
+            break
+        surface.add(lowering)
+
+
+def _blocks(mask: PaintedMask, surface: TiledSurface, f: int, grid: tuple[int, int],
+            rows_at_a_time: int) -> np.ndarray | None:
+    """The blocks ``mask`` meets (None: none), read band by band."""
+    out = np.zeros(grid, bool)
+    for box in surface.band_boxes(rows_at_a_time):
+        g0 = box[0] // f
+        g1 = g0 + -(-(box[1] - box[0]) // f)
+        out[g0:g1] = block_pool(mask.window(box), f, (g1 - g0, grid[1]), np.any)
+    return out if out.any() else None

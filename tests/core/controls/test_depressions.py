@@ -12,7 +12,10 @@ import heapq
 import numpy as np
 import pytest
 
-from terrasynth_core.controls.depressions import breach_depressions, drain_terrain, grid_factor
+from terrasynth_core.controls.depressions import (WALL_WIDTH, block_pool, breach_depressions, breach_round,
+                                                  coarse_grid, drain_terrain, grid_factor, ridge_blocks)
+from terrasynth_core.features.graph import FeatureGraph, FeatureNode, FeaturePath
+from terrasynth_core.features.network import graph_mask
 
 N = 96
 
@@ -128,3 +131,38 @@ def test_drain_terrain_keeps_locked_cells_and_flat_ground():
 
 def test_grid_factor():
     assert grid_factor(80) == 4 and grid_factor(48) == 2 and grid_factor(16) == 1
+    # A world-size map's grid stays within MOST_CELLS.
+    assert grid_factor(80, (8192, 8192)) == 4 and grid_factor(80, (16384, 16384)) == 8
+    assert grid_factor(16, (5000, 3000)) == 2
+
+
+@pytest.mark.parametrize("factor", [1, 3, 4])
+def test_ridge_blocks_are_the_blocks_of_the_wide_lines(factor):
+    """From the lines' cells alone, the blocks the whole map's 3-cell-wide
+    mask meets, the map's edges included."""
+    shape = (97, 131)
+    rng = np.random.default_rng(factor)
+    nodes, paths = [], []
+    for i in range(4):
+        points = np.cumsum(rng.normal(0, 4, (40, 2)), axis=0) + rng.uniform(-5, 135, 2)  # (some leave the map)
+        nodes += [FeatureNode(2 * i, *points[0], "end", 1), FeatureNode(2 * i + 1, *points[-1], "end", 1)]
+        paths.append(FeaturePath(2 * i, 2 * i + 1, points))
+    ridges = FeatureGraph("ridge", shape, tuple(nodes), tuple(paths))
+    grid = coarse_grid(shape, factor)
+    expected = block_pool(graph_mask(ridges, width=WALL_WIDTH), factor, grid, np.any)
+    assert expected.any() and np.array_equal(ridge_blocks(ridges, factor, grid), expected)
+    assert ridge_blocks(FeatureGraph("ridge", shape, (), ()), factor, grid) is None
+
+
+def test_a_lowering_over_a_box_is_the_whole_maps():
+    """A breach round's cubic lowering, made once, read over boxes and at
+    cells, gives the whole map's values to the bit."""
+    h = _slope_with_bowls(4)
+    grid = coarse_grid(h.shape, 3)
+    lowering = breach_round(block_pool(h.astype(np.float64), 3, grid, np.mean), 3, h.shape, walls=None, water=None,
+                            held=None, locked=None)
+    whole = lowering.over((0, N, 0, N))
+    assert (whole < -1.0).sum() > 100 and (whole <= 0).all()
+    assert np.array_equal(lowering.over((17, 61, 5, N)), whole[17:61, 5:])
+    rr, cc = np.nonzero(whole < 0)
+    assert np.array_equal(lowering.at(rr, cc), whole[rr, cc])

@@ -349,8 +349,10 @@ def test_a_bad_style_is_named_before_an_automatic_patch_size_reads_it(white_moun
 
 def test_a_tiled_run_drains_the_whole_map_as_a_whole_map_step_would(one_worker, white_mountains, sketch_dir,
                                                                    tmp_path):
-    """The S-valley across 2 x 2 tiles: drained after the tiles, the map is
-    what the whole-map drainage step makes of the same tiles, to the bit."""
+    """The S-valley across 2 x 2 tiles: drained after the tiles (valleys and
+    closed depressions), the map is what the whole-map finish's drainage
+    steps make of the same tiles, to the bit."""
+    from terrasynth_core.controls.depressions import drain_terrain, grid_factor
     from terrasynth_core.controls.drainage import apply_drainage
     from terrasynth_core.tiled.drainage import map_strokes
 
@@ -364,7 +366,8 @@ def test_a_tiled_run_drains_the_whole_map_as_a_whole_map_step_would(one_worker, 
     heights, as_made = _read(tmp_path / "drained.tif"), _read(tmp_path / "as_made.tif")
     maps = map_strokes(s_valley, (256, 256))
     assert maps.valleys.paths and maps.ridges.paths
-    expected = apply_drainage(as_made, maps.valleys, maps.ridges, patch_size=32)
+    expected = drain_terrain(apply_drainage(as_made, maps.valleys, maps.ridges, patch_size=32),
+                             factor=grid_factor(32, (256, 256)), ridges=maps.ridges)
     assert np.array_equal(heights, expected)
     assert np.abs(heights - as_made).max() > 0.1  # the step changed something
     # Toggling drainage keeps the tiles: it runs after them.
@@ -378,6 +381,7 @@ def test_tiled_drainage_holds_painted_water_and_its_banks_and_names_a_pin_it_mov
     """Water painted at another size than the output where the S-valley
     ends: an outlet, and locked with its banks; a pin on the valley is
     named in the notes."""
+    from terrasynth_core.controls.depressions import drain_terrain, grid_factor
     from terrasynth_core.controls.drainage import apply_drainage
     from terrasynth_core.controls.pins import Pin
     from terrasynth_core.synthesis import Water
@@ -399,7 +403,9 @@ def test_tiled_drainage_holds_painted_water_and_its_banks_and_names_a_pin_it_mov
     heights, as_made = _read(tmp_path / "drained.tif"), _read(tmp_path / "as_made.tif")
     water = PaintedMask(painted, (256, 256)).window((0, 256, 0, 256))
     banks = PaintedMask(ndimage.binary_dilation(painted, iterations=7), (256, 256)).window((0, 256, 0, 256))
-    expected = apply_drainage(as_made, maps.valleys, maps.ridges, patch_size=32, water=water, locked=banks)
+    expected = drain_terrain(apply_drainage(as_made, maps.valleys, maps.ridges, patch_size=32, water=water,
+                                            locked=banks),
+                             factor=grid_factor(32, (256, 256)), ridges=maps.ridges, water=water, locked=banks)
     assert np.array_equal(heights, expected)
     assert np.array_equal(heights[banks], as_made[banks])  # water and banks held still
     assert any(f"pin at row {pin.row}, col {pin.col} moved" in n for n in drained.notes)
