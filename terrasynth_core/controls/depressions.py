@@ -248,15 +248,21 @@ def _cut(h: np.ndarray, path: np.ndarray, eps: float, steep: float, frozen: np.n
     b0, b1 = max(int(cc.min()) - reach, 0), min(int(cc.max()) + reach + 1, cols)
     lower = np.zeros((a1 - a0, b1 - b0))
     above = np.full(lower.shape, np.inf)
-    for i in range(len(path)):
-        r = int(np.ceil(half[i]))
-        y0, y1 = max(rr[i] - r, a0), min(rr[i] + r + 1, a1)
-        x0, x1 = max(cc[i] - r, b0), min(cc[i] + r + 1, b1)
-        d = np.hypot(*np.ogrid[y0 - rr[i]:y1 - rr[i], x0 - cc[i]:x1 - cc[i]])
-        box = (slice(y0 - a0, y1 - a0), slice(x0 - b0, x1 - b0))
-        if cut[i] > 0:
-            np.maximum(lower[box], cut[i] * smoothstep(1.0 - d / half[i]), out=lower[box])
-        np.minimum(above[box], channel[i] + WALL_RISE * steep * d, out=above[box])
+    # Every channel cell's square of reach at once, as offsets from it (the
+    # widest square for all, the cells beyond a cell's own square left
+    # out), scattered by their largest and smallest.
+    r = np.ceil(half).astype(np.int64)
+    dy, dx = (a.ravel() for a in np.mgrid[-r.max():r.max() + 1, -r.max():r.max() + 1])
+    y, x = rr[:, None] + dy, cc[:, None] + dx
+    near = ((np.abs(dy) <= r[:, None]) & (np.abs(dx) <= r[:, None])
+            & (y >= a0) & (y < a1) & (x >= b0) & (x < b1))
+    i, k = np.nonzero(near)
+    d = np.hypot(dy[k].astype(np.float64), dx[k].astype(np.float64))
+    cells = (y[i, k] - a0, x[i, k] - b0)
+    deep = cut[i] > 0
+    np.maximum.at(lower, (cells[0][deep], cells[1][deep]),
+                  cut[i][deep] * smoothstep(1.0 - d[deep] / half[i][deep]))
+    np.minimum.at(above, cells, channel[i] + WALL_RISE * steep * d)
     window = h[a0:a1, b0:b1]
     walls = np.where(lower > 0, np.maximum(window - lower, np.minimum(above, window)), window)
     if frozen is not None:
