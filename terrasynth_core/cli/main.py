@@ -382,8 +382,15 @@ def _fill_run_defaults(args: argparse.Namespace) -> None:
 
 #: ``synth`` options a tiled run does not take (a tiled run streams one
 #: GeoTIFF and never holds the whole terrain), with why.
-_NOT_TILED = {"variations": "run the command once per seed", "report": None, "debug_dir": None, "cog": None,
+_NOT_TILED = {"variations": "run the command once per seed",
+              "report": "its patch list is one whole-map run's; run without --tile for a report",
+              "debug_dir": "its stage pictures are one whole-map run's; run without --tile for them",
+              "cog": "a tiled run streams a tiled, compressed GeoTIFF; make a Cloud-Optimized copy of it with "
+                     "'terrasynth-cli convert OUT.tif OUT_cog.tif --cog'",
               "height_range": "it maps the whole terrain's lowest and highest cells; map the GeoTIFF afterwards"}
+
+#: Ends a message about a synth option's value.
+_SYNTH_HELP = " (see 'terrasynth-cli synth --help')"
 
 
 def _synth_tiled(args: argparse.Namespace) -> int:
@@ -400,14 +407,15 @@ def _synth_tiled(args: argparse.Namespace) -> int:
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
         if args.workers is not None:
-            raise TerraSynthError("--workers starts a local cluster; with --scheduler the cluster's workers are used")
+            raise TerraSynthError("--workers starts a local cluster; with --scheduler the cluster's workers are used"
+                                  + _SYNTH_HELP)
     for name, how in _NOT_TILED.items():
         value = getattr(args, name, None)
         if value not in (None, [], False) and not (name == "variations" and value == 1):
             option = "--" + name.replace("_", "-")
-            raise TerraSynthError(f"{option} is not available with --tile" + (f": {how}" if how else ""))
+            raise TerraSynthError(f"{option} is not available with --tile: {how}")
     if args.workers is not None and args.workers < 1:
-        raise TerraSynthError(f"--workers must be at least 1, got {args.workers}")
+        raise TerraSynthError(f"--workers must be at least 1, got {args.workers}" + _SYNTH_HELP)
     out = check_tiled_output(Path(args.out))
     if args.project:
         spec = _project_spec(args, "--out, --size, --seed, --tile, --workers, --scheduler, --keep-tiles")
@@ -459,7 +467,8 @@ def _tile_size(text: str) -> int:
     except ValueError:
         value = 0
     if value < 1:
-        raise TerraSynthError(f"--tile {text!r}: expected a tile side in cells, a whole number such as 1024")
+        raise TerraSynthError(f"--tile {text!r}: expected a tile side in cells, a whole number such as 1024"
+                              + _SYNTH_HELP)
     return value
 
 
@@ -541,7 +550,7 @@ def _synthesize(examples, sketch, size, params, args, controls=None, *, inputs=(
     out = _check_output(args, _sources(examples, controls, *inputs))
     if getattr(args, "workers", None) is not None:
         if args.workers < 1:
-            raise TerraSynthError(f"--workers must be at least 1, got {args.workers}")
+            raise TerraSynthError(f"--workers must be at least 1, got {args.workers}" + _SYNTH_HELP)
         params = dataclasses.replace(params, workers=args.workers)
     check_stamp_footprints(controls, examples, params.cell_size)
     session = Session(examples, sketch, shape=size, params=params, controls=controls)

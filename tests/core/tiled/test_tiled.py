@@ -254,12 +254,14 @@ def test_a_run_failing_before_any_work_leaves_no_store(tmp_path, monkeypatch, wh
 
 # -- the command line ---------------------------------------------------------------------------
 @pytest.mark.parametrize("extra, message", [
-    (["--tile", "abc"], "--tile 'abc': expected a tile side in cells"),
+    (["--tile", "abc"], "--tile 'abc': expected a tile side in cells, a whole number such as 1024 (see "),
     (["--tile", "40"], "tile size 40: expected a whole number of at least 96 cells"),
     (["--tile", "128", "--scheduler", "nowhere"], "scheduler address 'nowhere': expected tcp://HOST:PORT"),
     (["--scheduler", "tcp://h:8786"], "--scheduler runs a tiled synthesis: give the tile size too"),
     (["--keep-tiles"], "--keep-tiles keeps a tiled synthesis's tiles: give the tile size too"),
     (["--tile", "128", "--height-range", "0,100"], "--height-range is not available with --tile"),
+    (["--tile", "128", "--cog"], "--cog is not available with --tile: a tiled run streams a tiled, compressed"),
+    (["--tile", "128", "--workers", "0"], "--workers must be at least 1, got 0 (see 'terrasynth-cli synth --help')"),
     (["--tile", "128", "--size", "100000000x5"], "output size 100000000x5: each side must be 1 to"),
 ])
 def test_cli_bad_tiled_options_give_one_line(extra, message, tmp_path, capsys, dems_dir):
