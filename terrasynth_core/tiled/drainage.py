@@ -34,7 +34,8 @@ import math
 import numpy as np
 from scipy import ndimage
 
-from ..controls.depressions import ROUNDS, Lowering, block_pool, breach_round, coarse_grid, grid_factor, ridge_blocks
+from ..controls.depressions import (ROUNDS, Lowering, breach_round, coarse_grid, grid_factor, pooled_bands,
+                                   ridge_blocks)
 from ..controls.drainage import Correction, drain
 from ..features.graph import FeatureGraph, FeatureMaps, FeatureNode, FeaturePath
 from ..features.sketch import SketchMap, sketch_features
@@ -106,19 +107,13 @@ class TiledSurface:
             correction.apply(box, heights)
         return heights
 
-    def band_boxes(self, rows_at_a_time: int):
-        """Boxes of whole rows that cover the map, ``rows_at_a_time``
-        rows each (the last fewer)."""
-        rows, cols = self.shape
-        for r0 in range(0, rows, rows_at_a_time):
-            yield r0, min(r0 + rows_at_a_time, rows), 0, cols
-
     def span(self) -> float:
         """The composed map's height span (max - min), metres, read
         :data:`SPAN_ROWS` rows at a time."""
+        rows, cols = self.shape
         lowest, highest = np.float32(np.inf), np.float32(-np.inf)
-        for box in self.band_boxes(SPAN_ROWS):
-            band = compose(self.store, self.plan, box)
+        for r0 in range(0, rows, SPAN_ROWS):
+            band = compose(self.store, self.plan, (r0, min(r0 + SPAN_ROWS, rows), 0, cols))
             lowest, highest = min(lowest, band.min()), max(highest, band.max())
         return float(highest - lowest)  # float32, as np.ptp of the whole map
 
@@ -224,7 +219,8 @@ def breach_tiles(surface: TiledSurface, ridges: FeatureGraph, *, patch_size: int
     lowering added to ``surface``.
 
     The block means are read band by band from the tiles with the
-    corrections so far; the coarse grid is at most
+    corrections so far (:func:`~terrasynth_core.controls.depressions.pooled_bands`);
+    the coarse grid is at most
     :data:`~terrasynth_core.controls.depressions.MOST_CELLS` cells, so the
     memory is bounded whatever the map's size.
 
@@ -243,28 +239,12 @@ def breach_tiles(surface: TiledSurface, ridges: FeatureGraph, *, patch_size: int
     grid = coarse_grid(shape, f)
     if min(grid) < 3:
         return
-    rows_at_a_time = f * max(1, SPAN_ROWS // f)  # (whole blocks)
     walls = ridge_blocks(ridges, f, grid)
-    water_blocks, held = (None if m is None else _blocks(m, surface, f, grid, rows_at_a_time) for m in (water, locked))
+    water_blocks, held = (None if m is None else pooled_bands(m.window, shape, f, np.any) for m in (water, locked))
     for _ in range(ROUNDS):
-        means = np.empty(grid)
-        for box in surface.band_boxes(rows_at_a_time):
-            band = surface.corrected(box, compose(surface.store, surface.plan, box))
-            g0 = box[0] // f
-            g1 = g0 + -(-(box[1] - box[0]) // f)
-            means[g0:g1] = block_pool(band.astype(np.float64), f, (g1 - g0, grid[1]), np.mean)
+        means = pooled_bands(lambda box: surface.corrected(box, compose(surface.store, surface.plan, box))
+                             .astype(np.float64), shape, f, np.mean)
         lowering = breach_round(means, f, shape, walls=walls, water=water_blocks, held=held, locked=locked)
         if lowering is None:
             break
         surface.add(lowering)
-
-
-def _blocks(mask: PaintedMask, surface: TiledSurface, f: int, grid: tuple[int, int],
-            rows_at_a_time: int) -> np.ndarray | None:
-    """The blocks ``mask`` meets (None: none), read band by band."""
-    out = np.zeros(grid, bool)
-    for box in surface.band_boxes(rows_at_a_time):
-        g0 = box[0] // f
-        g1 = g0 + -(-(box[1] - box[0]) // f)
-        out[g0:g1] = block_pool(mask.window(box), f, (g1 - g0, grid[1]), np.any)
-    return out if out.any() else None

@@ -11,6 +11,7 @@ import heapq
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from terrasynth_core.controls.depressions import (WALL_WIDTH, block_pool, breach_depressions, breach_round,
                                                   coarse_grid, drain_terrain, grid_factor, ridge_blocks)
@@ -156,13 +157,36 @@ def test_ridge_blocks_are_the_blocks_of_the_wide_lines(factor):
 
 def test_a_lowering_over_a_box_is_the_whole_maps():
     """A breach round's cubic lowering, made once, read over boxes and at
-    cells, gives the whole map's values to the bit."""
+    cells, gives the whole map's values to the bit: scipy's cubic zoom of
+    the block grid's change, to round-off."""
     h = _slope_with_bowls(4)
     grid = coarse_grid(h.shape, 3)
-    lowering = breach_round(block_pool(h.astype(np.float64), 3, grid, np.mean), 3, h.shape, walls=None, water=None,
-                            held=None, locked=None)
+    coarse = block_pool(h.astype(np.float64), 3, grid, np.mean)
+    lowering = breach_round(coarse, 3, h.shape, walls=None, water=None, held=None, locked=None)
     whole = lowering.over((0, N, 0, N))
     assert (whole < -1.0).sum() > 100 and (whole <= 0).all()
     assert np.array_equal(lowering.over((17, 61, 5, N)), whole[17:61, 5:])
     rr, cc = np.nonzero(whole < 0)
     assert np.array_equal(lowering.at(rr, cc), whole[rr, cc])
+    change = breach_depressions(coarse).heights.astype(np.float64) - coarse
+    zoomed = ndimage.zoom(change, 3, order=3, mode="nearest", grid_mode=True)[:N, :N]
+    assert np.allclose(whole, np.minimum(zoomed + lowering.tol, 0.0), rtol=0, atol=1e-9)
+
+
+def test_bands_give_the_whole_maps_blocks_and_lowering(monkeypatch):
+    """Pooled and lowered a band of rows at a time (a large map is never
+    held in float64), the same values as the whole map at once."""
+    from terrasynth_core.controls import depressions
+
+    h = _slope_with_bowls(5)[:, :91]  # (not a whole number of blocks)
+    water = np.zeros(h.shape, bool)
+    water[40:44, 80:] = True
+    whole = drain_terrain(h, factor=3, water=water)
+    means = depressions.pooled_bands(depressions._reader(h, np.float64), h.shape, 3, np.mean)
+    monkeypatch.setattr(depressions, "BAND_CELLS", 7 * 91)  # (bands of two blocks, of 7 rows lowered)
+    assert np.array_equal(depressions.pooled_bands(depressions._reader(h, np.float64), h.shape, 3, np.mean), means)
+    assert np.array_equal(means, block_pool(h.astype(np.float64), 3, coarse_grid(h.shape, 3), np.mean))
+    assert np.array_equal(depressions.pooled_bands(depressions._reader(water), h.shape, 3, np.any),
+                          block_pool(water, 3, coarse_grid(h.shape, 3), np.any))
+    assert depressions.pooled_bands(depressions._reader(np.zeros(h.shape, bool)), h.shape, 3, np.any) is None
+    assert np.array_equal(drain_terrain(h, factor=3, water=water), whole)

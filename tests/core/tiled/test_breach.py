@@ -10,7 +10,6 @@ import pytest
 from terrasynth_core.controls import depressions
 from terrasynth_core.controls.depressions import drain_terrain, grid_factor
 from terrasynth_core.features.graph import FeatureGraph, FeatureNode, FeaturePath
-from terrasynth_core.tiled import drainage
 from terrasynth_core.tiled.drainage import PaintedMask, TiledSurface, breach_tiles
 from terrasynth_core.tiled.plan import plan_tiles
 from terrasynth_core.tiled.store import TileStore, compose
@@ -53,13 +52,14 @@ def _tiled(heights: np.ndarray, store: TileStore) -> TiledSurface:
     return TiledSurface(store, plan)
 
 
-@pytest.mark.parametrize("patch_size, rows_at_a_time, most_cells", [(80, 512, 2048**2), (48, 40, 2048**2),
-                                                                    (32, 30, 50 * 60)])
-def test_tiles_are_breached_as_the_whole_map(store, monkeypatch, patch_size, rows_at_a_time, most_cells):
-    """Factors 4, 2 and (the coarse grid capped at 3000 cells) 7; bands of
-    one, eight and ten blocks; painted water at another size than the
-    output (an outlet) and its banks (held still), and a ridge (a wall)."""
-    monkeypatch.setattr(drainage, "SPAN_ROWS", rows_at_a_time)
+@pytest.mark.parametrize("patch_size, band_cells, most_cells", [(80, 1 << 22, 2048**2), (48, 40 * 362, 2048**2),
+                                                                (32, 30 * 362, 50 * 60)])
+def test_tiles_are_breached_as_the_whole_map(store, monkeypatch, patch_size, band_cells, most_cells):
+    """Factors 4, 2 and (the coarse grid capped at 3000 cells) 7; the map
+    read in one band and in bands of 20 and 4 blocks; painted water at
+    another size than the output (an outlet) and its banks (held still),
+    and a ridge (a wall)."""
+    monkeypatch.setattr(depressions, "BAND_CELLS", band_cells)
     monkeypatch.setattr(depressions, "MOST_CELLS", most_cells)
     heights = _bowly_terrain()
     painted = np.zeros((100, 120), bool)
