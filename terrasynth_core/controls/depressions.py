@@ -71,6 +71,11 @@ CELLS_PER_PATCH = 20
 #: 0.3 GB at its largest).
 MOST_CELLS = 2048 * 2048
 
+#: Most (channel cell, neighbour) pairs a breach's gorge is widened over
+#: at once (:func:`_widen`), and the widest reach (cells) widened so.
+_CUT_CELLS = 1 << 18
+_BATCH_REACH = 16
+
 #: Width (cells) a painted ridge is drawn at as a wall.
 WALL_WIDTH = 3
 
@@ -248,21 +253,25 @@ def _cut(h: np.ndarray, path: np.ndarray, eps: float, steep: float, frozen: np.n
     b0, b1 = max(int(cc.min()) - reach, 0), min(int(cc.max()) + reach + 1, cols)
     lower = np.zeros((a1 - a0, b1 - b0))
     above = np.full(lower.shape, np.inf)
-    # Every channel cell's square of reach at once, as offsets from it (the
-    # widest square for all, the cells beyond a cell's own square left
-    # out), scattered by their largest and smallest.
-    r = np.ceil(half).astype(np.int64)
-    dy, dx = (a.ravel() for a in np.mgrid[-r.max():r.max() + 1, -r.max():r.max() + 1])
-    y, x = rr[:, None] + dy, cc[:, None] + dx
-    near = ((np.abs(dy) <= r[:, None]) & (np.abs(dx) <= r[:, None])
-            & (y >= a0) & (y < a1) & (x >= b0) & (x < b1))
-    i, k = np.nonzero(near)
-    d = np.hypot(dy[k].astype(np.float64), dx[k].astype(np.float64))
-    cells = (y[i, k] - a0, x[i, k] - b0)
-    deep = cut[i] > 0
-    np.maximum.at(lower, (cells[0][deep], cells[1][deep]),
-                  cut[i][deep] * smoothstep(1.0 - d[deep] / half[i][deep]))
-    np.minimum.at(above, cells, channel[i] + WALL_RISE * steep * d)
+    r = np.minimum(np.ceil(half), max(a1 - a0, b1 - b0)).astype(np.int64)  # (unbounded on flat ground)
+    if int(r.max()) <= _BATCH_REACH:
+        # Small squares (nearly every breach): many channel cells at once.
+        step = max(1, _CUT_CELLS // (2 * int(r.max()) + 1) ** 2)
+        for j in range(0, len(path), step):
+            part = slice(j, j + step)
+            _widen(lower, above, (a0, a1, b0, b1), rr[part], cc[part], r[part], cut[part], half[part],
+                   channel[part], WALL_RISE * steep)
+    else:
+        # Wide squares (gentle ground): one channel cell at a time, on
+        # slices (scattering them would cost more than the loop saves).
+        for i in range(len(path)):
+            y0, y1 = max(rr[i] - r[i], a0), min(rr[i] + r[i] + 1, a1)
+            x0, x1 = max(cc[i] - r[i], b0), min(cc[i] + r[i] + 1, b1)
+            d = np.hypot(*np.ogrid[y0 - rr[i]:y1 - rr[i], x0 - cc[i]:x1 - cc[i]])
+            box = (slice(y0 - a0, y1 - a0), slice(x0 - b0, x1 - b0))
+            if cut[i] > 0:
+                np.maximum(lower[box], cut[i] * smoothstep(1.0 - d / half[i]), out=lower[box])
+            np.minimum(above[box], channel[i] + WALL_RISE * steep * d, out=above[box])
     window = h[a0:a1, b0:b1]
     walls = np.where(lower > 0, np.maximum(window - lower, np.minimum(above, window)), window)
     if frozen is not None:
@@ -274,10 +283,38 @@ def _cut(h: np.ndarray, path: np.ndarray, eps: float, steep: float, frozen: np.n
     h[rr, cc] = np.minimum.accumulate(here + s) - s
 
 
+def _widen(lower: np.ndarray, above: np.ndarray, window: tuple[int, int, int, int], rr: np.ndarray,
+           cc: np.ndarray, r: np.ndarray, cut: np.ndarray, half: np.ndarray, channel: np.ndarray,
+           rise: float) -> None:
+    """:func:`_cut`'s gorge for channel cells ``(rr, cc)`` (reach ``r``
+    cells, cut ``cut``, half-width ``half``, channel height ``channel``),
+    in place on ``lower`` (largest lowering) and ``above`` (lowest wall
+    height, ``rise`` metres a cell from the channel) over ``window``: each
+    cell's square of reach as offsets from it (the widest square of all,
+    cut to the window; the cells beyond a cell's own square left out),
+    scattered by their largest and smallest."""
+    a0, a1, b0, b1 = window
+    top, bottom = max(-int(r.max()), a0 - int(rr.max())), min(int(r.max()), a1 - 1 - int(rr.min()))
+    left, right = max(-int(r.max()), b0 - int(cc.max())), min(int(r.max()), b1 - 1 - int(cc.min()))
+    dy, dx = (a.ravel() for a in np.mgrid[top:bottom + 1, left:right + 1])
+    y, x = rr[:, None] + dy, cc[:, None] + dx
+    near = ((np.abs(dy) <= r[:, None]) & (np.abs(dx) <= r[:, None])
+            & (y >= a0) & (y < a1) & (x >= b0) & (x < b1))
+    i, k = np.nonzero(near)
+    d = np.hypot(dy[k].astype(np.float64), dx[k].astype(np.float64))
+    cells = (y[i, k] - a0, x[i, k] - b0)
+    deep = cut[i] > 0
+    np.maximum.at(lower, (cells[0][deep], cells[1][deep]),
+                  cut[i][deep] * smoothstep(1.0 - d[deep] / half[i][deep]))
+    np.minimum.at(above, cells, channel[i] + rise * d)
+
+
 def grid_factor(patch_size: int, shape: tuple[int, int] = (0, 0)) -> int:
     """The down-sampling :func:`drain_terrain` is run at for ``patch_size``
     on a map of ``shape`` cells: :data:`CELLS_PER_PATCH` cells a patch, or
-    coarser on a map of more than :data:`MOST_CELLS` coarse cells."""
+    coarser on a map that would need more than :data:`MOST_CELLS` blocks
+    (then about that many: the factor is rounded up, the blocks to whole
+    ones)."""
     rows, cols = shape
     return max(1, int(patch_size) // CELLS_PER_PATCH, math.ceil(math.sqrt(rows * cols / MOST_CELLS)))
 
@@ -311,9 +348,10 @@ def block_pool(a: np.ndarray, factor: int, grid: tuple[int, int], how) -> np.nda
 
 
 def pooled_bands(read, shape: tuple[int, int], factor: int, how) -> np.ndarray | None:
-    """:func:`block_pool` of a map read band by band of whole blocks (at
-    most :data:`BAND_CELLS` cells a band), so a large map is never held in
-    float64: the same values as pooling it whole.
+    """:func:`block_pool` of a map read band by band of whole blocks (about
+    :data:`BAND_CELLS` cells a band, one row of blocks at least), so a
+    large map is never held in float64: the same values as pooling it
+    whole.
 
     Parameters
     ----------
@@ -413,31 +451,57 @@ def drain_terrain(heights: np.ndarray, *, factor: int, ridges: FeatureGraph | No
         Every cell not lowered keeps its bytes.
     """
     rows, cols = heights.shape
+    state = {"out": heights}
+
+    def add(lowering: Lowering) -> None:
+        if state["out"] is heights:
+            state["out"] = heights.copy()  # (once: ``heights`` is the caller's)
+        lowering.apply((0, rows, 0, cols), state["out"])
+
+    breach_in_rounds((rows, cols), factor, lambda box: state["out"][box[0]:box[1], box[2]:box[3]], add,
+                     ridges=ridges, water=None if water is None else ArrayMask(water),
+                     locked=None if locked is None else ArrayMask(locked))
+    return state["out"]
+
+
+def breach_in_rounds(shape: tuple[int, int], factor: int, read, add, *, ridges: FeatureGraph | None,
+                     water: Mask | None, locked: Mask | None) -> None:
+    """:data:`ROUNDS` rounds of :func:`breach_round` on a map read band by
+    band: the whole map's (:func:`drain_terrain`) or a tiled run's
+    (:func:`terrasynth_core.tiled.drainage.breach_tiles`).
+
+    Parameters
+    ----------
+    shape : (rows, cols)
+        The output's cells.
+    factor : int
+        The block grid's down-sampling.
+    read : callable
+        ``read((r0, r1, 0, cols))``: the heights over a band of whole rows
+        with every lowering added so far, float32.
+    add : callable
+        ``add(lowering)`` adds a round's :class:`Lowering` to what later
+        reads give.
+    ridges : FeatureGraph or None
+        Painted ridges in output cells: walls.
+    water, locked : Mask or None
+        Painted water (an outlet) and cells that must not change.
+    """
     f = max(1, int(factor))
-    grid = coarse_grid((rows, cols), f)
+    grid = coarse_grid(shape, f)
     if min(grid) < 3:
-        return heights
+        return
     walls = ridge_blocks(ridges, f, grid)
-    water, held = (None if m is None else pooled_bands(_reader(m), (rows, cols), f, np.any) for m in (water, locked))
-    out = heights
+    water_blocks, held = (None if m is None else pooled_bands(m.window, shape, f, np.any) for m in (water, locked))
     for _ in range(ROUNDS):
-        means = pooled_bands(_reader(out, np.float64), (rows, cols), f, np.mean)
-        lowering = breach_round(means, f, (rows, cols), walls=walls, water=water, held=held,
-                                locked=None if locked is None else ArrayMask(locked))
+        means = pooled_bands(lambda box: read(box).astype(np.float64), shape, f, np.mean)
+        lowering = breach_round(means, f, walls=walls, water=water_blocks, held=held, locked=locked)
         if lowering is None:
             break
-        out = out.copy()
-        lowering.apply((0, rows, 0, cols), out)
-    return out
+        add(lowering)
 
 
-def _reader(a: np.ndarray, dtype=None):
-    """Reads ``a`` over a box (as ``dtype``): :func:`pooled_bands`' reader
-    of a whole-map array."""
-    return lambda box: a[box[0]:box[1], box[2]:box[3]].astype(dtype or a.dtype, copy=False)
-
-
-def breach_round(coarse: np.ndarray, factor: int, shape: tuple[int, int], *, walls: np.ndarray | None,
+def breach_round(coarse: np.ndarray, factor: int, *, walls: np.ndarray | None,
                  water: np.ndarray | None, held: np.ndarray | None, locked: Mask | None) -> "Lowering | None":
     """One round of :func:`drain_terrain`: the depressions of the block
     means ``coarse`` breached, as a :class:`Lowering` of the output's cells.
@@ -447,8 +511,6 @@ def breach_round(coarse: np.ndarray, factor: int, shape: tuple[int, int], *, wal
     coarse : ndarray of float64, shape (g_rows, g_cols)
         The terrain's block means (:func:`block_pool`), metres.
     factor : int
-    shape : (rows, cols)
-        The output's cells.
     walls, water, held : ndarray of bool, shape (g_rows, g_cols), or None
         Where painted ridges, painted water and locked cells meet each block.
     locked : Mask or None
@@ -468,7 +530,7 @@ def breach_round(coarse: np.ndarray, factor: int, shape: tuple[int, int], *, wal
     # Shifted by a ten-thousandth of the relief, where the cubic's ringing
     # far from a breach asks for less (not cut off: no step where the
     # lowering starts).
-    return Lowering(done.heights.astype(np.float64) - coarse, factor, shape, 1e-4 * float(np.ptp(coarse)), locked)
+    return Lowering(done.heights.astype(np.float64) - coarse, factor, 1e-4 * float(np.ptp(coarse)), locked)
 
 
 class Lowering:
@@ -488,15 +550,13 @@ class Lowering:
     change : ndarray of float64, shape (g_rows, g_cols)
         Metres, at most 0 where the breach lowered.
     factor : int
-    shape : (rows, cols)
-        The output's cells.
     tol : float
         Metres.
     locked : Mask or None
     """
 
-    def __init__(self, change: np.ndarray, factor: int, shape: tuple[int, int], tol: float, locked: Mask | None):
-        self.factor, self.shape, self.tol, self.locked = factor, tuple(shape), tol, locked
+    def __init__(self, change: np.ndarray, factor: int, tol: float, locked: Mask | None):
+        self.factor, self.tol, self.locked = factor, tol, locked
         self.coeffs = change if factor == 1 else \
             ndimage.spline_filter(np.pad(change, _SPLINE_PAD, mode="edge"), 3, mode="nearest")
 
@@ -512,9 +572,9 @@ class Lowering:
                             (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0, t * t * t / 6.0], axis=1)
         return first.astype(np.int64) - 1, weights
 
-    def _matrix(self, cells: np.ndarray, n: int) -> tuple[sparse.csr_matrix, int, int]:
-        """The weights of ``cells`` on ``n`` coefficients as a sparse
-        matrix, cut to the coefficients they read (``lo:hi``)."""
+    def _matrix(self, cells: np.ndarray) -> tuple[sparse.csr_matrix, int, int]:
+        """The weights of ``cells`` (along one axis) as a sparse matrix on
+        the coefficients they read (``lo:hi``)."""
         first, weights = self._taps(cells)
         lo, hi = int(first.min()), int(first.max()) + 4
         cols = (first - lo)[:, None] + np.arange(4)
@@ -526,8 +586,10 @@ class Lowering:
         """The interpolated change at the cells ``rows`` x ``cols``."""
         if self.factor == 1:
             return self.coeffs[np.ix_(rows, cols)]
-        wr, r0, r1 = self._matrix(rows, self.coeffs.shape[0])
-        wc, c0, c1 = self._matrix(cols, self.coeffs.shape[1])
+        if not len(rows) or not len(cols):
+            return np.zeros((len(rows), len(cols)))
+        wr, r0, r1 = self._matrix(rows)
+        wc, c0, c1 = self._matrix(cols)
         # Rows first, then columns: each sum taken in tap order (as :meth:`at`).
         return np.asarray((wc @ (wr @ self.coeffs[r0:r1, c0:c1]).T).T)
 
@@ -559,6 +621,14 @@ class Lowering:
         if self.locked is not None:
             lower[self.locked.at(rr, cc)] = 0.0
         return lower
+
+    def apply_at(self, rr: np.ndarray, cc: np.ndarray, heights: np.ndarray) -> np.ndarray:
+        """``heights`` (float32, at cells ``(rr, cc)``) lowered, in place and
+        returned: :meth:`apply` cell by cell."""
+        lower = self.at(rr, cc)
+        moved = lower < 0
+        heights[moved] = (heights[moved] + lower[moved]).astype(np.float32)
+        return heights
 
     def apply(self, box: tuple[int, int, int, int], heights: np.ndarray) -> np.ndarray:
         """``heights`` (float32, over ``box``) lowered, in place and

@@ -797,6 +797,12 @@ class Correction:
         heights += self.over(box).astype(np.float32)
         return heights
 
+    def apply_at(self, rr: np.ndarray, cc: np.ndarray, heights: np.ndarray) -> np.ndarray:
+        """``heights`` (float32, at cells ``(rr, cc)``) with the correction
+        added, in place and returned: :meth:`apply` cell by cell."""
+        heights += self.at(rr, cc).astype(np.float32)
+        return heights
+
     def at(self, rr: np.ndarray, cc: np.ndarray) -> np.ndarray:
         """The correction at cells ``rr, cc`` (integer arrays of one shape),
         float64 metres: what :meth:`over` gives there, to the bit."""

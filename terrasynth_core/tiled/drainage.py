@@ -34,8 +34,7 @@ import math
 import numpy as np
 from scipy import ndimage
 
-from ..controls.depressions import (ROUNDS, Lowering, breach_round, coarse_grid, grid_factor, pooled_bands,
-                                   ridge_blocks)
+from ..controls.depressions import Lowering, breach_in_rounds, grid_factor
 from ..controls.drainage import Correction, drain
 from ..features.graph import FeatureGraph, FeatureMaps, FeatureNode, FeaturePath
 from ..features.sketch import SketchMap, sketch_features
@@ -68,7 +67,7 @@ class TiledSurface:
     def __init__(self, store: TileStore, plan: TilePlan):
         self.store, self.plan = store, plan
         self.shape = tuple(plan.shape)
-        self.corrections: list[Correction] = []
+        self.corrections: list[Correction | Lowering] = []
 
     def __getitem__(self, cells: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
         rr, cc = (np.asarray(a, np.int64) for a in cells)
@@ -94,7 +93,7 @@ class TiledSurface:
                 made = self.store.load(tile.key, mmap=True)
                 out[near] = made[rr[near] - a0, cc[near] - b0]
         for correction in self.corrections:
-            out += correction.at(rr, cc).astype(np.float32)
+            correction.apply_at(rr, cc, out)
         return out.reshape(shape)
 
     def add(self, correction: Correction | Lowering) -> None:
@@ -163,16 +162,17 @@ def map_strokes(sketch: SketchMap, shape: tuple[int, int]) -> FeatureMaps:
     return FeatureMaps(scaled(maps.ridges), scaled(maps.valleys))
 
 
-def drain_tiles(store: TileStore, plan: TilePlan, sketch: SketchMap, *, patch_size: int, water=None,
+def drain_tiles(store: TileStore, plan: TilePlan, sketch: SketchMap | None, *, patch_size: int, water=None,
                 pins=()) -> tuple[TiledSurface, list[str]]:
-    """Drain the whole map of a finished tiled run.
+    """Drain the whole map of a finished tiled run: its painted valleys and
+    ridges (when the sketch has strokes), then its closed depressions.
 
     Parameters
     ----------
     store : TileStore
         Holding every tile of ``plan``.
     plan : TilePlan
-    sketch : SketchMap
+    sketch : SketchMap or None
         As painted, any size (scaled to the output).
     patch_size : int
         The run's.
@@ -191,7 +191,6 @@ def drain_tiles(store: TileStore, plan: TilePlan, sketch: SketchMap, *, patch_si
         For the run's warnings.
     """
     surface = TiledSurface(store, plan)
-    maps = map_strokes(sketch, plan.shape)
     painted = None if water is None or not np.any(water.mask) else PaintedMask(water.mask, plan.shape)
     banks = None
     if painted is not None:
@@ -199,52 +198,49 @@ def drain_tiles(store: TileStore, plan: TilePlan, sketch: SketchMap, *, patch_si
         # are held still; the banks widened at the painted size.
         reach = math.ceil(patch_size / 2 * water.mask.shape[0] / plan.shape[0])
         banks = PaintedMask(ndimage.binary_dilation(painted.painted, iterations=reach), plan.shape)
-    drain(surface, maps.valleys, maps.ridges, patch_size=patch_size, span=surface.span(), water=painted,
-          locked=banks)
-    breach_tiles(surface, maps.ridges, patch_size=patch_size, water=painted, locked=banks)
+    ridges = None
+    if sketch is not None and sketch.has_strokes:
+        maps = map_strokes(sketch, plan.shape)
+        ridges = maps.ridges
+        drain(surface, maps.valleys, maps.ridges, patch_size=patch_size, span=surface.span(), water=painted,
+              locked=banks)
+    strokes = len(surface.corrections)
+    breach_tiles(surface, ridges, patch_size=patch_size, water=painted, locked=banks)
     notes = []
     for p in pins:
-        moved = sum(float(c.at(np.array([p.row]), np.array([p.col]))[0]) for c in surface.corrections)
-        if abs(moved) >= 0.01:
-            notes.append(f"the pin at row {p.row}, col {p.col} moved {moved:+.2f} m with the drainage, which a "
-                         "tiled run applies after the tiles: move it off the stroke or turn drainage off")
+        at = (np.array([p.row]), np.array([p.col]))
+        for corrections, what in ((surface.corrections[:strokes], "the valleys' drainage"),
+                                  (surface.corrections[strokes:], "the breaching of closed depressions")):
+            moved = sum(float(c.at(*at)[0]) for c in corrections)
+            if abs(moved) >= 0.01:
+                notes.append(f"the pin at row {p.row}, col {p.col} moved {moved:+.2f} m with {what}, which a tiled "
+                             "run applies after the tiles: move the pin, or turn drainage off")
     return surface, notes
 
 
-def breach_tiles(surface: TiledSurface, ridges: FeatureGraph, *, patch_size: int, water: PaintedMask | None = None,
-                 locked: PaintedMask | None = None) -> None:
+def breach_tiles(surface: TiledSurface, ridges: FeatureGraph | None, *, patch_size: int,
+                 water: PaintedMask | None = None, locked: PaintedMask | None = None) -> None:
     """The closed depressions of a drained tiled map breached, as
     :func:`~terrasynth_core.controls.depressions.drain_terrain` breaches a
-    whole map's: the same rounds on the same block grid, each round's
-    lowering added to ``surface``.
+    whole map's (the same rounds,
+    :func:`~terrasynth_core.controls.depressions.breach_in_rounds`), each
+    round's lowering added to ``surface``.
 
-    The block means are read band by band from the tiles with the
-    corrections so far (:func:`~terrasynth_core.controls.depressions.pooled_bands`);
-    the coarse grid is at most
-    :data:`~terrasynth_core.controls.depressions.MOST_CELLS` cells, so the
-    memory is bounded whatever the map's size.
+    The map is read band by band from the tiles with the corrections so
+    far; the block grid is about
+    :data:`~terrasynth_core.controls.depressions.MOST_CELLS` cells at most,
+    so the memory is bounded whatever the map's size.
 
     Parameters
     ----------
     surface : TiledSurface
         Its valleys drained.
-    ridges : FeatureGraph
+    ridges : FeatureGraph or None
         The painted ridges in output cells: walls.
     patch_size : int
     water, locked : PaintedMask, optional
         Painted water (an outlet) and cells held still (its banks).
     """
-    shape = surface.shape
-    f = grid_factor(patch_size, shape)
-    grid = coarse_grid(shape, f)
-    if min(grid) < 3:
-        return
-    walls = ridge_blocks(ridges, f, grid)
-    water_blocks, held = (None if m is None else pooled_bands(m.window, shape, f, np.any) for m in (water, locked))
-    for _ in range(ROUNDS):
-        means = pooled_bands(lambda box: surface.corrected(box, compose(surface.store, surface.plan, box))
-                             .astype(np.float64), shape, f, np.mean)
-        lowering = breach_round(means, f, shape, walls=walls, water=water_blocks, held=held, locked=locked)
-        if lowering is None:
-            break
-        surface.add(lowering)
+    breach_in_rounds(surface.shape, grid_factor(patch_size, surface.shape),
+                     lambda box: surface.corrected(box, compose(surface.store, surface.plan, box)), surface.add,
+                     ridges=ridges, water=water, locked=locked)

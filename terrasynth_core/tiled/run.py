@@ -316,9 +316,10 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, mapped: MapControls,
         if own is not None:
             _close(client, own)
     adjust = None
-    if params.drainage and sketch is not None and sketch.has_strokes:
-        # The whole map's valleys drain to their outlets, tiles away: read
-        # along the strokes from the finished tiles, added as they are written.
+    if params.drainage:
+        # The whole map's valleys drain to their outlets, tiles away, and its
+        # closed depressions open: read from the finished tiles, added as
+        # they are written.
         t = time.perf_counter()
         drained, drain_notes = drain_tiles(store, plan, sketch, patch_size=params.patch_size, water=mapped.water,
                                            pins=mapped.pins)

@@ -15,6 +15,7 @@ from scipy import ndimage
 
 from terrasynth_core.controls.depressions import (WALL_WIDTH, block_pool, breach_depressions, breach_round,
                                                   coarse_grid, drain_terrain, grid_factor, ridge_blocks)
+from terrasynth_core.controls.drainage import ArrayMask
 from terrasynth_core.features.graph import FeatureGraph, FeatureNode, FeaturePath
 from terrasynth_core.features.network import graph_mask
 
@@ -162,7 +163,7 @@ def test_a_lowering_over_a_box_is_the_whole_maps():
     h = _slope_with_bowls(4)
     grid = coarse_grid(h.shape, 3)
     coarse = block_pool(h.astype(np.float64), 3, grid, np.mean)
-    lowering = breach_round(coarse, 3, h.shape, walls=None, water=None, held=None, locked=None)
+    lowering = breach_round(coarse, 3, walls=None, water=None, held=None, locked=None)
     whole = lowering.over((0, N, 0, N))
     assert (whole < -1.0).sum() > 100 and (whole <= 0).all()
     assert np.array_equal(lowering.over((17, 61, 5, N)), whole[17:61, 5:])
@@ -182,11 +183,37 @@ def test_bands_give_the_whole_maps_blocks_and_lowering(monkeypatch):
     water = np.zeros(h.shape, bool)
     water[40:44, 80:] = True
     whole = drain_terrain(h, factor=3, water=water)
-    means = depressions.pooled_bands(depressions._reader(h, np.float64), h.shape, 3, np.mean)
+    heights = lambda box: h[box[0]:box[1], box[2]:box[3]].astype(np.float64)  # noqa: E731
+    means = depressions.pooled_bands(heights, h.shape, 3, np.mean)
     monkeypatch.setattr(depressions, "BAND_CELLS", 7 * 91)  # (bands of two blocks, of 7 rows lowered)
-    assert np.array_equal(depressions.pooled_bands(depressions._reader(h, np.float64), h.shape, 3, np.mean), means)
+    assert np.array_equal(depressions.pooled_bands(heights, h.shape, 3, np.mean), means)
     assert np.array_equal(means, block_pool(h.astype(np.float64), 3, coarse_grid(h.shape, 3), np.mean))
-    assert np.array_equal(depressions.pooled_bands(depressions._reader(water), h.shape, 3, np.any),
+    assert np.array_equal(depressions.pooled_bands(ArrayMask(water).window, h.shape, 3, np.any),
                           block_pool(water, 3, coarse_grid(h.shape, 3), np.any))
-    assert depressions.pooled_bands(depressions._reader(np.zeros(h.shape, bool)), h.shape, 3, np.any) is None
+    assert depressions.pooled_bands(ArrayMask(np.zeros(h.shape, bool)).window, h.shape, 3, np.any) is None
     assert np.array_equal(drain_terrain(h, factor=3, water=water), whole)
+
+
+@pytest.mark.parametrize("terrain", ["bowls", "gentle", "flat"])
+def test_a_gorge_widened_cell_by_cell_or_in_batches_is_the_same(monkeypatch, terrain):
+    """The two ways of widening a cut (batches of small squares, or one
+    channel cell at a time on wide ones) give the same bytes, on gentle
+    and on flat ground too, where a cut's reach has no bound (a flat map's
+    steep slope is 0: the squares span the map)."""
+    from terrasynth_core.controls import depressions
+
+    yy, xx = np.mgrid[0:120, 0:120].astype(float)
+    if terrain == "bowls":
+        h = _slope_with_bowls(6).astype(np.float64)
+    elif terrain == "gentle":
+        h = 0.05 * xx - 8.0 * np.exp(-((yy - 60) ** 2 + (xx - 70) ** 2) / (2 * 3.0**2))
+    else:
+        h = np.zeros((120, 120))
+        h[10:30, 10:30] = 100.0
+        h[60:63, 60:63] = -20.0
+    monkeypatch.setattr(depressions, "_BATCH_REACH", 10**9)
+    batched = breach_depressions(h)
+    monkeypatch.setattr(depressions, "_BATCH_REACH", 0)
+    looped = breach_depressions(h)
+    assert batched.breached >= 1 and np.array_equal(batched.heights, looped.heights)
+    assert _deepest(batched.heights) < 0.05 * _deepest(h)

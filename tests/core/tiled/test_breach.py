@@ -79,3 +79,24 @@ def test_tiles_are_breached_as_the_whole_map(store, monkeypatch, patch_size, ban
     lowering = surface.corrections[-1]
     rr, cc = np.nonzero(lowering.over(box) < 0)
     assert np.array_equal(lowering.at(rr[::7], cc[::7]), lowering.over(box)[rr[::7], cc[::7]])
+
+
+def test_a_tiled_map_without_strokes_is_breached_and_reads_as_written(store):
+    """No sketch: the map is still breached (as a whole-map run's finish
+    does); cells read one by one give the written heights; a pin the
+    breach lowers is named."""
+    from terrasynth_core.controls.pins import Pin
+    from terrasynth_core.tiled.drainage import drain_tiles
+
+    heights = _bowly_terrain()
+    surface = _tiled(heights, store)
+    whole = drain_terrain(heights, factor=grid_factor(80, SHAPE))
+    lowered = np.argwhere(whole < heights - 5.0)[0]
+    drained, notes = drain_tiles(store, surface.plan, None, patch_size=80,
+                                 pins=(Pin(int(lowered[0]), int(lowered[1]), 0.0),))
+    box = (0, SHAPE[0], 0, SHAPE[1])
+    tiled = drained.corrected(box, compose(store, surface.plan, box))
+    assert np.array_equal(tiled, whole) and (tiled < heights - 1.0).sum() > 500
+    rr, cc = np.nonzero(tiled < heights)
+    assert np.array_equal(drained[rr, cc], tiled[rr, cc])
+    assert len(notes) == 1 and "moved" in notes[0] and "breaching of closed depressions" in notes[0]
