@@ -96,7 +96,8 @@ def apply_water(heights: np.ndarray, water: Water, *, bank_width: float,
         Used when ``water.bank_width`` is None, cells.
     locked : ndarray of bool, shape (rows, cols), optional
         Cells that must keep their heights (outside a local re-synthesis);
-        the shaping eases in from them over the bank width.
+        the shaping eases in from them over the bank width, but water
+        whose nearest locked water lies below the level ends below it too.
 
     Returns
     -------
@@ -157,6 +158,18 @@ def apply_water(heights: np.ndarray, water: Water, *, bank_width: float,
         # water shaped inside a re-synthesis does not end in a step.
         ease = smoothstep((ndimage.distance_transform_edt(~locked) - 0.5) / max(width, 1.0))
         new = np.where(locked, h, h + ease * (new - h))
+        # Water whose nearest locked water is already below the level (a
+        # tiled run's finished neighbour, a re-synthesis inside water made
+        # before) lies below the level too: eased in from the lock, land
+        # freshly made in it would stand out of the water.  (Water painted
+        # on to locked dry land keeps the ease: the lock cannot follow it
+        # down.)
+        held = locked & mask
+        if held.any():
+            _, nearest = ndimage.distance_transform_edt(~held, return_indices=True)
+            settled = held & (h < level)
+            joined = mask & ~locked & settled[nearest[0], nearest[1]]
+            new = np.where(joined, np.minimum(new, level - lip), new)
     return new.astype(np.float32)
 
 

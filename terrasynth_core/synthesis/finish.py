@@ -118,6 +118,10 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
         # (After drainage, which may carve a valley floor below the range:
         # the knee keeps every descent a descent.)
         heights = within_examples_range(heights, *_asked_range(layout, heights))
+        if locked is not None:
+            # (The knee maps every cell; the water and pins below read the
+            # locked cells as they will stay.)
+            heights = np.where(locked, controls.previous, heights).astype(np.float32)
     if controls.water is not None:
         heights = apply_water(heights, controls.water, bank_width=patch_size / 2, locked=locked)
         flooded = flooded_land(heights, controls.water)

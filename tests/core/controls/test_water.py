@@ -53,3 +53,22 @@ def test_a_pin_near_the_shore_does_not_lift_the_water(lowland):
     assert (h[mask] < level).all()
     assert h[80, 44] == np.float32(high)  # the shore pin is met
     assert any("pin at (20, 10) is on painted water" in w for w in result.warnings)
+
+
+def test_water_beside_locked_water_still_lies_below_the_level():
+    """A lake that runs on into locked terrain already shaped by it (a
+    tiled run's finished neighbour): a hill freshly made inside the lake
+    next to the lock does not stand out of the water, as it would if the
+    shaping eased in from the locked water."""
+    yy, xx = np.mgrid[0:100, 0:100].astype(float)
+    lake = np.hypot(yy - 50, xx - 40) < 25
+    water = Water(lake, 330.0)
+    flat = np.full((100, 100), 340.0, np.float32)
+    before = apply_water(flat, water, bank_width=20)  # the neighbour, finished with the lake
+    locked = xx < 20
+    hill = (340.0 + 150.0 * np.exp(-((yy - 50) ** 2 + (xx - 30) ** 2) / 60.0)).astype(np.float32)
+    heights = np.where(locked, before, hill).astype(np.float32)
+    out = apply_water(heights, water, bank_width=20, locked=locked)
+    assert np.array_equal(out[locked], heights[locked])
+    assert (out[lake] < 330.0).all()
+    assert (heights[lake & ~locked] > 400.0).any()  # (the hill was well above it)
