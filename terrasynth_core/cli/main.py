@@ -443,7 +443,7 @@ def _synth_tiled(args: argparse.Namespace) -> int:
         print(f"terrasynth-cli: note: {note}", file=sys.stderr)
     rows, cols = result.shape
     grid = "x".join(str(v) for v in result.plan.grid)
-    kept = f", {result.reused} kept from an interrupted run" if result.reused else ""
+    kept = f", {result.reused} reused from an earlier run of the same inputs" if result.reused else ""
     print(f"wrote {out}: {rows}x{cols} in {grid} tiles of {tile} on {result.workers} worker(s) in "
           f"{result.seconds:.1f} s{kept}; heights {result.lowest:.1f} .. {result.highest:.1f} m", file=sys.stderr)
     return EXIT_OK
@@ -467,7 +467,7 @@ def _tile_size(text: str) -> int:
     except ValueError:
         value = 0
     if value < 1:
-        raise TerraSynthError(f"--tile {text!r}: expected a tile side in cells, a whole number such as 1024"
+        raise TerraSynthError(f"--tile {text!r}: expected a tile side in cells, a positive whole number such as 1024"
                               + _SYNTH_HELP)
     return value
 

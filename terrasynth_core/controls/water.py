@@ -173,6 +173,13 @@ def apply_water(heights: np.ndarray, water: Water, *, bank_width: float,
     return new.astype(np.float32)
 
 
+def flooded_note(count: int, level: float) -> str:
+    """The warning for ``count`` land cells below the water ``level``
+    (:func:`flooded_land`)."""
+    return (f"{count} land cells lie below the water level {level:g} m away from painted water: paint them as "
+            "water or raise the level")
+
+
 def flooded_land(heights: np.ndarray, water: Water) -> int:
     """Land cells below the water level (they would read as water)."""
     return int((~water.mask & (heights < water.level)).sum())

@@ -13,7 +13,7 @@ from ..controls.drainage import apply_drainage
 from ..controls.layout import StyleLayout
 from ..controls.options import Controls
 from ..controls.pins import PinError, apply_pins
-from ..controls.water import apply_water, flooded_land
+from ..controls.water import apply_water, flooded_land, flooded_note
 from ..features import FeatureMaps
 
 
@@ -126,8 +126,7 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
         heights = apply_water(heights, controls.water, bank_width=patch_size / 2, locked=locked)
         flooded = flooded_land(heights, controls.water)
         if flooded:
-            notes.append(f"{flooded} land cells lie below the water level {controls.water.level:g} m "
-                         "away from painted water: paint them as water or raise the level")
+            notes.append(flooded_note(flooded, controls.water.level))
     # A pin near the shore must not lift painted water above its level: the
     # pins' correction bends around water as around locked cells.
     held = locked

@@ -29,6 +29,7 @@ import numpy as np
 
 from ..controls.layout import grounded_examples
 from ..controls.options import Controls
+from ..controls.water import flooded_note
 from ..errors import ParamsError, SynthesisCancelled
 from ..features.sketch import SketchMap
 from ..heightfield import HeightField
@@ -36,7 +37,7 @@ from ..io.resample import output_georeference
 from ..synthesis.params import SynthesisParams
 from ..synthesis.session import Session, with_patch_size
 from .controls import MapControls, TileControls, map_controls
-from .drainage import drain_tiles
+from .drainage import PaintedMask, drain_tiles
 from .inputs import CoarseLevel, coarse_level, sketch_window
 from .library import library_examples
 from .output import write_geotiff_from_tiles
@@ -329,7 +330,21 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, mapped: MapControls,
     t = time.perf_counter()
     placed = examples[:mapped.n_plain + len(mapped.styles)]  # the stamps do not place the output
     georef = None if cell is None else output_georeference(placed, plan.shape, cell)
+    flooded = 0
+    if mapped.water is not None and np.any(mapped.water.mask):
+        # Land below the water level away from painted water, counted as
+        # the bands are written (a whole-map run's finish says it too).
+        painted, level, drained_band = PaintedMask(mapped.water.mask, plan.shape), mapped.water.level, adjust
+
+        def adjust(box, heights):
+            nonlocal flooded
+            heights = heights if drained_band is None else drained_band(box, heights)
+            flooded += int((~painted.window(box) & (heights < level)).sum())
+            return heights
+
     written = write_geotiff_from_tiles(store, plan, out, cell_size=cell, georef=georef, adjust=adjust)
+    if flooded:
+        notes.append(flooded_note(flooded, mapped.water.level))
     timings["write"] = time.perf_counter() - t
     return timings, n_workers, written
 

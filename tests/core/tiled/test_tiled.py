@@ -254,7 +254,7 @@ def test_a_run_failing_before_any_work_leaves_no_store(tmp_path, monkeypatch, wh
 
 # -- the command line ---------------------------------------------------------------------------
 @pytest.mark.parametrize("extra, message", [
-    (["--tile", "abc"], "--tile 'abc': expected a tile side in cells, a whole number such as 1024 (see "),
+    (["--tile", "abc"], "--tile 'abc': expected a tile side in cells, a positive whole number such as 1024 (see "),
     (["--tile", "40"], "tile size 40: expected a whole number of at least 96 cells"),
     (["--tile", "128", "--scheduler", "nowhere"], "scheduler address 'nowhere': expected tcp://HOST:PORT"),
     (["--scheduler", "tcp://h:8786"], "--scheduler runs a tiled synthesis: give the tile size too"),
@@ -411,6 +411,9 @@ def test_tiled_drainage_holds_painted_water_and_its_banks_and_names_a_pin_it_mov
     assert np.array_equal(heights, expected)
     assert np.array_equal(heights[banks], as_made[banks])  # water and banks held still
     assert any(f"pin at row {pin.row}, col {pin.col} moved" in n for n in drained.notes)
+    # Land below the level away from the water is reported, counted on the written map.
+    flooded = int((~water & (heights < 300.0)).sum())
+    assert flooded > 0 and f"{flooded} land cells lie below the water level 300 m" in " ".join(drained.notes)
 
 
 def test_map_strokes_are_traced_as_the_tiles_trace_theirs_and_scaled_beyond_a_size(sketch, monkeypatch):
