@@ -77,6 +77,14 @@ MOST_CELLS = 2048 * 2048
 _CUT_CELLS = 1 << 18
 _BATCH_REACH = 16
 
+#: Most cells of a band of rows read, pooled or lowered at a time
+#: (:func:`pooled_bands`, :meth:`Lowering.apply`).
+BAND_CELLS = 1 << 22
+
+#: Edge padding of the block grid before its spline filter, as
+#: :func:`scipy.ndimage.zoom` pads for ``mode="nearest"``.
+_SPLINE_PAD = 12
+
 #: Width (cells) a painted ridge is drawn at as a wall.
 WALL_WIDTH = 3
 
@@ -271,9 +279,10 @@ def _cut(h: np.ndarray, path: np.ndarray, eps: float, steep: float, frozen: np.n
             x0, x1 = max(cc[i] - r[i], b0), min(cc[i] + r[i] + 1, b1)
             d = np.hypot(*np.ogrid[y0 - rr[i]:y1 - rr[i], x0 - cc[i]:x1 - cc[i]])
             box = (slice(y0 - a0, y1 - a0), slice(x0 - b0, x1 - b0))
+            drop, floor = _gorge(d, cut[i], half[i], channel[i], WALL_RISE * steep)
             if cut[i] > 0:
-                np.maximum(lower[box], cut[i] * smoothstep(1.0 - d / half[i]), out=lower[box])
-            np.minimum(above[box], channel[i] + WALL_RISE * steep * d, out=above[box])
+                np.maximum(lower[box], drop, out=lower[box])
+            np.minimum(above[box], floor, out=above[box])
     window = h[a0:a1, b0:b1]
     walls = np.where(lower > 0, np.maximum(window - lower, np.minimum(above, window)), window)
     if frozen is not None:
@@ -305,10 +314,18 @@ def _widen(lower: np.ndarray, above: np.ndarray, window: tuple[int, int, int, in
     i, k = np.nonzero(near)
     d = np.hypot(dy[k].astype(np.float64), dx[k].astype(np.float64))
     cells = (y[i, k] - a0, x[i, k] - b0)
+    drop, floor = _gorge(d, cut[i], half[i], channel[i], rise)
     deep = cut[i] > 0
-    np.maximum.at(lower, (cells[0][deep], cells[1][deep]),
-                  cut[i][deep] * smoothstep(1.0 - d[deep] / half[i][deep]))
-    np.minimum.at(above, cells, channel[i] + rise * d)
+    np.maximum.at(lower, (cells[0][deep], cells[1][deep]), drop[deep])
+    np.minimum.at(above, cells, floor)
+
+
+def _gorge(d, cut, half, channel, rise) -> tuple[np.ndarray, np.ndarray]:
+    """At distance ``d`` (cells) from a channel cell cut ``cut`` metres
+    deep: the lowering (the cut easing to 0 over the half-width ``half``)
+    and the lowest the wall may go (the channel's height ``channel`` plus
+    ``rise`` metres a cell)."""
+    return cut * smoothstep(1.0 - d / half), channel + rise * d
 
 
 def grid_factor(patch_size: int, shape: tuple[int, int] = (0, 0)) -> int:
@@ -454,17 +471,18 @@ def drain_terrain(heights: np.ndarray, *, factor: int, ridges: FeatureGraph | No
         Every cell not lowered keeps its bytes.
     """
     rows, cols = heights.shape
-    state = {"out": heights}
+    out = heights
 
     def add(lowering: Lowering) -> None:
-        if state["out"] is heights:
-            state["out"] = heights.copy()  # (once: ``heights`` is the caller's)
-        lowering.apply((0, rows, 0, cols), state["out"])
+        nonlocal out
+        if out is heights:
+            out = heights.copy()  # (once: ``heights`` is the caller's)
+        lowering.apply((0, rows, 0, cols), out)
 
-    breach_in_rounds((rows, cols), factor, lambda box: state["out"][box[0]:box[1], box[2]:box[3]], add,
-                     ridges=ridges, water=None if water is None else ArrayMask(water),
+    breach_in_rounds((rows, cols), factor, lambda box: out[box[0]:box[1], box[2]:box[3]], add, ridges=ridges,
+                     water=None if water is None else ArrayMask(water),
                      locked=None if locked is None else ArrayMask(locked))
-    return state["out"]
+    return out
 
 
 def breach_in_rounds(shape: tuple[int, int], factor: int, read, add, *, ridges: FeatureGraph | None,
@@ -496,6 +514,9 @@ def breach_in_rounds(shape: tuple[int, int], factor: int, read, add, *, ridges: 
         return
     walls = ridge_blocks(ridges, f, grid)
     water_blocks, held = (None if m is None else pooled_bands(m.window, shape, f, np.any) for m in (water, locked))
+    if held is not None:
+        # A block beside a locked one would bring a lowering into it.
+        held = ndimage.binary_dilation(held, np.ones((3, 3), bool))
     for _ in range(ROUNDS):
         means = pooled_bands(lambda box: read(box).astype(np.float64), shape, f, np.mean)
         lowering = breach_round(means, f, walls=walls, water=water_blocks, held=held, locked=locked)
@@ -514,8 +535,11 @@ def breach_round(coarse: np.ndarray, factor: int, *, walls: np.ndarray | None,
     coarse : ndarray of float64, shape (g_rows, g_cols)
         The terrain's block means (:func:`block_pool`), metres.
     factor : int
-    walls, water, held : ndarray of bool, shape (g_rows, g_cols), or None
-        Where painted ridges, painted water and locked cells meet each block.
+    walls, water : ndarray of bool, shape (g_rows, g_cols), or None
+        The blocks painted ridges and painted water meet.
+    held : ndarray of bool, shape (g_rows, g_cols), or None
+        Blocks that must not change (those locked cells meet, and their
+        neighbours).
     locked : Mask or None
         The output's locked cells.
 
@@ -524,9 +548,6 @@ def breach_round(coarse: np.ndarray, factor: int, *, walls: np.ndarray | None,
     Lowering or None
         None when no depression was breached.
     """
-    if held is not None:
-        # A coarse cell beside a locked one would bring a lowering into it.
-        held = ndimage.binary_dilation(held, np.ones((3, 3), bool))
     done = breach_depressions(coarse, walls=walls, outlets=water, locked=held)
     if done.breached == 0:
         return None
@@ -628,10 +649,7 @@ class Lowering:
     def apply_at(self, rr: np.ndarray, cc: np.ndarray, heights: np.ndarray) -> np.ndarray:
         """``heights`` (float32, at cells ``(rr, cc)``) lowered, in place and
         returned: :meth:`apply` cell by cell."""
-        lower = self.at(rr, cc)
-        moved = lower < 0
-        heights[moved] = (heights[moved] + lower[moved]).astype(np.float32)
-        return heights
+        return _lowered(heights, self.at(rr, cc))
 
     def apply(self, box: tuple[int, int, int, int], heights: np.ndarray) -> np.ndarray:
         """``heights`` (float32, over ``box``) lowered, in place and
@@ -641,17 +659,14 @@ class Lowering:
         step = max(1, BAND_CELLS // max(c1 - c0, 1))
         for a in range(r0, r1, step):
             b = min(a + step, r1)
-            lower = self.over((a, b, c0, c1))
-            moved = lower < 0
-            band = heights[a - r0:b - r0]
-            band[moved] = (band[moved] + lower[moved]).astype(np.float32)
+            _lowered(heights[a - r0:b - r0], self.over((a, b, c0, c1)))
         return heights
 
 
-#: Edge padding of the block grid before its spline filter, as
-#: :func:`scipy.ndimage.zoom` pads for ``mode="nearest"``.
-_SPLINE_PAD = 12
+def _lowered(heights: np.ndarray, lower: np.ndarray) -> np.ndarray:
+    """``heights`` (float32) plus ``lower`` (float64, at most 0) where it
+    is below 0, in place: the other cells keep their bytes."""
+    moved = lower < 0
+    heights[moved] = (heights[moved] + lower[moved]).astype(np.float32)
+    return heights
 
-#: Most cells of a band of rows read, pooled or lowered at a time
-#: (:func:`pooled_bands`, :meth:`Lowering.apply`).
-BAND_CELLS = 1 << 22

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..controls.layout import grounded_examples
 from ..controls.options import Controls
-from ..controls.water import flooded_note
+from ..controls.water import Water, flooded_land, flooded_note
 from ..errors import ParamsError, SynthesisCancelled
 from ..features.sketch import SketchMap
 from ..heightfield import HeightField
@@ -316,7 +316,7 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, mapped: MapControls,
     finally:
         if own is not None:
             _close(client, own)
-    adjust = None
+    drained = None
     if params.drainage:
         # The whole map's valleys drain to their outlets, tiles away, and its
         # closed depressions open: read from the finished tiles, added as
@@ -325,26 +325,26 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, mapped: MapControls,
         drained, drain_notes = drain_tiles(store, plan, sketch, patch_size=params.patch_size, water=mapped.water,
                                            pins=mapped.pins)
         notes.extend(drain_notes)
-        adjust = drained.corrected
         timings["drainage"] = time.perf_counter() - t
     t = time.perf_counter()
     placed = examples[:mapped.n_plain + len(mapped.styles)]  # the stamps do not place the output
     georef = None if cell is None else output_georeference(placed, plan.shape, cell)
+    water = mapped.water if mapped.water is not None and np.any(mapped.water.mask) else None
+    painted = None if water is None else PaintedMask(water.mask, plan.shape)
     flooded = 0
-    if mapped.water is not None and np.any(mapped.water.mask):
-        # Land below the water level away from painted water, counted as
-        # the bands are written (a whole-map run's finish says it too).
-        painted, level, drained_band = PaintedMask(mapped.water.mask, plan.shape), mapped.water.level, adjust
 
-        def adjust(box, heights):
-            nonlocal flooded
-            heights = heights if drained_band is None else drained_band(box, heights)
-            flooded += int((~painted.window(box) & (heights < level)).sum())
-            return heights
+    def adjust(box, heights):
+        nonlocal flooded
+        if drained is not None:
+            heights = drained.corrected(box, heights)
+        if painted is not None:
+            # (Land below the level away from the water, as a whole-map run's finish says.)
+            flooded += flooded_land(heights, Water(painted.window(box), water.level))
+        return heights
 
     written = write_geotiff_from_tiles(store, plan, out, cell_size=cell, georef=georef, adjust=adjust)
     if flooded:
-        notes.append(flooded_note(flooded, mapped.water.level))
+        notes.append(flooded_note(flooded, water.level))
     timings["write"] = time.perf_counter() - t
     return timings, n_workers, written
 
