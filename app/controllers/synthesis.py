@@ -18,7 +18,7 @@ import time
 from PySide6.QtCore import QObject, QTimer, Signal
 
 from terrasynth_core.errors import TerraSynthError
-from terrasynth_core.synthesis import LandformProgress, PatchPlaced, StageStarted, SynthesisFinished
+from terrasynth_core.synthesis import LandformProgress, PatchPlaced, StageStarted, SynthesisFinished, import_engine
 
 from ..model import (MAX_SEED, Document, RunStarted, TerrainResult, VariationMade, synthesis_events,
                      variation_events)
@@ -52,6 +52,9 @@ class _RunController(QObject):
 
     def __init__(self, document: Document, parent: QObject | None, *, wait_ms: int) -> None:
         super().__init__(parent)
+        # Now, on the GUI thread while the window is built: a run's thread
+        # importing faiss would hold the GIL long enough to stall the views.
+        import_engine()
         self.document = document
         self.runner = LatestRunner(self, wait_ms=wait_ms)
         self.runner.yielded.connect(self._event)

@@ -15,6 +15,7 @@ if TYPE_CHECKING:
     from .session import Session
     from .local import changed_cells, iter_resynthesize_region, resynthesize_region, stroke_selection
     from .variations import run_variations
+    from .workers import import_engine
 
 # Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
@@ -27,4 +28,5 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     ".session": ("Session",),
     ".local": ("changed_cells", "iter_resynthesize_region", "resynthesize_region", "stroke_selection"),
     ".variations": ("run_variations",),
+    ".workers": ("import_engine",),
 })

@@ -43,16 +43,25 @@ def executor(processes: int):
                                       "LOKY_MAX_MEMORY_LEAK_SIZE": str(2**62)})
 
 
-def _warm(shape: tuple[int, int]) -> int:
-    """In a worker: import what a fill window and a feature preparation
-    need (faiss, PyMaxflow, the warps) and make the seam solver of the
-    window's shape."""
+def import_engine() -> None:
+    """Import the extension modules a run's stages load on first use
+    (faiss, PyMaxflow, the warps).
+
+    A GUI calls this before its first run: importing faiss holds the GIL
+    for 35-100 ms in one piece, which would stall its event loop if a run's
+    thread did it."""
     import faiss  # noqa: F401  (the fill indexes load with it)
 
-    from ..blending.rectangle import rectangle_solver
     from ..placing import graph_cut  # noqa: F401
     from . import feature_patches  # noqa: F401
 
+
+def _warm(shape: tuple[int, int]) -> int:
+    """In a worker: import what a fill window and a feature preparation
+    need and make the seam solver of the window's shape."""
+    from ..blending.rectangle import rectangle_solver
+
+    import_engine()
     rectangle_solver(shape, build=1)
     return os.getpid()
 
