@@ -36,6 +36,7 @@ from ..features.sketch import sketch_features
 from ..heightfield import HeightField
 from ..exemplars.prepare import WIDE_VOIDS
 from ..measures import surface_gradient
+from .finish import within_examples_range
 
 if TYPE_CHECKING:
     from ..features.graph import FeatureMaps
@@ -463,6 +464,15 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
         low = landform_lowpass(h, sigma).astype(np.float64)
         change = fitted_heights(low, np.quantile(low.ravel()[cells] + detail, FIT_QUANTILES), target) - low
         h = h + FIT_STEP * ndimage.gaussian_filter(change, TREND_SIGMA * sigma, mode="reflect")
+    # The level is a landform: it stays within the heights of the examples'
+    # own landforms (their low-pass), eased in by the finish's knee.  The
+    # fit matches the distribution, not its ends: on the plateau, the
+    # lowered region about a valley sank 84 m below the example's lowest
+    # landform, and the detail on it below the examples' range, where the
+    # finish's knee flattened a 40-70 m deep valley to a plain at sea level.
+    low = landform_lowpass(h, sigma).astype(np.float64)
+    landforms = values - details
+    h = h + (within_examples_range(low, float(landforms.min()), float(landforms.max())) - low)
     return h.astype(np.float32)
 
 
