@@ -13,6 +13,7 @@ example analysis.
 from __future__ import annotations
 
 import hashlib
+import math
 
 import numpy as np
 
@@ -25,6 +26,13 @@ __all__ = ["UPSAMPLE_WARNING", "on_ground", "run_cell_size"]
 
 #: Up-sampling factor above which an example is named in the warnings.
 UPSAMPLE_WARNING = 2.0
+
+#: Most cells an example may have at the run's cell size (as an output:
+#: ``Session``'s cap); a finer cell size would take gigabytes to resample.
+MOST_EXAMPLE_CELLS = 64_000_000
+
+#: Fewest cells along an example's side at the run's cell size.
+LEAST_EXAMPLE_SIDE = 2
 
 _MEMO = cache.Memo(16, cache.load_array, cache.save_array)
 
@@ -86,6 +94,7 @@ def on_ground(field: HeightField | np.ndarray, cell_size: float | None, *,
     if already_square(field, cell_size):  # projected or plain grid at the size: nothing to warp
         return field, []
     dy, dx = field.cell_size
+    _check_grid(field.shape, (dy, dx), cell_size, name)
     notes = []
     factor = max(dy, dx) / cell_size
     if factor > UPSAMPLE_WARNING:
@@ -98,6 +107,32 @@ def on_ground(field: HeightField | np.ndarray, cell_size: float | None, *,
     out = HeightField(heights, cell_size=(cell_size, cell_size), source=field.source, format=field.format,
                       metadata={**field.metadata, "resampled_from": (dy, dx)})
     return out, notes
+
+
+def _check_grid(shape: tuple[int, int], cells: tuple[float, float], cell_size: float, name: str) -> None:
+    """Refuse a cell size at which the example's grid would be too large to
+    hold or too small to synthesize from, naming the cell sizes that work.
+
+    Parameters
+    ----------
+    shape : (rows, cols)
+        The example's grid.
+    cells : (dy, dx)
+        Its cell size, metres.
+    cell_size : float
+        The run's, metres.
+    """
+    rows, cols = shape[0] * cells[0] / cell_size, shape[1] * cells[1] / cell_size
+    grid = f"{name}: at {cell_size:g} m cells its {shape[0]}x{shape[1]} grid of {cells[0]:.4g} x {cells[1]:.4g} m " \
+           f"cells would become about {rows:.0f}x{cols:.0f} cells"
+    if rows * cols > MOST_EXAMPLE_CELLS:
+        finest = cell_size * math.sqrt(rows * cols / MOST_EXAMPLE_CELLS)
+        raise ParamsError(f"{grid}, over the {MOST_EXAMPLE_CELLS // 1_000_000} million an example may have; "
+                          f"a cell size of at least {finest:.3g} m (--cell-size) keeps it within")
+    if min(rows, cols) < LEAST_EXAMPLE_SIDE:
+        coarsest = cell_size * min(rows, cols) / LEAST_EXAMPLE_SIDE
+        raise ParamsError(f"{grid}, too few to synthesize from; a cell size of at most {coarsest:.3g} m "
+                          "(--cell-size) keeps more of it")
 
 
 def _resampled(field: HeightField, cell_size: float, name: str) -> np.ndarray:
