@@ -149,6 +149,8 @@ def resolve_dem(spec: str | Path, *, size: tuple[int, int] | None = None, band: 
     """
     text = str(spec)
     if text.startswith(BUILTIN_PREFIX):
+        if band not in (None, 1):
+            raise DEMFormatError(f"{text}: band {band} does not exist; built-in examples have one band")
         return builtin_example(text[len(BUILTIN_PREFIX):]).load()
     from .io import load_dem
 

@@ -114,7 +114,7 @@ def controls_from_args(args: argparse.Namespace, *, have_examples: bool):
         None when no control option was given.
     """
     from ..examples import resolve_dem
-    from ..features.labels import read_label_map, read_mask
+    from ..features.labels import read_colour_shares, read_label_map, read_mask
     from ..synthesis import Controls, Stamp, Style, Water
 
     if args.style and not args.styles:
@@ -122,9 +122,10 @@ def controls_from_args(args: argparse.Namespace, *, have_examples: bool):
     styles, style_map = (), None
     if args.styles:
         if not args.style:
-            raise ParamsError(f"--styles {args.styles}: give a --style \"#RRGGBB=DEM\" for each colour")
+            raise ParamsError(f"--styles {args.styles}: give a --style \"#RRGGBB=DEM\" for each colour; it holds "
+                              f"{read_colour_shares(args.styles)}")
         parsed = [parse_style(s) for s in args.style]
-        style_map = read_label_map(args.styles, [p[0] for p in parsed], default=have_examples)
+        style_map = read_label_map(args.styles, [p[0] for p in parsed], default=have_examples, every_colour=True)
         styles = tuple(Style(resolve_dem(dem), relief_scale=relief, base=base, name=dem)
                        for _, dem, relief, base in parsed)
     water = None

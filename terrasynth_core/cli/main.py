@@ -621,6 +621,9 @@ def _check_output(args, inputs=()) -> Path:
     _check_writable(out)
     _check_cog(args, out)
     _check_report_path(args, out)
+    debug = getattr(args, "debug_dir", None)
+    if debug and Path(debug).exists() and not Path(debug).is_dir():
+        raise TerraSynthError(f"--debug-dir {debug} is a file; give a folder (it is created if missing)")
     _refuse_replacing(args, _run_outputs(args, out), inputs)
     return out
 
@@ -834,7 +837,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sketch", help="sketch PNG: red ridges, blue valleys")
     p.add_argument("--out", required=True, help="output file; the format follows the extension")
     _add_overwrite(p)
-    p.add_argument("--size", type=parse_size, help="output ROWSxCOLS (default: the sketch's; it is scaled)")
+    p.add_argument("--size", type=parse_size, help="output ROWSxCOLS, or N for NxN (default: the sketch's; it is scaled)")
     # Run options default to None here (their defaults: _RUN_OPTIONS), so
     # --project can tell which were given.
     p.add_argument("--patch-size", type=int,

@@ -243,7 +243,9 @@ def _tile_paths(out_dir: Path, stem: str, ext: str, tiles: int) -> list[tuple[in
 
 
 def check_folder(out_dir: Path) -> None:
-    """Refuse an output folder that is a file (one line).
+    """Refuse an output folder that is a file, or whose parent folder does
+    not exist (one line): the export creates the folder itself, not a
+    mistyped path to it.
 
     Raises
     ------
@@ -251,6 +253,10 @@ def check_folder(out_dir: Path) -> None:
     """
     if out_dir.exists() and not out_dir.is_dir():
         raise DEMFormatError(f"{out_dir} is a file; the output must be a folder (it is created if missing)")
+    parent = out_dir.absolute().parent
+    if not out_dir.exists() and not parent.is_dir():
+        raise DEMFormatError(f"folder {parent} does not exist: the export creates only its own folder "
+                             f"{out_dir.name}, in a folder that exists")
 
 
 def refuse_existing(paths) -> None:
@@ -354,7 +360,7 @@ def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | N
     settings = _settings(chosen, grid, size, tiles, tile_paths)
     written: list[Path] = []
     try:
-        out_dir.mkdir(parents=True, exist_ok=True)
+        out_dir.mkdir(exist_ok=True)
         lo, hi = grid.min, grid.max
         level_range = (lo, hi if hi > lo else lo + 1.0) if chosen.extension != ".exr" else None
         for i, j, path in tile_paths:

@@ -112,7 +112,7 @@ def write_masks(masks: TerrainMasks, out_dir, *, fmt: str = "png8", stem: str = 
     refuse_existing([*paths.values(), key_path])
     written: list[Path] = []
     try:
-        out_dir.mkdir(parents=True, exist_ok=True)
+        out_dir.mkdir(exist_ok=True)
         for name, path in paths.items():
             with wrap_errors(path, "write"), atomic_outputs(path) as (temp,):
                 values = masks.masks[name]

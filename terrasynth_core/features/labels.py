@@ -51,7 +51,27 @@ def _read_rgba(path: Path, what: str) -> np.ndarray:
     return rgba
 
 
-def label_map_from_rgba(rgba: np.ndarray, colours, *, default: bool = False, name: str = "style map") -> np.ndarray:
+def colour_shares(rgba: np.ndarray, most: int = 6) -> str:
+    """The image's commonest opaque colours and their shares, for messages
+    (``"#8a6a55 (62 %), #3070c0 (38 %)"``).
+
+    Parameters
+    ----------
+    rgba : ndarray of uint8, shape (rows, cols, 4)
+    most : int
+        Colours named at most.
+    """
+    opaque = rgba[..., 3] >= 128
+    if not opaque.any():
+        return "no opaque pixel"
+    values, counts = np.unique(rgba[..., :3][opaque], axis=0, return_counts=True)
+    order = np.argsort(-counts, kind="stable")[:most]  # (ties in colour order)
+    return ", ".join("#{:02x}{:02x}{:02x} ({:.0f} %)".format(*values[i], 100 * counts[i] / rgba[..., 0].size)
+                     for i in order)
+
+
+def label_map_from_rgba(rgba: np.ndarray, colours, *, default: bool = False, name: str = "style map",
+                        every_colour: bool = False) -> np.ndarray:
     """Style labels from an RGBA image.
 
     Parameters
@@ -65,6 +85,10 @@ def label_map_from_rgba(rgba: np.ndarray, colours, *, default: bool = False, nam
         a sliver of anti-aliasing (see :data:`STRAY_SHARE`).
     name : str
         For messages.
+    every_colour : bool
+        Whether a style colour no pixel has is an error (a mistyped colour
+        on the command line: its style would still set the run's cell and
+        patch sizes).
 
     Returns
     -------
@@ -73,8 +97,10 @@ def label_map_from_rgba(rgba: np.ndarray, colours, *, default: bool = False, nam
     Raises
     ------
     SketchError
-        No colours, or a sizeable area in a colour no style names (the
-        message names the colour and its share).
+        No colours, a sizeable area in a colour no style names (the
+        message names the colour and its share), or with ``every_colour``
+        a style colour that paints nothing (the message names the image's
+        colours).
     """
     palette = np.array([parse_colour(c) if isinstance(c, str) else tuple(int(v) for v in c) for c in colours],
                        dtype=np.float64)
@@ -104,10 +130,15 @@ def label_map_from_rgba(rgba: np.ndarray, colours, *, default: bool = False, nam
             listed = ", ".join("#{:02x}{:02x}{:02x}".format(*p.astype(int)) for p in palette)
             raise SketchError(f"{name} holds {what} that no style is given for (styles: {listed}): "
                               "add a --style for it or give a default --example")
+    if every_colour:
+        painted = np.bincount(labels[labels >= 0], minlength=len(palette))
+        for i in np.flatnonzero(painted == 0):
+            raise SketchError("{} has no pixel of style colour #{:02x}{:02x}{:02x}; its colours are {}".format(
+                name, *palette[i].astype(int), colour_shares(rgba)))
     return labels.reshape(rgba.shape[:2])
 
 
-def read_label_map(path, colours, *, default: bool = False) -> np.ndarray:
+def read_label_map(path, colours, *, default: bool = False, every_colour: bool = False) -> np.ndarray:
     """Read a style-region PNG (one flat colour per style).
 
     Parameters
@@ -115,7 +146,7 @@ def read_label_map(path, colours, *, default: bool = False) -> np.ndarray:
     path : str or Path
     colours : sequence of (r, g, b) or "#RRGGBB"
         Colour of style 0, 1, ...
-    default : bool
+    default, every_colour : bool
         See :func:`label_map_from_rgba`.
 
     Returns
@@ -124,7 +155,13 @@ def read_label_map(path, colours, *, default: bool = False) -> np.ndarray:
         Style index per pixel, -1 for the plain examples.
     """
     path = Path(path)
-    return label_map_from_rgba(_read_rgba(path, "style map"), colours, default=default, name=f"style map {path}")
+    return label_map_from_rgba(_read_rgba(path, "style map"), colours, default=default, name=f"style map {path}",
+                               every_colour=every_colour)
+
+
+def read_colour_shares(path) -> str:
+    """:func:`colour_shares` of the style-region PNG at ``path``."""
+    return colour_shares(_read_rgba(Path(path), "style map"))
 
 
 def read_mask(path) -> np.ndarray:

@@ -17,6 +17,10 @@ from ..controls.water import apply_water, flooded_land, flooded_note
 from ..features import FeatureMaps
 
 
+#: Share of the map under painted water from which the run says the
+#: terrain is nearly all water (an inverted or all-dark mask).
+ALL_WATER = 0.99
+
 #: Share of the examples' height range, at either end, over which heights
 #: beyond it are eased into it.
 RANGE_KNEE = 0.03
@@ -123,6 +127,10 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
             # locked cells as they will stay.)
             heights = np.where(locked, controls.previous, heights).astype(np.float32)
     if controls.water is not None:
+        covered = float(controls.water.mask.mean())
+        if covered >= ALL_WATER:
+            notes.append(f"the water mask covers {100 * covered:.0f} % of the map: the terrain under it is water, "
+                         f"flat at {controls.water.level:g} m, sketch and all; paint water only where it should be")
         heights = apply_water(heights, controls.water, bank_width=patch_size / 2, locked=locked)
         flooded = flooded_land(heights, controls.water)
         if flooded:

@@ -506,10 +506,30 @@ def _patch_size_out_of_range(tmp, sketches, example):
     return synth_args(example, sketches / Y_JUNCTION, tmp / "out.tif", "--patch-size", "8"), ["patch_size=8"]
 
 
+def _band_of_a_builtin(tmp, sketches, example):
+    return ("info", "builtin:white-mountains", "--band", "2"), ["builtin:white-mountains", "band 2 does not exist"]
+
+
+def _a_cell_size_too_fine(tmp, sketches, example):
+    return (synth_args("builtin:white-mountains", sketches / Y_JUNCTION, tmp / "out.tif", "--cell-size", "1"),
+            ["N44W072.hgt", "over the 64 million", "(--cell-size)"])
+
+
+def _a_debug_dir_that_is_a_file(tmp, sketches, example):
+    (tmp / "notes.txt").write_text("mine")
+    return (synth_args(example, sketches / Y_JUNCTION, tmp / "out.tif", "--debug-dir", tmp / "notes.txt"),
+            ["--debug-dir", "notes.txt is a file"])
+
+
+def _export_into_a_missing_folder(tmp, sketches, example):
+    return ("export", example, "--preset", "unity", "--out", tmp / "nowhere" / "unity"), ["nowhere", "does not exist"]
+
+
 @pytest.mark.parametrize("case", [
     _missing, _unknown_extension, _truncated_hgt, _corrupt_tif, _truncated_tif, _sketch_not_an_image,
     _synth_sketch_not_an_image, _coloured_png_as_dem, _example_smaller_than_patch, _unknown_output_extension,
     _missing_output_folder, _all_nodata, _synth_all_nodata_example, _unknown_builtin, _patch_size_out_of_range,
+    _band_of_a_builtin, _a_cell_size_too_fine, _a_debug_dir_that_is_a_file, _export_into_a_missing_folder,
 ], ids=lambda f: f.__name__.strip("_"))
 def test_bad_input_exits_2_with_one_line(capsys, tmp_path, sketch_dir, example_200, case):
     argv, words = case(tmp_path, sketch_dir, example_200)

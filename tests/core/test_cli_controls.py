@@ -82,8 +82,12 @@ def test_variations_write_one_file_per_seed(capsys, maps):
     (["--pin", "1,2"], "3 comma-separated numbers"),
     (["--pin", "999,2,5"], "outside"),
     (["--stamp", "PLAIN@1"], "position"),
+    (["--stamp", "PLAIN@60,60,0,-1"], "scale -1 must be a positive number"),
     (["--height-range", "5,1"], "LO < HI"),
     (["--styles", "STYLES", "--style", "#008000=PLAIN,relief=-1", "--style", "#804000=PLAIN"], "relief"),
+    # A mistyped colour paints nothing; no --style at all: the map's colours are named.
+    (["--styles", "STYLES", "--style", "#123456=PLAIN"], "no pixel of style colour #123456; its colours are #008000"),
+    (["--styles", "STYLES"], 'give a --style "#RRGGBB=DEM" for each colour; it holds #008000 (50 %), #804000 (50 %)'),
 ])
 def test_bad_control_options_are_one_line_errors(capsys, maps, args, message):
     subst = {"STYLES": maps / "styles.png", "WATER": maps / "water.png"}

@@ -28,6 +28,18 @@ def test_water_is_below_the_level_and_the_banks_are_smooth(lowland):
     assert step < 0.2 * np.ptp(lowland.heights)
 
 
+def test_a_map_all_under_water_is_said_to_be(lowland):
+    # An all-dark (or inverted) mask made a flat sheet of water, silently.
+    level = float(np.median(lowland.heights))
+    whole = Session([lowland], None, shape=SHAPE, params=P,
+                    controls=Controls(water=Water(np.ones(SHAPE, bool), level))).run()
+    assert any("water mask covers 100 % of the map" in w for w in whole.warnings)
+    part = np.zeros(SHAPE, bool)
+    part[:, :200] = True
+    some = Session([lowland], None, shape=SHAPE, params=P, controls=Controls(water=Water(part, level))).run()
+    assert not any("water mask covers" in w for w in some.warnings)
+
+
 def test_water_outside_a_lock_is_untouched():
     h = np.linspace(0, 100, 100 * 100, dtype=np.float32).reshape(100, 100)
     mask = np.zeros((100, 100), bool)

@@ -7,7 +7,7 @@ import pytest
 from PIL import Image
 
 from terrasynth_core.errors import SketchError
-from terrasynth_core.features.labels import read_label_map, read_mask
+from terrasynth_core.features.labels import read_colour_shares, read_label_map, read_mask
 
 
 
@@ -32,3 +32,18 @@ def test_label_and_water_pngs(tmp_path):
     assert mask[5:8].all() and mask.sum() == 3 * 30
     with pytest.raises(SketchError, match="does not exist"):
         read_mask(tmp_path / "nope.png")
+
+
+def test_a_style_colour_that_paints_nothing_is_named_with_the_maps_colours(tmp_path):
+    rgb = np.zeros((20, 30, 3), np.uint8)
+    rgb[:, :20] = (0, 128, 0)
+    rgb[:, 20:] = (128, 64, 0)
+    Image.fromarray(rgb).save(tmp_path / "styles.png")
+    # A mistyped colour: by default it is a style nothing uses (the app's
+    # styles may outnumber a map's colours), asked for, an error.
+    labels = read_label_map(tmp_path / "styles.png", ["#008000", "#804000", "#123456"], default=True)
+    assert set(np.unique(labels)) == {0, 1}
+    with pytest.raises(SketchError, match=r"no pixel of style colour #123456; its colours are "
+                                          r"#008000 \(67 %\), #804000 \(33 %\)"):
+        read_label_map(tmp_path / "styles.png", ["#008000", "#804000", "#123456"], default=True, every_colour=True)
+    assert read_colour_shares(tmp_path / "styles.png") == "#008000 (67 %), #804000 (33 %)"
