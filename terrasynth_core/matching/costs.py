@@ -23,6 +23,15 @@ OFFSET_WEIGHT = 0.2
 #: SSD in reliefs.
 ANCHOR_WEIGHT = 1.0
 
+#: Share of the best candidate's total cost by which another may be dearer
+#: and still be chosen: the seed picks among the candidates within it
+#: (image quilting picks among matches within 10 % of the best: Efros and
+#: Freeman, "Image Quilting for Texture Synthesis and Transfer", SIGGRAPH
+#: 2001).  Taking the cheapest every time, a run's choices depended on the
+#: seed only through exact ties: on a small example or a small map every
+#: seed gave the same terrain, and ``--variations`` identical files.
+NEAR_BEST = 0.1
+
 #: Weight of a fill window's roughness prior (``ln(rho / rho_50)**2``, see
 #: :func:`~.fill_search.roughness_prior`) against the match cost: without
 #: it the fill prefers an example's smoothest windows.
@@ -165,3 +174,25 @@ def match_cost(ssd: float, offset: float, relief: float, weight: float = OFFSET_
         terrain drifts far outside the examples' heights over many patches.
     """
     return ssd / relief**2 + weight * (offset / relief) ** 2
+
+
+def near_best_limit(best: float) -> float:
+    """The dearest total cost still chosen beside a best of ``best``
+    (:data:`NEAR_BEST`)."""
+    return best + NEAR_BEST * abs(best)
+
+
+def pick_near_best(totals, rng: np.random.Generator) -> int:
+    """Index of a candidate drawn evenly among those whose total cost is
+    within :data:`NEAR_BEST` of the cheapest.
+
+    Parameters
+    ----------
+    totals : sequence of float, non-empty
+        Each candidate's total cost (match, deformation and seam).
+    rng : numpy.random.Generator
+        Seeded by the run: the same seed picks the same candidate.
+    """
+    totals = np.asarray(totals, dtype=np.float64)
+    near = np.flatnonzero(totals <= near_best_limit(float(totals.min())))
+    return int(near[rng.integers(near.size)])

@@ -17,7 +17,7 @@ from ..features.graph import FeatureMaps
 from ..features.samples import FeatureSample
 from ..features.stations import LineStations
 from ..matching.candidates import Candidate, FeaturePool
-from ..matching.costs import match_cost, overlap_ssd, settle
+from ..matching.costs import match_cost, near_best_limit, overlap_ssd, pick_near_best, settle
 from ..matching.usage import UsageRegistry
 from ..memo import Memo, array_key
 from ..placing.canvas import Canvas, Cut
@@ -334,9 +334,11 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
 
 def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: StyleLayout, *, index: int,
                   radius: float, k: int, feature_weight: float, usage: UsageRegistry,
-                  cap: int) -> PatchRecord | None:
+                  cap: int, rng: np.random.Generator) -> PatchRecord | None:
     """Choose among prepared candidates by match cost, deformation and seam
-    cost, and merge the best into ``canvas`` (blended).
+    cost (one of those near the cheapest,
+    :func:`~..matching.costs.pick_near_best`), and merge it into ``canvas``
+    (blended).
 
     Parameters
     ----------
@@ -362,6 +364,8 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
         here; the caller does that.
     cap : int
         Most feature patches one example window may supply.
+    rng : numpy.random.Generator
+        The sample's own (seeded by the run's seed and the sample).
 
     Returns
     -------
@@ -386,16 +390,14 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
     evaluated.sort(key=lambda t: t[0])
     rr, cc = np.ogrid[r0:r1, c0:c1]
     keep_new = (rr - sample.center[0]) ** 2 + (cc - sample.center[1]) ** 2 <= (radius / 2) ** 2
-    best = None
+    cut_ones = []
     for score, ssd, offset, patch, cand in evaluated[:k]:
-        if best is not None and score >= best[0]:
+        if cut_ones and score > near_best_limit(min(c[0] for c in cut_ones)):
             break  # cheapest first, and a seam never costs less than 0
         placed = patch + np.float32(offset) + level
         cut = canvas.cut(bbox, placed, keep_new=keep_new, relief=relief)
-        total = score + cut.normalized_cost
-        if best is None or total < best[0]:
-            best = (total, ssd, placed, cand, cut)
-    total, ssd, patch, cand, cut = best
+        cut_ones.append((score + cut.normalized_cost, ssd, placed, cand, cut))
+    total, ssd, patch, cand, cut = cut_ones[pick_near_best([c[0] for c in cut_ones], rng)]
     canvas.place(bbox, patch, cut, index, protect=keep_new & cut.take_new)
     canvas.blend(bbox)
     return PatchRecord(sample.patch_type, sample.kind, bbox, cand.example,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..controls.layout import StyleLayout
-from ..matching.costs import ROUGHNESS_WEIGHT, match_cost, settle
+from ..matching.costs import ROUGHNESS_WEIGHT, match_cost, near_best_limit, pick_near_best, settle
 from ..matching.fill_search import FillSearch
 from ..memo import Memo, array_key
 from ..placing.canvas import Canvas
@@ -100,9 +100,10 @@ def search_fill(searches: list, detail: list[np.ndarray], anchor: np.ndarray, me
 
 
 def choose_fill(canvas: Canvas, bbox, options: list[tuple], detail: list[np.ndarray], level: np.ndarray, *,
-                index: int, patch_size: int) -> PatchRecord:
-    """Pick among searched candidates by match cost plus seam cost and merge
-    the best into ``canvas`` (the caller blends it).
+                index: int, patch_size: int, rng: np.random.Generator) -> PatchRecord:
+    """Pick among searched candidates by match cost plus seam cost (one of
+    those near the cheapest, :func:`~..matching.costs.pick_near_best`) and
+    merge it into ``canvas`` (the caller blends it).
 
     Parameters
     ----------
@@ -117,19 +118,19 @@ def choose_fill(canvas: Canvas, bbox, options: list[tuple], detail: list[np.ndar
     index : int
         The patch's index in the run's records.
     patch_size : int
+    rng : numpy.random.Generator
+        The window's own (seeded by the run's seed and the window).
     """
     r0, r1, c0, c1 = bbox
     level = level[r0:r1, c0:c1]
-    best = None
+    evaluated = []
     for score, ssd, offset, ei, (er, ec), relief in options:
-        if best is not None and score >= best[0]:
+        if evaluated and score > near_best_limit(min(e[0] for e in evaluated)):
             break  # options come cheapest first and a seam never costs less than 0
         patch = detail[ei][er:er + patch_size, ec:ec + patch_size] + np.float32(offset) + level
         cut = canvas.cut(bbox, patch, relief=relief)
-        total = score + cut.normalized_cost
-        if best is None or total < best[0]:
-            best = (total, ssd, patch, ei, (er, ec), cut)
-    total, ssd, patch, ei, pos, cut = best
+        evaluated.append((score + cut.normalized_cost, ssd, patch, ei, (er, ec), cut))
+    total, ssd, patch, ei, pos, cut = evaluated[pick_near_best([e[0] for e in evaluated], rng)]
     canvas.place(bbox, patch, cut, index)
     return PatchRecord("fill", None, bbox, ei, (float(pos[0]), float(pos[1])), False, 0.0, ssd,
                        cut.normalized_cost, total)

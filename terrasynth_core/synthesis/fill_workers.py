@@ -121,7 +121,8 @@ def fill_window(kit: FillKit, task: WindowTask) -> tuple[Canvas, PatchRecord]:
     options = search_fill(kit.searches, kit.detail, kit.anchor, task.members, task.relief,
                           canvas.heights[win] - task.level[win], canvas.filled[win].copy(), rng,
                           patch_size=kit.patch_size, k=kit.k)
-    rec = choose_fill(canvas, local, options, kit.detail, task.level, index=task.index, patch_size=kit.patch_size)
+    rec = choose_fill(canvas, local, options, kit.detail, task.level, index=task.index, patch_size=kit.patch_size,
+                      rng=rng)
     canvas.blend(local)
     return canvas, replace(rec, bbox=task.bbox)
 

@@ -254,7 +254,8 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
             rigid[sample.kind] += prepared[2]
             pending = prepare(i + 1) if i + 1 < len(samples) else None
             rec = place_feature(state.canvas, sample, prepared, lay, index=len(state.records), radius=state.radius,
-                                k=p.k, feature_weight=p.feature_weight, usage=usage, cap=cap)
+                                k=p.k, feature_weight=p.feature_weight, usage=usage, cap=cap,
+                                rng=np.random.default_rng([p.seed, 3, i]))
             if rec is not None:
                 usage.record(rec.example, rec.source, rec.bbox, sample.center)
                 yield state.placed(rec, total)
@@ -296,7 +297,8 @@ def fill_stage(state: RunState):
         found = search_fill(searches, lay.detail, lay.anchor, members, float(max(lay.relief[members])),
                             canvas.heights[r0:r1, c0:c1] - level[r0:r1, c0:c1],
                             canvas.filled[r0:r1, c0:c1].copy(), rng, **options)
-        rec = choose_fill(canvas, bbox, found, lay.detail, level, index=len(state.records), patch_size=p.patch_size)
+        rec = choose_fill(canvas, bbox, found, lay.detail, level, index=len(state.records), patch_size=p.patch_size,
+                          rng=rng)
         canvas.blend(rec.bbox)
         yield state.placed(rec, total)
     remaining = WindowQueue(windows, canvas.filled)

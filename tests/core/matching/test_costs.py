@@ -11,8 +11,11 @@ from terrasynth_core.matching.costs import (
     OFFSET_WEIGHT,
     anchor_weight,
     level_spread,
+    NEAR_BEST,
     match_cost,
+    near_best_limit,
     overlap_ssd,
+    pick_near_best,
     settle,
 )
 
@@ -97,3 +100,15 @@ def test_settle_and_match_cost_take_the_weight():
     _, shift = settle(0.0, 60.0, 0.0, weight=5.0)
     assert shift == pytest.approx(10.0)
     assert match_cost(0.0, 20.0, 20.0, weight=5.0) == pytest.approx(5.0)
+
+
+def test_the_seed_picks_evenly_among_the_candidates_near_the_cheapest():
+    totals = [1.30, 1.00, 1.08, 1.11, 1.095]  # within 10 %: indices 1, 2 and 4
+    assert near_best_limit(1.0) == pytest.approx(1.0 + NEAR_BEST)
+    picks = [pick_near_best(totals, np.random.default_rng(seed)) for seed in range(300)]
+    assert set(picks) == {1, 2, 4}
+    assert min(np.bincount(picks)[[1, 2, 4]]) > 60  # about 100 each
+    # The same generator state, the same pick: a run's bytes stay its seed's.
+    assert pick_near_best(totals, np.random.default_rng(7)) == pick_near_best(totals, np.random.default_rng(7))
+    assert pick_near_best([0.0, 0.0, 1e-9], np.random.default_rng(0)) in (0, 1)
+    assert pick_near_best([2.5], np.random.default_rng(0)) == 0
