@@ -244,11 +244,14 @@ def c_variations_over_the_limit(tmp):
 
 
 def c_debug_dir_fails_after_the_output(tmp):
-    """Finding 7: the output exists, the debug folder cannot be made: say which part failed."""
+    """Finding 7: the output exists, the debug folder cannot be made: say which part failed.  (A
+    debug folder that is itself a file is refused before the run; one inside a file is found when
+    it is made.)"""
     _example(tmp / "x.npy")
-    _mine(tmp / "dbg", "a file where the debug folder should go")
+    _mine(tmp / "dbg", "a file where the debug folder's parent should go")
     return (["synth", "--example", tmp / "x.npy", "--size", "64x64", "--patch-size", "32", "--debug-dir",
-             tmp / "dbg", "--out", tmp / "t.tif"], EXIT_BAD_INPUT, ["wrote", "t.tif", "but the debug folder", "dbg"])
+             tmp / "dbg" / "run", "--out", tmp / "t.tif"], EXIT_BAD_INPUT,
+            ["wrote", "t.tif", "but the debug folder", "dbg"])
 
 
 def c_example_with_every_other_row_nodata(tmp):
