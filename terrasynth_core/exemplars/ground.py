@@ -124,15 +124,27 @@ def _check_grid(shape: tuple[int, int], cells: tuple[float, float], cell_size: f
     """
     rows, cols = shape[0] * cells[0] / cell_size, shape[1] * cells[1] / cell_size
     grid = f"{name}: at {cell_size:g} m cells its {shape[0]}x{shape[1]} grid of {cells[0]:.4g} x {cells[1]:.4g} m " \
-           f"cells would become about {rows:.0f}x{cols:.0f} cells"
+           f"cells would become about {_count(rows)}x{_count(cols)} cells"
     if rows * cols > MOST_EXAMPLE_CELLS:
-        finest = cell_size * math.sqrt(rows * cols / MOST_EXAMPLE_CELLS)
+        finest = _rounded(cell_size * math.sqrt(rows * cols / MOST_EXAMPLE_CELLS), math.ceil)
         raise ParamsError(f"{grid}, over the {MOST_EXAMPLE_CELLS // 1_000_000} million an example may have; "
-                          f"a cell size of at least {finest:.3g} m (--cell-size) keeps it within")
+                          f"a cell size of at least {finest:g} m (--cell-size) keeps it within")
     if min(rows, cols) < LEAST_EXAMPLE_SIDE:
-        coarsest = cell_size * min(rows, cols) / LEAST_EXAMPLE_SIDE
-        raise ParamsError(f"{grid}, too few to synthesize from; a cell size of at most {coarsest:.3g} m "
+        coarsest = _rounded(cell_size * min(rows, cols) / LEAST_EXAMPLE_SIDE, math.floor)
+        raise ParamsError(f"{grid}, too few to synthesize from; a cell size of at most {coarsest:g} m "
                           "(--cell-size) keeps more of it")
+
+
+def _count(cells: float) -> str:
+    """A cell count for a message: whole from 10 up, to a tenth below."""
+    return f"{cells:.0f}" if cells >= 10 else f"{cells:.1f}"
+
+
+def _rounded(value: float, direction) -> float:
+    """``value`` to three significant figures, rounded by ``direction``
+    (``math.ceil`` or ``math.floor``): a suggested cell size that passes."""
+    scale = 10.0 ** (math.floor(math.log10(value)) - 2)
+    return direction(value / scale) * scale
 
 
 def _resampled(field: HeightField, cell_size: float, name: str) -> np.ndarray:

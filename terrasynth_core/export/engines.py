@@ -325,7 +325,7 @@ def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | N
     preset : str
         A key of :data:`PRESETS`.
     out_dir : str or path-like
-        Created if missing.  No existing file is replaced.
+        Created if missing, in a folder that exists.  No existing file is replaced.
     size : int, optional
         Samples a side per tile (fixed-size presets: one of their sizes;
         default :func:`default_size`), or on the longer side for EXR

@@ -87,7 +87,7 @@ def write_masks(masks: TerrainMasks, out_dir, *, fmt: str = "png8", stem: str = 
     ----------
     masks : TerrainMasks
     out_dir : str or path-like
-        Created if missing; no existing file is replaced (refused first).
+        Created if missing, in a folder that exists; no existing file is replaced (refused first).
     fmt : {"png8", "png16", "exr"}
     stem : str
 

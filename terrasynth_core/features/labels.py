@@ -99,8 +99,8 @@ def label_map_from_rgba(rgba: np.ndarray, colours, *, default: bool = False, nam
     SketchError
         No colours, a sizeable area in a colour no style names (the
         message names the colour and its share), or with ``every_colour``
-        a style colour that paints nothing (the message names the image's
-        colours).
+        a style colour given twice or that paints nothing (the message
+        names the image's colours).
     """
     palette = np.array([parse_colour(c) if isinstance(c, str) else tuple(int(v) for v in c) for c in colours],
                        dtype=np.float64)
@@ -131,10 +131,13 @@ def label_map_from_rgba(rgba: np.ndarray, colours, *, default: bool = False, nam
             raise SketchError(f"{name} holds {what} that no style is given for (styles: {listed}): "
                               "add a --style for it or give a default --example")
     if every_colour:
-        painted = np.bincount(labels[labels >= 0], minlength=len(palette))
+        named = ["#{:02x}{:02x}{:02x}".format(*p.astype(int)) for p in palette]
+        for colour in sorted({c for c in named if named.count(c) > 1}):
+            raise SketchError(f"{name}: style colour {colour} is given more than once")
+        # (Only pixels of the colour count: a stray one kept its nearest label.)
+        painted = np.bincount(labels[~stray], minlength=len(palette))
         for i in np.flatnonzero(painted == 0):
-            raise SketchError("{} has no pixel of style colour #{:02x}{:02x}{:02x}; its colours are {}".format(
-                name, *palette[i].astype(int), colour_shares(rgba)))
+            raise SketchError(f"{name} has no pixel of style colour {named[i]}; its colours are {colour_shares(rgba)}")
     return labels.reshape(rgba.shape[:2])
 
 

@@ -189,10 +189,14 @@ def pick_near_best(totals, rng: np.random.Generator) -> int:
     Parameters
     ----------
     totals : sequence of float, non-empty
-        Each candidate's total cost (match, deformation and seam).
+        Each candidate's total cost (match, deformation and seam); a
+        non-finite one is never picked (the first when all are).
     rng : numpy.random.Generator
         Seeded by the run: the same seed picks the same candidate.
     """
     totals = np.asarray(totals, dtype=np.float64)
-    near = np.flatnonzero(totals <= near_best_limit(float(totals.min())))
+    finite = np.isfinite(totals)
+    if not finite.any():
+        return 0
+    near = np.flatnonzero(finite & (totals <= near_best_limit(float(totals[finite].min()))))
     return int(near[rng.integers(near.size)])

@@ -130,7 +130,7 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
         covered = float(controls.water.mask.mean())
         if covered >= ALL_WATER:
             notes.append(f"the water mask covers {100 * covered:.0f} % of the map: the terrain under it is water, "
-                         f"flat at {controls.water.level:g} m, sketch and all; paint water only where it should be")
+                         f"below {controls.water.level:g} m, sketch and all; paint water only where it should be")
         heights = apply_water(heights, controls.water, bank_width=patch_size / 2, locked=locked)
         flooded = flooded_land(heights, controls.water)
         if flooded:

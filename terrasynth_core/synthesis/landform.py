@@ -436,7 +436,7 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
     """
     sigma = sigma / f
     groups, cover = np.unique(layout.group_map, return_counts=True)
-    values, details, weights = [], [], []
+    values, details, weights, landforms = [], [], [], []
     for g, n in zip(groups, cover):
         base = float(np.median(layout.level[layout.group_map == g]))
         members = layout.members[int(g)]
@@ -446,6 +446,7 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
             valid = _valid_blocks(layout.examples[i].valid, f, coarse.shape)
             valid = np.ones(coarse.size, bool) if valid is None else valid.ravel()
             values.append((coarse + base).ravel()[valid])
+            landforms.append((landform_lowpass(coarse, sigma) + base).ravel()[valid])
             details.append((coarse - ndimage.gaussian_filter(coarse, sigma, mode="reflect")).ravel()[valid])
             weights.append(np.full(int(valid.sum()), n / (len(members) * int(valid.sum()))))
     values, details, weights = np.concatenate(values), np.concatenate(details), np.concatenate(weights)
@@ -465,13 +466,14 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
         change = fitted_heights(low, np.quantile(low.ravel()[cells] + detail, FIT_QUANTILES), target) - low
         h = h + FIT_STEP * ndimage.gaussian_filter(change, TREND_SIGMA * sigma, mode="reflect")
     # The level is a landform: it stays within the heights of the examples'
-    # own landforms (their low-pass), eased in by the finish's knee.  The
-    # fit matches the distribution, not its ends: on the plateau, the
-    # lowered region about a valley sank 84 m below the example's lowest
-    # landform, and the detail on it below the examples' range, where the
-    # finish's knee flattened a 40-70 m deep valley to a plain at sea level.
+    # own landforms (the same low-pass of them), eased in by the finish's
+    # knee.  The fit matches the distribution, not its ends: on the
+    # plateau, the lowered region about a valley sank 84 m below the
+    # example's lowest landform, and the detail on it below the examples'
+    # range, where the finish's knee flattened a 40-70 m deep valley to a
+    # plain at sea level.
     low = landform_lowpass(h, sigma).astype(np.float64)
-    landforms = values - details
+    landforms = np.concatenate(landforms)
     h = h + (within_examples_range(low, float(landforms.min()), float(landforms.max())) - low)
     return h.astype(np.float32)
 

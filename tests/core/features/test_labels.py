@@ -47,3 +47,10 @@ def test_a_style_colour_that_paints_nothing_is_named_with_the_maps_colours(tmp_p
                                           r"#008000 \(67 %\), #804000 \(33 %\)"):
         read_label_map(tmp_path / "styles.png", ["#008000", "#804000", "#123456"], default=True, every_colour=True)
     assert read_colour_shares(tmp_path / "styles.png") == "#008000 (67 %), #804000 (33 %)"
+    with pytest.raises(SketchError, match="style colour #008000 is given more than once"):
+        read_label_map(tmp_path / "styles.png", ["#008000", "#008000", "#804000"], every_colour=True)
+    # A sliver of a near colour (kept as anti-aliasing) does not paint a mistyped style.
+    rgb[0, 0] = (0, 20, 230)  # nearest #123456, but past the tolerance: stray
+    Image.fromarray(rgb).save(tmp_path / "sliver.png")
+    with pytest.raises(SketchError, match="no pixel of style colour #123456"):
+        read_label_map(tmp_path / "sliver.png", ["#008000", "#804000", "#123456"], every_colour=True)

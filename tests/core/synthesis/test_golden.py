@@ -88,8 +88,8 @@ CASES = {
 #: and with the seed picking among the candidates near the cheapest
 #: (matching.costs.pick_near_best).
 GOLDEN = {
-    "y_junction": "36014adfb8681fdc4afa435da0c3e24d5458037b6cf3600644f1f932c584e5c8",
-    "ring_cross_raster": "f1016864b891a06cc40e7efd62405f223fb6d740a9d5430902ac473d023ab7f9",
+    "y_junction": "aad97c4b14662ccb4c490fc26af88bfd2c8550526c7c0decb978dbf66935b36f",
+    "ring_cross_raster": "93318c539384990c2a7a210e66aee4fe24dd7d72283341dbc872a18c9ae4a002",
     "styles_stamp_water_pin": "6d5437d975795a93ce5e32f4814c666b57a84c1a605036b86e86bdb451af7c9a",
 }
 
