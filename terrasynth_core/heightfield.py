@@ -36,6 +36,14 @@ from .errors import DEMFormatError, ParamsError
 #: it keeps this share of the valid cells.
 CROP_KEEPS = 0.9
 
+#: Fewest cells along a height field's side.
+LEAST_SIDE = 2
+
+#: Most cells of a grid the engine makes: an output, an example at the
+#: run's cell size, an export's resampled grid (beyond it the arrays and
+#: the solvers take gigabytes).
+MOST_GRID_CELLS = 64_000_000
+
 #: Mean Earth radius in metres (IUGG), used to turn arc-seconds into metres.
 EARTH_RADIUS_M = 6_371_008.8
 
@@ -140,9 +148,10 @@ class HeightField:
     def __post_init__(self):
         h = np.asarray(self.heights)
         where = f" in {self.source}" if self.source else ""
-        if h.ndim != 2 or min(h.shape) < 2:
+        if h.ndim != 2 or min(h.shape) < LEAST_SIDE:
             raise DEMFormatError(
-                f"height field{where} must be a 2-D grid of at least 2x2 cells, got shape {h.shape}"
+                f"height field{where} must be a 2-D grid of at least {LEAST_SIDE}x{LEAST_SIDE} cells, "
+                f"got shape {h.shape}"
             )
         if not np.issubdtype(h.dtype, np.number):
             raise DEMFormatError(f"height field{where} has non-numeric type {h.dtype}")

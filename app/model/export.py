@@ -10,7 +10,7 @@ import numpy as np
 from terrasynth_core.errors import ParamsError
 from terrasynth_core.export import export_for_engine, terrain_masks, write_masks
 from terrasynth_core.features import resize_nearest
-from terrasynth_core.heightfield import HeightField
+from terrasynth_core.heightfield import LEAST_SIDE, MOST_GRID_CELLS, HeightField
 from terrasynth_core.io import MESH_EXTENSIONS, WRITE_EXTENSIONS, save_dem, save_mesh
 from terrasynth_core.io.resample import resample_nodes
 from terrasynth_core.pictures import shaded_relief
@@ -43,8 +43,9 @@ def resampled_field(result: TerrainResult, size: tuple[int, int] | None = None) 
     if size is None or tuple(size) == result.shape:
         return field
     new_rows, new_cols = (int(v) for v in size)
-    if min(new_rows, new_cols) < 2 or new_rows * new_cols > 64_000_000:
-        raise ParamsError(f"export size {new_rows}x{new_cols}: expected 2x2 to 64 million cells")
+    if min(new_rows, new_cols) < LEAST_SIDE or new_rows * new_cols > MOST_GRID_CELLS:
+        raise ParamsError(f"export size {new_rows}x{new_cols}: expected {LEAST_SIDE}x{LEAST_SIDE} to "
+                          f"{MOST_GRID_CELLS // 1_000_000} million cells")
     return resample_nodes(field, (new_rows, new_cols))
 
 

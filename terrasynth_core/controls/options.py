@@ -45,6 +45,9 @@ def check_stamp_transform(scale: float, rotation: float, what: str = "stamp") ->
         and the rotation is finite.
     """
     lo, hi = STAMP_SCALE_RANGE
+    if math.isfinite(scale) and scale <= 0:
+        raise ParamsError(f"{what}: scale {scale:g} must be a positive number (1 keeps its size), "
+                          f"between {lo:g} and {hi:g}")
     if not (math.isfinite(scale) and lo <= scale <= hi):
         raise ParamsError(f"{what}: scale must be between {lo:g} and {hi:g}, got {scale}")
     if not math.isfinite(rotation):

@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from ..errors import ParamsError
-from ..heightfield import CROP_KEEPS, HeightField
+from ..heightfield import CROP_KEEPS, LEAST_SIDE, MOST_GRID_CELLS, HeightField
 from ..io.resample import already_square, ground_cell_size, to_square_cells
 from . import cache
 
@@ -26,13 +26,6 @@ __all__ = ["UPSAMPLE_WARNING", "on_ground", "run_cell_size"]
 
 #: Up-sampling factor above which an example is named in the warnings.
 UPSAMPLE_WARNING = 2.0
-
-#: Most cells an example may have at the run's cell size (as an output:
-#: ``Session``'s cap); a finer cell size would take gigabytes to resample.
-MOST_EXAMPLE_CELLS = 64_000_000
-
-#: Fewest cells along an example's side at the run's cell size.
-LEAST_EXAMPLE_SIDE = 2
 
 _MEMO = cache.Memo(16, cache.load_array, cache.save_array)
 
@@ -125,12 +118,12 @@ def _check_grid(shape: tuple[int, int], cells: tuple[float, float], cell_size: f
     rows, cols = shape[0] * cells[0] / cell_size, shape[1] * cells[1] / cell_size
     grid = f"{name}: at {cell_size:g} m cells its {shape[0]}x{shape[1]} grid of {cells[0]:.4g} x {cells[1]:.4g} m " \
            f"cells would become about {_count(rows)}x{_count(cols)} cells"
-    if rows * cols > MOST_EXAMPLE_CELLS:
-        finest = _rounded(cell_size * math.sqrt(rows * cols / MOST_EXAMPLE_CELLS), math.ceil)
-        raise ParamsError(f"{grid}, over the {MOST_EXAMPLE_CELLS // 1_000_000} million an example may have; "
+    if rows * cols > MOST_GRID_CELLS:
+        finest = _rounded(cell_size * math.sqrt(rows * cols / MOST_GRID_CELLS), math.ceil)
+        raise ParamsError(f"{grid}, over the {MOST_GRID_CELLS // 1_000_000} million an example may have; "
                           f"a cell size of at least {finest:g} m (--cell-size) keeps it within")
-    if min(rows, cols) < LEAST_EXAMPLE_SIDE:
-        coarsest = _rounded(cell_size * min(rows, cols) / LEAST_EXAMPLE_SIDE, math.floor)
+    if min(rows, cols) < LEAST_SIDE:
+        coarsest = _rounded(cell_size * min(rows, cols) / LEAST_SIDE, math.floor)
         raise ParamsError(f"{grid}, too few to synthesize from; a cell size of at most {coarsest:g} m "
                           "(--cell-size) keeps more of it")
 

@@ -9,6 +9,8 @@ compare, and the graph-cut cost (also relief-normalised) adds to them.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy import ndimage
 
@@ -200,3 +202,32 @@ def pick_near_best(totals, rng: np.random.Generator) -> int:
         return 0
     near = np.flatnonzero(finite & (totals <= near_best_limit(float(totals[finite].min()))))
     return int(near[rng.integers(near.size)])
+
+
+def choose_near_best(scored, seam_cost, rng: np.random.Generator) -> tuple:
+    """The fill's and the feature patches' choice: candidates' seams cut
+    cheapest first while they can still be near the best, then one picked
+    by :func:`pick_near_best`.
+
+    Parameters
+    ----------
+    scored : iterable of (float, object)
+        Each candidate's score before its seam, cheapest first.
+    seam_cost : callable
+        ``seam_cost(candidate)`` -> ``(cost, made)``: the seam's cost (at
+        least 0) and what cutting it made (kept for the one chosen).
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    (total, candidate, made)
+        The chosen one, its total cost (score plus seam).
+    """
+    tried, best = [], math.inf
+    for score, candidate in scored:
+        if tried and score > near_best_limit(best):
+            break  # cheapest first, and a seam never costs less than 0
+        cost, made = seam_cost(candidate)
+        tried.append((score + cost, candidate, made))
+        best = min(best, score + cost)
+    return tried[pick_near_best([t[0] for t in tried], rng)]

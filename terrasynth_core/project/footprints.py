@@ -14,10 +14,9 @@ that would do.
 
 from __future__ import annotations
 
-import math
-
 from typing import Sequence
 
+from ..controls.options import check_stamp_transform
 from ..errors import ParamsError
 from ..exemplars.ground import run_cell_size
 from ..heightfield import HeightField
@@ -55,8 +54,8 @@ def check_stamp_footprints(controls: Controls | None, examples: Sequence, cell_s
     cell = run_cell_size(cell_size, fields)
     for index, stamp in enumerate(controls.stamps, 1):
         field = stamp.field
-        if not (math.isfinite(stamp.scale) and stamp.scale > 0):
-            raise ParamsError(f"stamp {index}: scale {stamp.scale:g} must be a positive number (1 keeps its size)")
+        # (The transform first: the footprint's size means nothing at a scale out of range.)
+        check_stamp_transform(stamp.scale, stamp.rotation, f"stamp {index}")
         rows, cols = field.shape
         if stamp.window is not None:
             r0, r1, c0, c1 = (int(v) for v in stamp.window)

@@ -17,7 +17,7 @@ from ..features.graph import FeatureMaps
 from ..features.samples import FeatureSample
 from ..features.stations import LineStations
 from ..matching.candidates import Candidate, FeaturePool
-from ..matching.costs import match_cost, near_best_limit, overlap_ssd, pick_near_best, settle
+from ..matching.costs import choose_near_best, match_cost, overlap_ssd, settle
 from ..matching.usage import UsageRegistry
 from ..memo import Memo, array_key
 from ..placing.canvas import Canvas, Cut
@@ -390,14 +390,14 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
     evaluated.sort(key=lambda t: t[0])
     rr, cc = np.ogrid[r0:r1, c0:c1]
     keep_new = (rr - sample.center[0]) ** 2 + (cc - sample.center[1]) ** 2 <= (radius / 2) ** 2
-    cut_ones = []
-    for score, ssd, offset, patch, cand in evaluated[:k]:
-        if cut_ones and score > near_best_limit(min(c[0] for c in cut_ones)):
-            break  # cheapest first, and a seam never costs less than 0
+
+    def seam(option):
+        _, _, offset, patch, _ = option
         placed = patch + np.float32(offset) + level
         cut = canvas.cut(bbox, placed, keep_new=keep_new, relief=relief)
-        cut_ones.append((score + cut.normalized_cost, ssd, placed, cand, cut))
-    total, ssd, patch, cand, cut = cut_ones[pick_near_best([c[0] for c in cut_ones], rng)]
+        return cut.normalized_cost, (placed, cut)
+
+    total, (_, ssd, _, _, cand), (patch, cut) = choose_near_best(((e[0], e) for e in evaluated[:k]), seam, rng)
     canvas.place(bbox, patch, cut, index, protect=keep_new & cut.take_new)
     canvas.blend(bbox)
     return PatchRecord(sample.patch_type, sample.kind, bbox, cand.example,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..controls.layout import StyleLayout
-from ..matching.costs import ROUGHNESS_WEIGHT, match_cost, near_best_limit, pick_near_best, settle
+from ..matching.costs import ROUGHNESS_WEIGHT, choose_near_best, match_cost, settle
 from ..matching.fill_search import FillSearch
 from ..memo import Memo, array_key
 from ..placing.canvas import Canvas
@@ -123,14 +123,14 @@ def choose_fill(canvas: Canvas, bbox, options: list[tuple], detail: list[np.ndar
     """
     r0, r1, c0, c1 = bbox
     level = level[r0:r1, c0:c1]
-    evaluated = []
-    for score, ssd, offset, ei, (er, ec), relief in options:
-        if evaluated and score > near_best_limit(min(e[0] for e in evaluated)):
-            break  # options come cheapest first and a seam never costs less than 0
+
+    def seam(option):
+        _, _, offset, ei, (er, ec), relief = option
         patch = detail[ei][er:er + patch_size, ec:ec + patch_size] + np.float32(offset) + level
         cut = canvas.cut(bbox, patch, relief=relief)
-        evaluated.append((score + cut.normalized_cost, ssd, patch, ei, (er, ec), cut))
-    total, ssd, patch, ei, pos, cut = evaluated[pick_near_best([e[0] for e in evaluated], rng)]
+        return cut.normalized_cost, (patch, cut)
+
+    total, (_, ssd, _, ei, pos, _), (patch, cut) = choose_near_best(((o[0], o) for o in options), seam, rng)
     canvas.place(bbox, patch, cut, index)
     return PatchRecord("fill", None, bbox, ei, (float(pos[0]), float(pos[1])), False, 0.0, ssd,
                        cut.normalized_cost, total)

@@ -31,7 +31,7 @@ from ..exemplars.patch_size import PATCH_SIZES
 from ..exemplars import cache
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
-from ..heightfield import HeightField
+from ..heightfield import MOST_GRID_CELLS, HeightField
 from ..io.resample import output_georeference
 from ..memo import Memo, array_key
 from .events import drive
@@ -118,8 +118,8 @@ class Session:
             else:
                 raise ParamsError("give an output shape when there is no sketch")
         rows, cols = (int(v) for v in shape)
-        if rows * cols > 64_000_000:
-            raise ParamsError(f"output {rows}x{cols} exceeds 64 million cells")
+        if rows * cols > MOST_GRID_CELLS:
+            raise ParamsError(f"output {rows}x{cols} exceeds {MOST_GRID_CELLS // 1_000_000} million cells")
         # (Checked before the examples are read and an automatic patch size
         # is chosen from them.)
         checked = controls.checked((rows, cols), len(examples))
