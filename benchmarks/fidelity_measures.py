@@ -48,6 +48,27 @@ def height_percentile(heights: np.ndarray, cells: np.ndarray) -> float:
     return float(np.mean((below + not_above) / 2.0) / flat.size)
 
 
+def wrong_half(heights: np.ndarray, cells: np.ndarray, *, high: bool) -> float:
+    """Share of ``cells`` in the wrong half of the grid's heights: below
+    its median where they should stand high (``high``: ridges), above it
+    where they should lie low (valleys).
+
+    The mean percentile (:func:`height_percentile`) hides a stretch of
+    ridge that runs through lowland behind the rest of it standing high;
+    this counts that stretch.
+
+    Returns
+    -------
+    float
+        0 to 1; NaN when ``cells`` is empty.
+    """
+    if not cells.any():
+        return float("nan")
+    median = float(np.median(heights))
+    values = np.asarray(heights)[cells]
+    return float(np.mean(values < median if high else values > median))
+
+
 @contextlib.contextmanager
 def _quiet_fds():
     """Silence the C++ library's own prints to stdout and stderr."""

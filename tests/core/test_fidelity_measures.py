@@ -38,6 +38,17 @@ def test_height_percentile_of_a_plane_row():
     assert fm.height_percentile(plane, row) == pytest.approx(0.255)
 
 
+def test_wrong_half_counts_a_ridge_stretch_in_lowland():
+    # A ridge drawn across a plane rising to the east: the part of the
+    # stroke on the western, lower half of the map is in the wrong half.
+    plane = np.repeat(np.arange(100.0)[None, :], 100, axis=0)
+    stroke = np.zeros(plane.shape, bool)
+    stroke[50, 20:100] = True
+    assert fm.wrong_half(plane, stroke, high=True) == pytest.approx(30 / 80)
+    assert fm.wrong_half(plane, stroke, high=False) == pytest.approx(50 / 80)
+    assert np.isnan(fm.wrong_half(plane, np.zeros_like(stroke), high=True))
+
+
 def test_tilted_plane_drains_along_its_fall_line():
     pytest.importorskip("richdem")
     r, c = np.mgrid[0:200, 0:200]
