@@ -85,11 +85,12 @@ CASES = {
 #: cropped from the basin's largest valid rectangle but from the whole
 #: basin, its nodata kept out of the patches), and with the level eased
 #: into the heights of the examples' own landforms (landform.fitted_to_examples),
-#: and with the seed picking among the candidates near the cheapest
-#: (matching.costs.pick_near_best).
+#: with the seed picking among the candidates near the cheapest
+#: (matching.costs.pick_near_best), and with the drawn ridges held high and
+#: the open valleys low along their whole length (landform._StrokeSides).
 GOLDEN = {
-    "y_junction": "aad97c4b14662ccb4c490fc26af88bfd2c8550526c7c0decb978dbf66935b36f",
-    "ring_cross_raster": "93318c539384990c2a7a210e66aee4fe24dd7d72283341dbc872a18c9ae4a002",
+    "y_junction": "2e6a49a9aaaf2d071c3028f1a6d1c8647e26add2744f95d8f6d50ca7a3fa2557",
+    "ring_cross_raster": "caeae73b3b2df264f3efcd03519f445e6fdeb29a427bb315b7412876789e4740",
     "styles_stamp_water_pin": "6d5437d975795a93ce5e32f4814c666b57a84c1a605036b86e86bdb451af7c9a",
 }
 

@@ -26,6 +26,7 @@ from terrasynth_core.synthesis.landform import (
     preview_patch,
     FIT_QUANTILES,
     MAX_GAIN,
+    STROKE_SIDE,
     TREND_SIGMA,
     fitted_heights,
     split_sigma,
@@ -187,6 +188,44 @@ def test_fitted_to_examples_lowers_a_valley_drawn_between_close_ridges(sketch_di
     assert pct(drawn, valley) < pct(plain, valley) - 0.1
     assert pct(drawn, valley) < 0.3
     assert pct(drawn, ridge) > pct(plain, ridge) + 0.1
+
+
+def test_fitted_to_examples_keeps_a_drawn_ridge_high_and_a_valley_low_along_their_whole_length():
+    # A coarse terrain with a deep valley running down its left half and a
+    # high belt down its right; a ridge drawn across the map (row 40)
+    # crosses the deep valley, a valley drawn across it to the border (row
+    # 90) the high belt.  Each stays on its side of the level's quantiles
+    # along its whole length, not only on average; away from the strokes
+    # the terrain keeps its valley and belt.  A valley walled in by a ring
+    # of ridges (row 112) is not lowered so: that would make a basin with
+    # no way out.
+    example = builtin_example("white-mountains").load()
+    session = Session([example], None, shape=(256, 256), params=P)
+    sigma, f = split_sigma(P.patch_size), 2
+    cols = np.arange(128)
+    profile = np.where(cols < 64, -300.0 * np.exp(-0.5 * ((cols - 32) / 8.0) ** 2),
+                       300.0 * np.exp(-0.5 * ((cols - 96) / 8.0) ** 2))
+    terrain = np.tile(500.0 + profile, (128, 1)).astype(np.float32)
+    ridge, valley = np.zeros((128, 128), bool), np.zeros((128, 128), bool)
+    ridge[40, 8:120] = True
+    valley[90, :] = True
+    valley[112, 74:118] = True
+    ridge[104, 66:126] = ridge[120, 66:126] = True
+    ridge[104:121, 66] = ridge[104:121, 125] = True
+    strokes = sketch_features(SketchMap(ridge, valley))
+    drawn = fitted_to_examples(terrain, session.layout, f, sigma, strokes).astype(np.float64)
+    level = landform_lowpass(drawn, sigma / f)
+    lo, hi = np.quantile(level, [1 - STROKE_SIDE[0], STROKE_SIDE[0]])
+    # (Within a tenth of the relief: the lift is averaged along the stroke.)
+    slack = 0.1 * float(np.ptp(level))
+    assert level[40, 8:120].min() > hi - slack
+    assert level[90, 2:126].max() < lo + slack
+    assert level[112, 74:118].max() > lo + slack
+    # Where the ridge crosses the deep valley it was lifted out of the
+    # lowest tenth to a saddle (the lift is averaged along the stroke);
+    # the valley far from the strokes stays in the lowest quarter.
+    assert level[40, 32] > np.quantile(level, 0.35)
+    assert level[10, 32] < np.quantile(level, 0.25)
 
 
 def test_coarse_factor_is_the_largest_the_examples_allow():
