@@ -338,7 +338,8 @@ def drawn_relief(sketch, shape: tuple[int, int], layout, patch_size: int) -> tup
         return None
     detail = [layout.examples[i].valid_values(layout.detail[i]) for i in layout.members[0]]
     q1, q3 = np.quantile(np.concatenate(detail), [0.25, 0.75])
-    return (DRAWN_UPLIFT * float(q3 - q1) * _stroke_regions(strokes, reach / f, grid)).astype(np.float32), f
+    regions = _stroke_regions(_StrokeDistances(strokes, grid), reach / f)
+    return (DRAWN_UPLIFT * float(q3 - q1) * regions).astype(np.float32), f
 
 
 def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray:
@@ -428,7 +429,8 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
         The sketch's features on the coarse grid: the regions about its
         ridges are raised and those about its valleys lowered
         (:data:`UPLIFT`) before the fit, so that the regional relief
-        follows the drawing.
+        follows the drawing, and each round holds the ridges high and the
+        open valleys low along their whole length (:class:`_StrokeSides`).
 
     Returns
     -------
@@ -458,16 +460,19 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
     cells = np.linspace(0, heights.size - 1, min(heights.size, FIT_SAMPLES)).astype(np.int64)
     detail = details[np.random.default_rng(0).choice(len(details), size=len(cells), p=weights / weights.sum())]
     h = np.asarray(heights, dtype=np.float64)
-    if strokes is not None and UPLIFT > 0:
+    sides = None
+    if strokes is not None:
+        near = _StrokeDistances(strokes, h.shape)
         spread = float(target[3] - target[1])  # (the interquartile range: FIT_QUANTILES[1] and [3])
-        h = h + UPLIFT * spread * _stroke_regions(strokes, 2 * TREND_SIGMA * sigma, h.shape)
-    sides = None if strokes is None else _StrokeSides(strokes, TREND_SIGMA * sigma, h.shape)
+        h = h + UPLIFT * spread * _stroke_regions(near, 2 * TREND_SIGMA * sigma)
+        sides = _StrokeSides(near, TREND_SIGMA * sigma)
     for _ in range(FIT_ROUNDS):
+        if sides is not None:
+            # (Before the fit's own step, so each round ends fitted.)
+            h = h + FIT_STEP * sides.correction(landform_lowpass(h, sigma).astype(np.float64))
         low = landform_lowpass(h, sigma).astype(np.float64)
         change = fitted_heights(low, np.quantile(low.ravel()[cells] + detail, FIT_QUANTILES), target) - low
         h = h + FIT_STEP * ndimage.gaussian_filter(change, TREND_SIGMA * sigma, mode="reflect")
-        if sides is not None:
-            h = h + FIT_STEP * sides.correction(landform_lowpass(h, sigma).astype(np.float64))
     # The level is a landform: it stays within the heights of the examples'
     # own landforms (the same low-pass of them), eased in by the finish's
     # knee.  The fit matches the distribution, not its ends: on the
@@ -501,34 +506,59 @@ TREND_SIGMA = 4.0
 UPLIFT = 0.2
 
 
-def _stroke_regions(strokes: FeatureMaps, sigma: float, shape: tuple[int, int]) -> np.ndarray:
-    """+1 on the sketch's ridges, -1 on its valleys, passing between them
-    with the distances to each and easing to 0 over ``sigma`` cells away
-    from both (twice the fit's regional scale); zeros without strokes.
+class _StrokeDistances:
+    """The sketch's ridge and valley cells on a grid, and every cell's
+    distance to each kind (cells; a kind with no strokes lies farther
+    than any cell).
 
-    A cell between strokes takes its share of the way from the nearest
-    valley to the nearest ridge, ``d_valley / (d_valley + d_ridge)``,
-    through a smoothstep (flat along each stroke, no crease): a valley
-    between two ridges is the low of its region whatever their spacing.  (A
-    sum of blurred ridge and valley masks, as before, let two ridges a
-    regional scale apart outweigh the valley between them: the S-valley's
-    valley cells sat at +0.45 of the ridges' rise, raised, not lowered.)
-    A blur at the level split's own scale (an eighth of ``sigma``) rounds
-    the crease midway between them.
+    Parameters
+    ----------
+    strokes : FeatureMaps
+    shape : (h, w)
+
+    Attributes
+    ----------
+    ridges, valleys : ndarray of bool, shape ``shape``
+    to_ridge, to_valley : ndarray of float64, shape ``shape``
+    """
+
+    def __init__(self, strokes: FeatureMaps, shape: tuple[int, int]):
+        far = float(shape[0] + shape[1])
+        self.ridges, self.valleys = (graph_mask(g) if g.paths else np.zeros(shape, bool)
+                                     for g in (strokes.ridges, strokes.valleys))
+        self.to_ridge, self.to_valley = (ndimage.distance_transform_edt(~m) if m.any() else np.full(shape, far)
+                                         for m in (self.ridges, self.valleys))
+
+    def ridge_side(self) -> np.ndarray:
+        """1 on the ridges, 0 on the valleys, between them the share of
+        the way from the nearest valley to the nearest ridge,
+        ``d_valley / (d_valley + d_ridge)``, through a smoothstep (flat
+        along each stroke, no crease)."""
+        return smoothstep(self.to_valley / np.maximum(self.to_valley + self.to_ridge, 1e-9))
+
+
+def _stroke_regions(near: _StrokeDistances, sigma: float) -> np.ndarray:
+    """+1 on the sketch's ridges, -1 on its valleys, passing between them
+    by :meth:`_StrokeDistances.ridge_side` and easing to 0 over ``sigma``
+    cells away from both (twice the fit's regional scale); zeros without
+    strokes.
+
+    A valley between two ridges is the low of its region whatever their
+    spacing.  (A sum of blurred ridge and valley masks, as before, let two
+    ridges a regional scale apart outweigh the valley between them: the
+    S-valley's valley cells sat at +0.45 of the ridges' rise, raised, not
+    lowered.)  A blur at the level split's own scale (an eighth of
+    ``sigma``) rounds the crease midway between them.
 
     Returns
     -------
-    ndarray of float64, shape ``shape``
+    ndarray of float64, shape of the grid
         Between -1 and 1.
     """
-    if not (strokes.ridges.paths or strokes.valleys.paths):
-        return np.zeros(shape)
-    far = float(shape[0] + shape[1])  # (a kind with no strokes is farther than any cell)
-    d_ridge, d_valley = (ndimage.distance_transform_edt(~graph_mask(g)) if g.paths else np.full(shape, far)
-                         for g in (strokes.ridges, strokes.valleys))
-    near = np.minimum(d_ridge, d_valley)
-    side = 2.0 * smoothstep(d_valley / np.maximum(d_valley + d_ridge, 1e-9)) - 1.0
-    field = side * np.exp(-0.5 * (near / sigma) ** 2)
+    if not (near.ridges.any() or near.valleys.any()):
+        return np.zeros(near.ridges.shape)
+    side = 2.0 * near.ridge_side() - 1.0
+    field = side * np.exp(-0.5 * (np.minimum(near.to_ridge, near.to_valley) / sigma) ** 2)
     return np.clip(ndimage.gaussian_filter(field, sigma / 8, mode="reflect"), -1.0, 1.0)
 
 
@@ -548,41 +578,53 @@ class _StrokeSides:
     ring's cells below the map's median level; an artist reads a ridge
     that runs through lowland as no ridge).  Each round of the fit, the
     level along the ridges below the :data:`STROKE_SIDE` quantiles is
-    mapped into them, in order (the lowest stretch to the lower quantile,
-    the rest in line up to the upper one, where the level is left as it
-    is), and the level along the valleys above the ``1 -`` quantiles
-    alike (but for valleys walled in by ridges, :func:`_open_valleys`).  In order, a valley that descends still descends: held at one
-    bound, its floor went flat and its streams wandered.  The change is
-    averaged over ``reach`` along the stroke (a smooth rise, not a wall)
-    and eases to 0 over ``reach`` across it, each kind only on its own
-    side of the way between a ridge and a valley (:func:`_stroke_regions`'s
-    split).
+    mapped into them, in order (:func:`_lifted`: the lowest stretch to the
+    lower quantile, the rest in line up to the upper one; stretches above
+    it are left as they are), and the level along the open valleys
+    (:func:`_open_valleys`) above the ``1 -`` quantiles alike.  In order,
+    a valley that descends still descends: held at one bound, its floor
+    went flat and its streams wandered.  The change is averaged along the
+    stroke over ``reach`` (a smooth rise, not a wall) and fades across it
+    as a Gaussian of standard deviation ``reach``, each kind only on its
+    own side of the way between a ridge and a valley (any valley, open or
+    walled in: a ring's rise does not spill into the valleys it
+    encloses).
+
+    The quantiles are the level's own, read again each round: where
+    strokes cover most of the map they move with it, and the fit's step
+    that follows each round pulls the distribution back to the examples'.
 
     Parameters
     ----------
-    strokes : FeatureMaps
-        The sketch's features on the coarse grid.
+    near : _StrokeDistances
+        The sketch's strokes on the coarse grid.
     reach : float
         Coarse cells: the fit's regional scale.
-    shape : (h, w)
-        The coarse grid.
     """
 
-    def __init__(self, strokes: FeatureMaps, reach: float, shape: tuple[int, int]):
+    def __init__(self, near: _StrokeDistances, reach: float):
         self.reach = reach
-        far = float(shape[0] + shape[1])
-        self.masks = [graph_mask(g) if g.paths else np.zeros(shape, bool) for g in (strokes.ridges, strokes.valleys)]
-        self.masks[1] = _open_valleys(self.masks[1], self.masks[0])
-        d_ridge, d_valley = (ndimage.distance_transform_edt(~m) if m.any() else np.full(shape, far)
-                             for m in self.masks)
-        own = smoothstep(d_valley / np.maximum(d_valley + d_ridge, 1e-9))  # 1 on ridges, 0 on valleys
-        self.weights = [own * np.exp(-0.5 * (d_ridge / reach) ** 2),
-                        (1.0 - own) * np.exp(-0.5 * (d_valley / reach) ** 2)]
-        self.along = [ndimage.gaussian_filter(m.astype(np.float64), reach, mode="constant") for m in self.masks]
+        self.masks = (near.ridges, _open_valleys(near.valleys, near.ridges))
+        own = near.ridge_side()
+        self.weights = (own * np.exp(-0.5 * (near.to_ridge / reach) ** 2),
+                        (1.0 - own) * np.exp(-0.5 * (near.to_valley / reach) ** 2))
+        self.along = tuple(ndimage.gaussian_filter(m.astype(np.float64), reach, mode="constant")
+                           for m in self.masks)
 
     def correction(self, low: np.ndarray) -> np.ndarray:
-        """The change that brings the strokes of ``low`` (the level, on
-        the coarse grid, metres) to their side."""
+        """The change that brings the strokes to their side.
+
+        Parameters
+        ----------
+        low : ndarray of float64, shape of the grid
+            The level (:func:`landform_lowpass` of the coarse terrain),
+            metres.
+
+        Returns
+        -------
+        ndarray of float64, shape of the grid
+            Metres to add; 0 where no stroke needs moving.
+        """
         lo, hi = STROKE_SIDE
         bounds = np.quantile(low, [lo, hi, 1.0 - lo, 1.0 - hi])
         out = np.zeros_like(low)
@@ -604,11 +646,14 @@ def _open_valleys(valleys: np.ndarray, ridges: np.ndarray) -> np.ndarray:
     ``ridges``: those with a cell from which the grid's border can be
     reached without crossing a ridge.
 
-    A valley inside a ring of ridges can drain only through a gap cut in
-    the ring (the finish's breach); lowered to the map's low quantiles, it
-    became the lowest ground around, a basin with nowhere lower to cut to,
-    and its streams pooled (Big Tujunga's ring and cross: valley drainage
-    0.95 -> 0.72).
+    A valley inside a ring of ridges can drain only through a gap the
+    valleys' breach cuts in the ring (:mod:`..controls.drainage`);
+    lowered to the map's low quantiles, it became the lowest ground
+    around, a basin with nowhere lower to cut to, and its streams pooled
+    (Big Tujunga's ring and cross: valley drainage 0.95 -> 0.72).  A
+    valley cell next to a ridge counts as walled in (the ridge is grown
+    by a cell); a valley that leaves the ring is open along its whole
+    length.
     """
     labels, n = ndimage.label(valleys, structure=np.ones((3, 3), bool))
     if n == 0:
@@ -626,7 +671,9 @@ def _lifted(values: np.ndarray, floor: float, top: float) -> np.ndarray:
     top]`` (the least to ``floor``); unchanged when none is below
     ``floor``."""
     least = float(values.min())
-    if least >= floor or top <= least:
+    if least >= floor or top <= floor:
+        # (Tied quantiles, a level flat over much of the map: mapping
+        # into them would flatten the stroke.)
         return values
     below = values < top
     out = values.copy()

@@ -89,8 +89,8 @@ CASES = {
 #: (matching.costs.pick_near_best), and with the drawn ridges held high and
 #: the open valleys low along their whole length (landform._StrokeSides).
 GOLDEN = {
-    "y_junction": "2e6a49a9aaaf2d071c3028f1a6d1c8647e26add2744f95d8f6d50ca7a3fa2557",
-    "ring_cross_raster": "caeae73b3b2df264f3efcd03519f445e6fdeb29a427bb315b7412876789e4740",
+    "y_junction": "caa1ea3b5c9a28584c53cffed14c78848fc68c6a2420efce808ea2eb7a437860",
+    "ring_cross_raster": "27df4034d55973f0685fb92533fcc62281ad64c954c5d9cd89b6a33f13d478c9",
     "styles_stamp_water_pin": "6d5437d975795a93ce5e32f4814c666b57a84c1a605036b86e86bdb451af7c9a",
 }
 

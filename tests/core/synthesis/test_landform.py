@@ -31,6 +31,7 @@ from terrasynth_core.synthesis.landform import (
     fitted_heights,
     split_sigma,
     fitted_to_examples,
+    _open_valleys,
 )
 
 P = SynthesisParams(patch_size=32, k=2, seed=1)
@@ -226,6 +227,28 @@ def test_fitted_to_examples_keeps_a_drawn_ridge_high_and_a_valley_low_along_thei
     # the valley far from the strokes stays in the lowest quarter.
     assert level[40, 32] > np.quantile(level, 0.35)
     assert level[10, 32] < np.quantile(level, 0.25)
+
+
+def test_open_valleys_are_those_not_walled_in_by_ridges():
+    ridges = np.zeros((60, 60), bool)
+    ridges[10, 10:40] = ridges[39, 10:40] = True
+    ridges[10:40, 10] = ridges[10:40, 39] = True
+    inside, outside, leaving = (np.zeros((60, 60), bool) for _ in range(3))
+    inside[25, 15:35] = True
+    outside[50, 5:55] = True
+    leaving[20, 20:60] = True  # from inside the ring out through it to the border
+    valleys = inside | outside | leaving
+    kept = _open_valleys(valleys, ridges)
+    assert not (kept & inside).any()
+    assert (kept == (outside | leaving)).all()
+    # A ridge drawn with diagonal steps leaves no gap for a valley inside.
+    diagonal = np.zeros((60, 60), bool)
+    for i in range(20):
+        diagonal[30 - i, 10 + i] = diagonal[30 + i, 10 + i] = True
+        diagonal[10 + i, 30 + i] = diagonal[50 - i, 30 + i] = True
+    middle = np.zeros((60, 60), bool)
+    middle[30, 25:36] = True
+    assert not _open_valleys(middle, diagonal).any()
 
 
 def test_coarse_factor_is_the_largest_the_examples_allow():
