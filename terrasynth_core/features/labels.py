@@ -37,6 +37,11 @@ def parse_colour(text: str) -> tuple[int, int, int]:
     return int(v[0:2], 16), int(v[2:4], 16), int(v[4:6], 16)
 
 
+def colour_hex(rgb) -> str:
+    """An (r, g, b) colour, 0-255 each, as ``"#rrggbb"`` (:func:`parse_colour`'s inverse)."""
+    return "#{:02x}{:02x}{:02x}".format(*(int(v) for v in rgb))
+
+
 def _read_rgba(path: Path, what: str) -> np.ndarray:
     try:
         with open_image(path, what) as image:
@@ -66,8 +71,7 @@ def colour_shares(rgba: np.ndarray, most: int = 6) -> str:
         return "no opaque pixel"
     values, counts = np.unique(rgba[..., :3][opaque], axis=0, return_counts=True)
     order = np.argsort(-counts, kind="stable")[:most]  # (ties in colour order)
-    return ", ".join("#{:02x}{:02x}{:02x} ({:.0f} %)".format(*values[i], 100 * counts[i] / rgba[..., 0].size)
-                     for i in order)
+    return ", ".join(f"{colour_hex(values[i])} ({100 * counts[i] / rgba[..., 0].size:.0f} %)" for i in order)
 
 
 def label_map_from_rgba(rgba: np.ndarray, colours, *, default: bool = False, name: str = "style map",
@@ -106,6 +110,7 @@ def label_map_from_rgba(rgba: np.ndarray, colours, *, default: bool = False, nam
                        dtype=np.float64)
     if palette.size == 0:
         raise SketchError(f"{name}: give at least one style colour")
+    named = [colour_hex(p) for p in palette]
     rgb = rgba[..., :3].reshape(-1, 3).astype(np.float32)
     opaque = rgba[..., 3].reshape(-1) >= 128
     # One colour at a time: memory stays at a few arrays of the image's size.
@@ -123,21 +128,21 @@ def label_map_from_rgba(rgba: np.ndarray, colours, *, default: bool = False, nam
         elif stray.mean() > STRAY_SHARE:
             values, counts = np.unique(rgb[stray & opaque].astype(np.uint8), axis=0, return_counts=True)
             if values.size:
-                worst = "#{:02x}{:02x}{:02x}".format(*values[np.argmax(counts)])
+                worst = colour_hex(values[np.argmax(counts)])
                 what = f"colour {worst} ({100 * counts.max() / rgb.shape[0]:.1f} % of the pixels)"
             else:
                 what = f"transparent pixels ({100 * (~opaque).mean():.1f} %)"
-            listed = ", ".join("#{:02x}{:02x}{:02x}".format(*p.astype(int)) for p in palette)
-            raise SketchError(f"{name} holds {what} that no style is given for (styles: {listed}): "
+            raise SketchError(f"{name} holds {what} that no style is given for (styles: {', '.join(named)}): "
                               "add a --style for it or give a default --example")
     if every_colour:
-        named = ["#{:02x}{:02x}{:02x}".format(*p.astype(int)) for p in palette]
-        for colour in sorted({c for c in named if named.count(c) > 1}):
-            raise SketchError(f"{name}: style colour {colour} is given more than once")
+        twice = sorted({c for c in named if named.count(c) > 1})
+        if twice:
+            raise SketchError(f"{name}: style colour {twice[0]} is given more than once")
         # (Only pixels of the colour count: a stray one kept its nearest label.)
-        painted = np.bincount(labels[~stray], minlength=len(palette))
-        for i in np.flatnonzero(painted == 0):
-            raise SketchError(f"{name} has no pixel of style colour {named[i]}; its colours are {colour_shares(rgba)}")
+        unpainted = np.flatnonzero(np.bincount(labels[~stray], minlength=len(palette)) == 0)
+        if unpainted.size:
+            raise SketchError(f"{name} has no pixel of style colour {named[unpainted[0]]}; "
+                              f"its colours are {colour_shares(rgba)}")
     return labels.reshape(rgba.shape[:2])
 
 
