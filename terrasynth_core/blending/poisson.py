@@ -211,17 +211,14 @@ def _block_anchored(block: tuple[int, int, int, int], known: np.ndarray) -> bool
 def _solve(free: np.ndarray, known: np.ndarray, p_idx: np.ndarray, q_idx: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     """The change at the free pixels (row-major), ``L^-1 rhs``.
 
-    A solid rectangle of free pixels (a fill window, nearly always) of a
-    shape seen before goes to the fast rectangle solver; anything else to a
-    sparse factorization.
+    A solid rectangle of free pixels (a fill window, nearly always) goes to
+    the fast rectangle solver; anything else to a sparse factorization.
     """
     rows = np.flatnonzero(free.any(axis=1))
     cols = np.flatnonzero(free.any(axis=0))
     block = (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
-    solver = None
     if rhs.size == (block[1] - block[0]) * (block[3] - block[2]):
         solver = rectangle_solver((block[1] - block[0], block[3] - block[2]))
-    if solver is not None:
         try:
             return solver.solve(rhs, *solver.capacitance(open_edges(block, known)))
         except np.linalg.LinAlgError:

@@ -62,7 +62,7 @@ def _warm(shape: tuple[int, int]) -> int:
     from ..blending.rectangle import rectangle_solver
 
     import_engine()
-    rectangle_solver(shape, build=1)
+    rectangle_solver(shape)
     return os.getpid()
 
 
