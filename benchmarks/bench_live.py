@@ -260,9 +260,11 @@ def _picture(path, example, sketch, previous, params, picked=(0, 2)) -> None:
 
 
 #: The engine's side of ``--baseline``, run in a child process with the
-#: engine's tree first on ``sys.path`` (public API only, so any commit with
+#: engine's tree first on ``sys.path`` (public API and the workers' warm-up where
+#: it exists, so any commit with
 #: ``resynthesize_region`` can be compared).  Reads the terrain and the
-#: strokes from the file in ``argv[1]``, makes the warm-up stroke, then makes
+#: strokes from the file in ``argv[1]``, starts the worker processes (as
+#: the app's whole-map run has), makes the warm-up stroke, then makes
 #: the stroke whose number comes on each line of stdin and answers with one
 #: line: ``RESULT {json}`` (seconds from the stroke's end, the crop run's
 #: timings, the heights' digest; the heights go to the file in ``argv[2]``).
@@ -277,6 +279,11 @@ params = SynthesisParams(seed=int(data["seed"]), patch_size=int(data["patch_size
 example = builtin_example("white-mountains").load()
 previous = data["previous"]
 before = SketchMap(data["ridge_before"], data["valley_before"])
+try:  # as in the app after its whole-map run: the run's worker processes up
+    from terrasynth_core.synthesis.workers import warm_up
+    warm_up(params.thread_count, params.patch_size)
+except ImportError:
+    pass
 def stroke(i):
     after = SketchMap(data["ridge"][i], data["valley"][i])
     t = time.perf_counter()

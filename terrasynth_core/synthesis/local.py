@@ -55,6 +55,7 @@ from .events import PatchPlaced, SynthesisFinished, drive
 from .params import SynthesisParams
 from .result import SynthesisResult
 from .session import Session, with_patch_size
+from .workers import running, submit
 
 __all__ = ["CONTEXT_PATCHES", "STROKE_REACH", "changed_cells", "crop_box", "iter_resynthesize_region",
            "resynthesize_region", "stroke_selection"]
@@ -197,8 +198,9 @@ def resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketch: Sk
         (default: no patch, no seam there).
     features : FeatureMaps, optional
         The whole sketch's feature networks for the result, when the caller
-        has them (default: computed from ``sketch`` once the crop run is
-        done; about 0.1 s at 1000x1000).
+        has them (default: computed from ``sketch``, about 0.1 s at
+        1000x1000, on a worker process beside the crop run when the run's
+        workers are up, else once the crop run is done).
     landform : bool, default False
         Run the landform pass on the crop (``params.landform`` is ignored).
         Off by default: the coarse pass builds new landforms over the whole
@@ -287,6 +289,13 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
                     params=dataclasses.replace(params, landform=bool(landform)),
                     controls=_cropped_controls(whole, crop))
     t_crop = time.perf_counter() - t_start
+    whole_features = None
+    if features is None and sketch is not None and running(params.thread_count):
+        # The whole sketch's networks (for the result's overlays) on a
+        # worker process while the crop runs here: the worker is idle
+        # until the crop's fill (on a thread beside the run they competed
+        # for the interpreter lock and saved nothing).
+        whole_features = submit(params.thread_count, sketch_features, sketch)
     finished = None
     events = local.iter_run()
     try:
@@ -299,15 +308,15 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
                 yield event
     finally:
         events.close()
+        if finished is None and whole_features is not None:
+            whole_features.cancel()  # (cancelled or failed: not wanted)
     if finished is None:
         return
 
     t_sketch = time.perf_counter()
-    if features is None:
-        # The whole sketch's networks (for the result's overlays), made
-        # after the crop run: on a helper thread beside it they competed
-        # with the run's own threads for the interpreter lock and saved
-        # nothing measurable (bench_live.py --baseline: 0.98x, same bytes).
+    if whole_features is not None:
+        features = whole_features.result()
+    elif features is None:
         features = _features_of(sketch, shape)
     t_paste = time.perf_counter()
     sel = whole.selection[crop]

@@ -9,6 +9,7 @@ from terrasynth_core.errors import ParamsError, SynthesisCancelled
 from terrasynth_core.features.sketch import SketchMap, read_sketch, sketch_features
 from terrasynth_core.synthesis import (Controls, PatchPlaced, Pin, Session, SynthesisFinished, SynthesisParams, Water,
                                        changed_cells, iter_resynthesize_region, resynthesize_region, stroke_selection)
+from terrasynth_core.synthesis.fill_workers import fill_window
 from terrasynth_core.synthesis.local import crop_box
 
 P = SynthesisParams(patch_size=32, k=2, seed=7)
@@ -141,3 +142,34 @@ def test_an_automatic_patch_size_is_chosen_as_a_whole_run_would(highland, after,
     whole = Session([highland], after, params=auto)
     local = resynthesize_region([highland], after, previous=first.heights, selection=selection, params=auto)
     assert local.params.patch_size == whole.params.patch_size < 80
+
+
+def test_a_crop_uses_the_workers_once_they_are_up_and_gives_the_same_bytes(white_mountains, first, after, before,
+                                                                            monkeypatch):
+    """A live stroke after a whole run: the run's worker processes are up,
+    so the crop's fill windows and the whole sketch's networks go to them;
+    the result is the bytes of a crop run in this process alone."""
+    from concurrent.futures import wait
+
+    from terrasynth_core.synthesis import workers
+
+    selection = stroke_selection(changed_cells(before, after), patch_size=P.patch_size)
+    kwargs = dict(previous=first.heights, selection=selection, previous_patch_id=first.patch_id,
+                  previous_seam_mask=first.seam_mask)
+    here = resynthesize_region([white_mountains], after, params=SynthesisParams(**{**P.__dict__, "workers": 1}),
+                               **kwargs)
+    workers.warm_up(2, P.patch_size)
+    wait(list(workers._WARMING))
+    assert workers.running(2)
+    sent = []
+    kit_submit = workers.KitWorkers.submit
+    monkeypatch.setattr(workers.KitWorkers, "submit", lambda self, task, *a: sent.append(task) or kit_submit(self, task, *a))
+    monkeypatch.setattr("terrasynth_core.synthesis.local.submit",
+                        lambda n, task, *a: sent.append(task) or workers.submit(n, task, *a))
+    there = resynthesize_region([white_mountains], after, params=SynthesisParams(**{**P.__dict__, "workers": 2}),
+                                **kwargs)
+    assert sketch_features in sent and sent.count(fill_window) >= 1
+    np.testing.assert_array_equal(here.heights, there.heights)
+    np.testing.assert_array_equal(here.patch_id, there.patch_id)
+    assert [p.points.tobytes() for p in here.sketch_features.valleys.paths] == \
+        [p.points.tobytes() for p in there.sketch_features.valleys.paths]
