@@ -29,8 +29,8 @@ from .workers import KitWorkers
 #: depend on how many processes fill them.
 WAVE = 4
 
-#: Fewest fill windows worth starting the worker processes for (the result
-#: is the same either way); a shorter run uses them only if they are up.
+#: Fewest fill windows worth sending to worker processes (the result is
+#: the same either way).
 MIN_PARALLEL_WINDOWS = 64
 
 

@@ -35,7 +35,7 @@ from .finish import finish_heights
 from .landform import DRAWN_NOTE, drawn_level, landform_from, preview_patch, split_sigma
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
-from .workers import running, warm_up
+from .workers import warm_up
 
 #: Fewest feature patches worth preparing on a worker process (sending it
 #: the run's pools and examples costs more than a few patches save).
@@ -120,11 +120,6 @@ def run_pipeline(state: RunState) -> Iterator[object]:
                            selection=state.controls.selection) >= MIN_PARALLEL_WINDOWS:
         warm_up(state.processes, p.patch_size)
         state.warmed = state.processes > 1
-    else:
-        # A short run (a live stroke's crop) uses the workers only if an
-        # earlier run left them up: starting them would cost it more than
-        # they save.
-        state.warmed = running(state.processes)
     with _blas_threads().limit(limits=1, user_api="blas"):
         yield from landform_stage(state)
         samples, pools = yield from analyse_stage(state)
@@ -309,10 +304,11 @@ def fill_stage(state: RunState):
     remaining = WindowQueue(windows, canvas.filled)
     kit = FillKit(searches, lay.detail, lay.anchor, p.seed, p.patch_size, p.k)
     number = 0
-    # The workers once they are up (see run_pipeline), for two waves or
-    # more: they hold the searches of the last fill with the same kit (a
-    # live stroke's), so sending them a window costs little.
-    processes = state.processes if state.warmed and len(windows) >= 2 * WAVE else 1
+    # A short fill (a stroke's crop) stays in this process: in the app the
+    # worker process takes the core the window's own drawing needs (a
+    # crop's fill on both processes took a live update from 2.2 to 2.8 s
+    # in the app, though from 1.3 to 1.0 s without a window).
+    processes = state.processes if len(windows) >= MIN_PARALLEL_WINDOWS else 1
     with FillWorkers(kit, processes) as workers:
         while wave := remaining.pop_wave(WAVE):
             tasks = []

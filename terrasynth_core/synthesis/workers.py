@@ -110,9 +110,9 @@ def ready() -> bool:
 def running(processes: int) -> bool:
     """Whether ``processes`` (this one included) can use worker processes
     that are up and warm now: :func:`ready`, and used recently enough that
-    they have not exited idle (:data:`IDLE_SECONDS`).  A short run (a live
-    stroke's crop) uses them only then: starting them would cost it more
-    than they save."""
+    they have not exited idle (:data:`IDLE_SECONDS`).  Work beside a short
+    run (a live stroke's crop) goes to them only then: starting them would
+    cost it more than they save."""
     with _WARMING_LOCK:
         idle = time.monotonic() - _LAST_SENT[0]
     return processes > 1 and idle < IDLE_SECONDS / 2 and ready()
