@@ -301,7 +301,9 @@ def fill_stage(state: RunState):
                           rng=rng)
         canvas.blend(rec.bbox)
         yield state.placed(rec, total)
-    remaining = WindowQueue(windows, canvas.filled)
+    # A re-synthesis (a live stroke's crop, a tile) leaves the windows along
+    # its selection's edge slivers of cells the windows further in hold too.
+    remaining = WindowQueue(windows, canvas.filled, defer_shared=state.controls.selection is not None)
     kit = FillKit(searches, lay.detail, lay.anchor, p.seed, p.patch_size, p.k)
     number = 0
     # A short fill (a stroke's crop) stays in this process: in the app the

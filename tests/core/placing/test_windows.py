@@ -62,6 +62,37 @@ def test_the_queue_takes_the_most_filled_window_first_and_drops_full_ones():
     assert len(popped) == len(windows) - 2
 
 
+def test_a_sliver_of_empty_cells_other_windows_hold_places_no_patch_of_its_own():
+    """A live stroke's crop: the kept terrain around a selection leaves the
+    windows along its edge a few empty cells, which the windows further in
+    hold too; those windows fill them, and the edge windows are dropped."""
+    filled = np.ones((160, 160), bool)
+    filled[40:120, 30:130] = False  # the selection
+    empty = ~filled
+    windows = fill_windows(filled, 32, overlap=12)
+    count = np.zeros(filled.shape, int)
+    for r0, r1, c0, c1 in windows:
+        count[r0:r1, c0:c1] += 1
+    slivers = [w for w in windows if not ((count[w[0]:w[1], w[2]:w[3]] == 1) & empty[w[0]:w[1], w[2]:w[3]]).any()]
+    assert slivers
+
+    def fill(defer: bool) -> list:
+        mask = ~empty
+        queue = WindowQueue(windows, mask, defer_shared=defer)
+        popped = []
+        while (w := queue.pop()) is not None:
+            popped.append(w)
+            mask[w[0]:w[1], w[2]:w[3]] = True
+            queue.update(w)
+        assert mask.all()
+        return popped
+
+    deferred = fill(True)
+    assert not set(slivers) & set(deferred)
+    assert len(deferred) == len(windows) - len(slivers)
+    assert set(slivers) & set(fill(False))  # the most filled first: slivers among them
+
+
 def test_a_patch_window_is_clipped_at_the_edges():
     assert patch_window((40.0, 40.0), 32, (100, 100)) == (24, 56, 24, 56)
     assert patch_window((5.0, 95.0), 32, (100, 100)) == (0, 21, 79, 100)
