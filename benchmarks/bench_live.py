@@ -280,8 +280,10 @@ example = builtin_example("white-mountains").load()
 previous = data["previous"]
 before = SketchMap(data["ridge_before"], data["valley_before"])
 try:  # as in the app after its whole-map run: the run's worker processes up
-    from terrasynth_core.synthesis.workers import warm_up
+    from concurrent.futures import wait
+    from terrasynth_core.synthesis.workers import _WARMING, warm_up
     warm_up(params.thread_count, params.patch_size)
+    wait(list(_WARMING))
 except ImportError:
     pass
 def stroke(i):

@@ -212,7 +212,8 @@ def _solve(free: np.ndarray, known: np.ndarray, p_idx: np.ndarray, q_idx: np.nda
     """The change at the free pixels (row-major), ``L^-1 rhs``.
 
     A solid rectangle of free pixels (a fill window, nearly always) goes to
-    the fast rectangle solver; anything else to a sparse factorization.
+    the fast rectangle solver (up to its rim size,
+    :data:`.rectangle.MAX_RIM`); anything else to a sparse factorization.
     """
     rows = np.flatnonzero(free.any(axis=1))
     cols = np.flatnonzero(free.any(axis=0))
@@ -220,7 +221,8 @@ def _solve(free: np.ndarray, known: np.ndarray, p_idx: np.ndarray, q_idx: np.nda
     if rhs.size == (block[1] - block[0]) * (block[3] - block[2]):
         solver = rectangle_solver((block[1] - block[0], block[3] - block[2]))
         try:
-            return solver.solve(rhs, *solver.capacitance(open_edges(block, known)))
+            if solver is not None:
+                return solver.solve(rhs, *solver.capacitance(open_edges(block, known)))
         except np.linalg.LinAlgError:
             pass  # too weakly anchored for the small dense system: factorize
     return _laplacian_solver(free, known, p_idx, q_idx).solve(rhs)

@@ -155,8 +155,19 @@ class RectangleSolver:
 _SOLVERS = Memo(12)
 
 
-def rectangle_solver(shape: tuple[int, int]) -> RectangleSolver:
-    """The solver for blocks of ``shape``, kept for the next request."""
+#: Largest rim (cells) a solver is made for: its Green's matrix holds rim
+#: squared float64s (2048 cells: 32 MB, a 512 x 512 block).  The engine's
+#: blocks are patch-sized (80 x 80: 316 rim cells); a larger one goes to
+#: the sparse LU.
+MAX_RIM = 2048
+
+
+def rectangle_solver(shape: tuple[int, int]) -> RectangleSolver | None:
+    """The solver for blocks of ``shape``, kept for the next request (None
+    for a rim above :data:`MAX_RIM` cells)."""
+    h, w = shape
+    if 2 * (h + w) - 4 > MAX_RIM:
+        return None
     return _SOLVERS.get(tuple(shape), lambda: RectangleSolver(shape))
 
 

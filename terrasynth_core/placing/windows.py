@@ -115,7 +115,9 @@ class WindowQueue:
     Taken first (as the most filled), such windows each placed a patch for
     a sliver of cells: in a re-synthesis, the slivers of selection the kept
     terrain leaves in the windows along the selection's edge (a live
-    stroke: 26-38 fill patches, 10-20 with it).
+    stroke: 26-38 fill patches, 10-20 with it).  A deferred window still
+    holding empty cells at its turn (they lay only in other deferred ones)
+    is filled then, in a wave of its own.
 
     Parameters
     ----------
@@ -132,15 +134,16 @@ class WindowQueue:
         self.done = np.zeros(len(self.boxes), dtype=bool)
         self._index = {tuple(int(v) for v in box): i for i, box in enumerate(self.boxes)}
         # The rank that orders them: the share, less 2 for a window deferred
-        # (see above).
-        self.rank = self.share.copy()
+        # (see above); the others rank by their share exactly.
+        self.offset = np.zeros(len(self.boxes))
         if defer_shared:
             count = np.zeros(filled.shape, np.int32)
             for r0, r1, c0, c1 in self.boxes:
                 count[r0:r1, c0:c1] += 1
             for i, (r0, r1, c0, c1) in enumerate(self.boxes):
                 if not ((count[r0:r1, c0:c1] == 1) & ~filled[r0:r1, c0:c1]).any():
-                    self.rank[i] -= 2.0
+                    self.offset[i] = 2.0
+        self.rank = self.share - self.offset
 
     def update(self, bbox: Box) -> None:
         """Refresh the filled share of the windows ``bbox`` overlaps."""
@@ -149,9 +152,8 @@ class WindowQueue:
         touched = ~self.done & (b[:, 0] < r1) & (b[:, 1] > r0) & (b[:, 2] < c1) & (b[:, 3] > c0)
         for i in np.flatnonzero(touched):
             w0, w1, v0, v1 = b[i]
-            share = self.filled[w0:w1, v0:v1].mean()
-            self.rank[i] += share - self.share[i]
-            self.share[i] = share
+            self.share[i] = self.filled[w0:w1, v0:v1].mean()
+            self.rank[i] = self.share[i] - self.offset[i]
 
     def pop_wave(self, size: int, *, share: float = 0.5) -> list[Box]:
         """Up to ``size`` windows that can be filled at the same time: the

@@ -315,7 +315,10 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
 
     t_sketch = time.perf_counter()
     if whole_features is not None:
-        features = whole_features.result()
+        try:
+            features = whole_features.result()
+        except Exception:  # a worker lost (killed, restarted): made here instead
+            features = _features_of(sketch, shape)
     elif features is None:
         features = _features_of(sketch, shape)
     t_paste = time.perf_counter()

@@ -7,17 +7,14 @@ processes do.  They come from loky's reusable executor: started once (fork
 and exec, safe beside Qt and BLAS threads; no ``if __name__ ==
 "__main__"`` guard needed in a user's script) and reused by every later run.
 What a stage's tasks need from the examples (their detail, feature pools,
-fill searches) goes to the workers as a *kit* file (:class:`KitWorkers`)
-that a worker loads on its first task of the stage (:func:`with_kit`); a
-later stage with the same kit (the fill of the next live stroke) sends the
-same file, which the workers hold already.  Which process did a task
-changes nothing: tasks are pure functions of what they are given.
+fill searches) goes to the workers once per stage, as a *kit* file
+(:class:`KitWorkers`) that a worker loads on its first task of the stage
+(:func:`with_kit`).  Which process did a task changes nothing: tasks are
+pure functions of what they are given.
 """
 
 from __future__ import annotations
 
-import atexit
-import dataclasses
 import os
 import pickle
 import tempfile
@@ -25,8 +22,6 @@ import threading
 import time
 from concurrent.futures import Future
 from pathlib import Path
-
-import numpy as np
 
 #: Seconds an idle worker process waits for more work before it exits.
 IDLE_SECONDS = 300
@@ -77,13 +72,14 @@ _WARMING: list = []
 _WARMING_LOCK = threading.Lock()
 
 
-#: When a task last went to the workers (monotonic seconds).
-_LAST_SENT = [float("-inf")]
+#: The process count of the last :func:`warm_up`, and when a task last
+#: went to the workers (monotonic seconds).
+_STATE = {"processes": 1, "sent": float("-inf")}
 
 
 def _sent() -> None:
     with _WARMING_LOCK:
-        _LAST_SENT[0] = time.monotonic()
+        _STATE["sent"] = time.monotonic()
 
 
 def warm_up(processes: int, patch_size: int) -> None:
@@ -93,9 +89,9 @@ def warm_up(processes: int, patch_size: int) -> None:
     if processes > 1:
         pool = executor(processes - 1)
         futures = [pool.submit(_warm, (patch_size, patch_size)) for _ in range(processes - 1)]
-        _sent()
         with _WARMING_LOCK:
             _WARMING[:] = futures
+            _STATE.update(processes=processes, sent=time.monotonic())
 
 
 def ready() -> bool:
@@ -108,21 +104,24 @@ def ready() -> bool:
 
 
 def running(processes: int) -> bool:
-    """Whether ``processes`` (this one included) can use worker processes
-    that are up and warm now: :func:`ready`, and used recently enough that
-    they have not exited idle (:data:`IDLE_SECONDS`).  Work beside a short
-    run (a live stroke's crop) goes to them only then: starting them would
-    cost it more than they save."""
+    """Whether a run of ``processes`` (this one included) finds worker
+    processes up and warm: :func:`ready`, started for as many processes
+    (another count would restart them), and used recently enough that they
+    have not exited idle (:data:`IDLE_SECONDS`).  Work beside a short run
+    (a live stroke's crop) goes to them only then: starting them would cost
+    it more than they save."""
     with _WARMING_LOCK:
-        idle = time.monotonic() - _LAST_SENT[0]
-    return processes > 1 and idle < IDLE_SECONDS / 2 and ready()
+        idle = time.monotonic() - _STATE["sent"]
+        same = _STATE["processes"] == processes
+    return processes > 1 and same and idle < IDLE_SECONDS / 2 and ready()
 
 
 def submit(processes: int, task, *args) -> Future:
     """``task(*args)`` on a worker process, for a run of ``processes``
     (this one included; above 1, and :func:`running` true)."""
+    pool = executor(processes - 1)
     _sent()
-    return executor(processes - 1).submit(task, *args)
+    return pool.submit(task, *args)
 
 
 class KitWorkers:
@@ -130,11 +129,7 @@ class KitWorkers:
 
     What the tasks share (the *kit*) is pickled to a temporary file, and
     the executor fetched, when the first task is sent: a stage whose
-    workers are never used pays nothing.  The file stays while a stage
-    uses it or it is the last kit of its type sent: the next stage with
-    the same kit (:func:`_same_kit`) sends the same file, which the
-    workers have loaded already (a live stroke's fill: the examples'
-    searches and detail do not change between strokes).
+    workers are never used pays nothing.  The file is removed on exit.
 
     Parameters
     ----------
@@ -147,7 +142,7 @@ class KitWorkers:
     def __init__(self, kit, processes: int):
         self.kit = kit
         self.processes = processes
-        self._shipped: _Shipped | None = None
+        self._path: str | None = None
         self._pool = None
 
     @property
@@ -158,91 +153,18 @@ class KitWorkers:
     def submit(self, task, *args) -> Future:
         """``task(kit, *args)`` on a worker (:func:`with_kit`)."""
         if self._pool is None:
-            self._shipped = _ship(self.kit)
+            self._path = _kit_file(self.kit)
             # (Every stage asks for the same size: resizing would restart warm workers.)
             self._pool = executor(self.processes - 1)
         _sent()
-        return self._pool.submit(with_kit, self._shipped.path, task, *args)
+        return self._pool.submit(with_kit, self._path, task, *args)
 
     def __enter__(self) -> "KitWorkers":
         return self
 
     def __exit__(self, *exc) -> None:
-        if self._shipped is not None:
-            _release(self._shipped)
-            self._shipped = None
-
-
-@dataclasses.dataclass(eq=False)
-class _Shipped:
-    """A kit's file, how many stages use it, and whether a newer kit of
-    its type has replaced it (removed once no stage uses it)."""
-
-    kit: object
-    path: str
-    users: int = 0
-    replaced: bool = False
-
-
-#: The last kit file of each kit type.
-_SHIPPED: dict[type, _Shipped] = {}
-_SHIPPED_LOCK = threading.Lock()
-
-
-def _ship(kit) -> _Shipped:
-    """The file of ``kit``: the last one of its type when that held the
-    same kit, else a new one."""
-    with _SHIPPED_LOCK:
-        last = _SHIPPED.get(type(kit))
-        if last is not None and _same_kit(last.kit, kit):
-            last.users += 1
-            return last
-    shipped = _Shipped(kit, _kit_file(kit), users=1)
-    with _SHIPPED_LOCK:
-        last = _SHIPPED.get(type(kit))
-        _SHIPPED[type(kit)] = shipped
-        if last is not None:
-            last.replaced = True
-            if last.users == 0:
-                Path(last.path).unlink(missing_ok=True)
-    return shipped
-
-
-def _release(shipped: _Shipped) -> None:
-    with _SHIPPED_LOCK:
-        shipped.users -= 1
-        if shipped.replaced and shipped.users == 0:
-            Path(shipped.path).unlink(missing_ok=True)
-
-
-@atexit.register
-def _remove_kits() -> None:
-    with _SHIPPED_LOCK:
-        for shipped in _SHIPPED.values():
-            Path(shipped.path).unlink(missing_ok=True)
-        _SHIPPED.clear()
-
-
-def _same_kit(a, b) -> bool:
-    """Whether two kits (dataclasses) hold the same things: the same
-    objects (the examples' searches and detail are kept between sessions,
-    :mod:`..memo`, so a stroke's session gets the last one's back), equal
-    arrays or equal values, field by field."""
-    if type(a) is not type(b) or not dataclasses.is_dataclass(a):
-        return False
-    return all(_same_part(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a))
-
-
-def _same_part(x, y) -> bool:
-    if x is y:
-        return True
-    if isinstance(x, (list, tuple)) and isinstance(y, (list, tuple)):
-        return type(x) is type(y) and len(x) == len(y) and all(u is v for u, v in zip(x, y))
-    if isinstance(x, np.ndarray) and isinstance(y, np.ndarray):
-        return x.shape == y.shape and x.dtype == y.dtype and np.array_equal(x, y)
-    if isinstance(x, (int, float, str, bool)) and isinstance(y, (int, float, str, bool)):
-        return type(x) is type(y) and x == y
-    return False
+        if self._path is not None:
+            Path(self._path).unlink(missing_ok=True)
 
 
 def _kit_file(kit) -> str:

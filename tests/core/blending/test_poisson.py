@@ -192,3 +192,22 @@ def test_rim_green_matrix_is_the_inverse_laplacian_between_rim_cells(shape):
     units[np.arange(solver.rim.size), solver.rim] = 1.0
     columns = np.stack([solver._fixed_solve(u.reshape(shape)).ravel()[solver.rim] for u in units])
     np.testing.assert_allclose(solver._green, columns, rtol=0, atol=1e-12 * np.abs(columns).max())
+
+
+def test_a_block_with_a_rim_beyond_the_cap_is_factorized():
+    """A solver's Green's matrix grows with its rim squared: blocks past
+    MAX_RIM (none the engine makes) go to the sparse LU, with the same answer."""
+    from terrasynth_core.blending.rectangle import MAX_RIM, rectangle_solver
+
+    assert rectangle_solver((80, 80)) is not None
+    long = (1, MAX_RIM // 2 + 2)
+    assert rectangle_solver(long) is None
+    heights = np.zeros((3, long[1] + 2), np.float32)
+    heights[1, 1:-1] = np.linspace(0.0, 5.0, long[1])
+    take_new = np.zeros(heights.shape, bool)
+    take_new[:, heights.shape[1] // 2:] = True
+    region = np.zeros(heights.shape, bool)
+    region[1, 1:-1] = True
+    out = remove_seam(heights, take_new, region, fixed=~region)
+    assert np.isfinite(out).all() and not np.array_equal(out, heights)
+    np.testing.assert_array_equal(out[~region], heights[~region])
