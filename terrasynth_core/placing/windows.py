@@ -113,9 +113,9 @@ class WindowQueue:
     windows of the grid as well comes after every window with an empty cell
     of its own: by its turn those have filled its cells, and it is dropped.
     Taken first (as the most filled), such windows each placed a patch for
-    a sliver of cells: in a re-synthesis, the slivers of selection the kept
-    terrain leaves in the windows along the selection's edge (a live
-    stroke: 26-38 fill patches, 10-20 with it).  A deferred window still
+    a sliver of cells: in a local re-synthesis, the slivers of selection
+    the kept terrain leaves in the windows along the selection's edge (a
+    live stroke: 26-38 fill patches, 10-20 with it).  A deferred window still
     holding empty cells at its turn (they lay only in other deferred ones)
     is filled then, in a wave of its own.
 

@@ -34,8 +34,8 @@ __all__ = ["STORE_FORMAT", "TileStore", "compose", "run_digest", "store_path"]
 STORE_FORMAT = "terrasynth-tiles"
 #: Bumped when what a tile holds changes meaning, or the same inputs make
 #: other tiles (4: examples keep their voids inside instead of being
-#: cropped to their largest valid rectangle; 5: the engine's changes since,
-#: the last the fewer fill windows of a run with a selection, as a tile is).
+#: cropped to their largest valid rectangle; 5: the engine's changes of
+#: bytes since, which had left it at 4).
 STORE_VERSION = 5
 
 
