@@ -220,11 +220,11 @@ def _solve(free: np.ndarray, known: np.ndarray, p_idx: np.ndarray, q_idx: np.nda
     block = (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
     if rhs.size == (block[1] - block[0]) * (block[3] - block[2]):
         solver = rectangle_solver((block[1] - block[0], block[3] - block[2]))
-        try:
-            if solver is not None:
+        if solver is not None:
+            try:
                 return solver.solve(rhs, *solver.capacitance(open_edges(block, known)))
-        except np.linalg.LinAlgError:
-            pass  # too weakly anchored for the small dense system: factorize
+            except np.linalg.LinAlgError:
+                pass  # too weakly anchored for the small dense system: factorize
     return _laplacian_solver(free, known, p_idx, q_idx).solve(rhs)
 
 

@@ -133,8 +133,8 @@ class WindowQueue:
         self.share = np.array([filled[r0:r1, c0:c1].mean() for r0, r1, c0, c1 in self.boxes])
         self.done = np.zeros(len(self.boxes), dtype=bool)
         self._index = {tuple(int(v) for v in box): i for i, box in enumerate(self.boxes)}
-        # The rank that orders them: the share, less 2 for a window deferred
-        # (see above); the others rank by their share exactly.
+        # Subtracted from the share to rank a window: 2 for a deferred one
+        # (see above), 0 for the others, which rank by their share exactly.
         self.offset = np.zeros(len(self.boxes))
         if defer_shared:
             count = np.zeros(filled.shape, np.int32)
@@ -143,7 +143,6 @@ class WindowQueue:
             for i, (r0, r1, c0, c1) in enumerate(self.boxes):
                 if not ((count[r0:r1, c0:c1] == 1) & ~filled[r0:r1, c0:c1]).any():
                     self.offset[i] = 2.0
-        self.rank = self.share - self.offset
 
     def update(self, bbox: Box) -> None:
         """Refresh the filled share of the windows ``bbox`` overlaps."""
@@ -153,7 +152,6 @@ class WindowQueue:
         for i in np.flatnonzero(touched):
             w0, w1, v0, v1 = b[i]
             self.share[i] = self.filled[w0:w1, v0:v1].mean()
-            self.rank[i] = self.share[i] - self.offset[i]
 
     def pop_wave(self, size: int, *, share: float = 0.5) -> list[Box]:
         """Up to ``size`` windows that can be filled at the same time: the
@@ -169,10 +167,11 @@ class WindowQueue:
         if first is None:
             return []
         wave = [first]
-        floor = share * self.rank[self._index[first]]
+        rank = self.share - self.offset
+        floor = share * rank[self._index[first]]
         b = self.boxes
-        for i in np.lexsort((np.arange(len(b)), -self.rank)):
-            if len(wave) == size or self.rank[i] <= max(floor, 0.0):
+        for i in np.lexsort((np.arange(len(b)), -rank)):
+            if len(wave) == size or rank[i] <= max(floor, 0.0):
                 break
             if self.done[i] or self.share[i] >= 1.0:
                 continue
@@ -187,7 +186,7 @@ class WindowQueue:
         """The next window not yet full, or None; windows filled in the
         meantime are dropped."""
         while not self.done.all():
-            i = int(np.argmax(np.where(self.done, -np.inf, self.rank)))
+            i = int(np.argmax(np.where(self.done, -np.inf, self.share - self.offset)))
             self.done[i] = True
             if self.share[i] < 1.0:
                 return tuple(int(v) for v in self.boxes[i])
