@@ -27,12 +27,20 @@ local TPI z +2.07 / -1.50, landform +2.11 / -1.80, reuse within a tenth
 in 6 of 9 runs, 64-128-cell power 1.77x the example's; at 48 +2.55 /
 -1.98, +2.31 / -2.02, 9 of 9, 1.59x.  In the Middle-earth demo (the
 basin at 90 m cells, 21 and 20 windows at 72) the high range broke into
-separate massifs at 72 and runs unbroken at 48.  An example that
-holds fewer at every size (a single landform such as a volcano: St.
-Helens holds 8 ridge windows even at 48) does not decide the size, since
-no size makes it varied enough; the run says so in its warnings.  Only
-where no example at all holds a window of a drawn kind does the size go
-down to one where some example does.
+separate massifs at 72 and runs unbroken at 48.
+
+The sizes go down to 32 cells for examples a few patches across.  St.
+Helens (460x317 cells of 30 m, one volcano) holds 7 ridge and 3 valley
+windows at 80, 8 and 12 at 48 and 28 and 23 at 32; at 80 its strokes
+were chained copies of the cone's few gullies and rim (an S-valley at the
+0.44 height percentile, a ring of smeared rim pieces), at 32 the ring is
+a caldera rim and the valley runs low (0.19) with the landform pass
+running.  An example that holds fewer than :data:`MIN_POOL` at every
+size takes the size where it holds the most (a 187x152 DEM of the Rocky
+Mountains holds 1 ridge window at 80 and 9 at 32: at 80 its ridges were
+smooth smears of one window); the run says its features will repeat.
+Only where no example at all holds a window of a drawn kind does the
+size go down to one where some example does.
 """
 
 from __future__ import annotations
@@ -51,7 +59,7 @@ MIN_POOL = 20
 #: enough there (see the module's notes).
 VARIED_POOL = 2 * MIN_POOL
 #: The automatic patch size's choices, largest (the paper's) first.
-PATCH_SIZES = (80, 72, 64, 56, 48)
+PATCH_SIZES = (80, 72, 64, 56, 48, 40, 32)
 #: The automatic patch size when no example needs a smaller one.
 DEFAULT_PATCH = PATCH_SIZES[0]
 
@@ -150,17 +158,19 @@ def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[s
 
     def wanted(i: int) -> int | None:
         """The largest size at which example ``i`` is varied enough, or
-        failing that meets the issue's floor; None: neither at any size."""
+        failing that meets the issue's floor, or failing both holds the
+        most windows; None: it holds none of a kind at any size."""
         for need in (VARIED_POOL, MIN_POOL):
             size = next((s for s in sizes if held(i, s) >= need), None)
             if size is not None:
                 return size
-        return None
+        most = max(held(i, s) for s in sizes)
+        return next(s for s in sizes if held(i, s) == most) if most > 0 else None
 
-    # Examples no size makes varied enough do not decide the size...
+    # Examples without lines of a kind drawn do not decide the size...
     wants = [wanted(i) for i in range(len(fields))]
-    lacking = [i for i, w in enumerate(wants) if w is None]
     deciding = [i for i, w in enumerate(wants) if w is not None]
+    lacking = [i for i in range(len(fields)) if all(held(i, s) < MIN_POOL for s in sizes)]
     size = min((wants[i] for i in deciding), default=sizes[0])
     # ... unless no example holds a window of a kind there at all (the run
     # would have nothing to place on those strokes): then the largest
@@ -184,11 +194,13 @@ def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[s
                 rule = "the size another example needs"
             elif held(i, size) >= VARIED_POOL:
                 rule = f"the largest size where it holds {VARIED_POOL} of each"
+            elif held(i, size) >= MIN_POOL:
+                rule = f"the largest size where it holds {MIN_POOL} of each (none holds {VARIED_POOL})"
             else:
-                rule = f"no size holds {VARIED_POOL} of each, so the largest where it holds {MIN_POOL}"
+                rule = f"the size where it holds the most (none holds {MIN_POOL})"
             notes.append(f"patch size {size} cells (automatic, not {sizes[0]}): at {sizes[0]} cells {names[i]} "
                          f"holds only {_listed(short)} windows (distinct pieces of its lines), fewer than "
-                         f"{VARIED_POOL}; {size} is {rule} ({_listed({k: at_size[k] for k in short})}). Set a "
+                         f"{VARIED_POOL}; {size} is {rule}: {_listed({k: at_size[k] for k in short})}. Set a "
                          "patch size to choose another")
     for i in lacking:
         short = {k: n for k, n in count(i, size).items() if 0 < n < MIN_POOL}

@@ -40,12 +40,15 @@ def test_a_small_example_gets_a_smaller_patch_and_the_run_says_why(highland):
     assert len(notes) == 1 and "himalaya" in notes[0] and f"patch size {size}" in notes[0]
 
 
-def test_a_single_landform_keeps_the_size_and_is_named(helens):
-    # A volcano has few ridges and valleys at any patch size: smaller
-    # patches would not vary it, so the size stays and the run says why.
+def test_a_single_landform_goes_down_to_the_size_where_it_varies(helens):
+    # A volcano holds a few ridges and valleys at 80 cells (its strokes
+    # were chained copies of them) and 20 of each only at the smallest size.
+    at_80 = prepare_example(helens, DEFAULT_PATCH, name="st-helens").samples
+    assert min(path_windows(at_80[k]) for k in BOTH) < 10
     size, notes = fitting_patch_size([helens], ["st-helens"], BOTH)
-    assert size == DEFAULT_PATCH
-    assert len(notes) == 1 and "st-helens" in notes[0] and "repeat" in notes[0]
+    assert size == PATCH_SIZES[-1] == 32
+    assert min(path_windows(prepare_example(helens, size, name="st-helens").samples[k]) for k in BOTH) >= MIN_POOL
+    assert len(notes) == 1 and "st-helens" in notes[0] and "the largest size where it holds 20 of each" in notes[0]
 
 
 def test_without_strokes_no_example_is_analysed(highland, monkeypatch):
@@ -73,10 +76,12 @@ def test_every_example_that_can_vary_does_at_the_size_chosen(highland, helens, d
     big = load_dem(dems_dir / "bigtujunga.tif")
     fields, names = [big, highland, helens], ["big", "himalaya", "st-helens"]
     size, notes = fitting_patch_size(fields, names, BOTH)
-    for field, name in zip(fields[:2], names[:2]):  # St. Helens cannot, at any size
+    assert size == 32  # (St. Helens' floor, the smallest size)
+    for field, name in zip(fields, names):
         held = prepare_example(field, size, name=name).samples
         assert min(path_windows(held[k]) for k in BOTH) >= (VARIED_POOL if name == "big" else MIN_POOL), name
-    assert any("st-helens" in n and "repeat" in n for n in notes)
+    assert any(n.startswith("patch size 32") and "st-helens holds" in n for n in notes)
+    assert any("himalaya holds" in n and "the size another example needs" in n for n in notes)
 
 
 def test_an_example_smaller_than_the_default_patch_gets_one_that_fits(highland):
@@ -104,20 +109,27 @@ def test_the_session_chooses_and_reports_it_and_a_given_size_is_kept(highland):
 def test_an_example_short_of_the_varied_pool_takes_the_size_that_meets_the_floor(monkeypatch):
     """An example that never holds :data:`VARIED_POOL` windows but holds
     :data:`MIN_POOL` at some size decides at the largest such size; one
-    that holds fewer at every size does not decide."""
+    that holds fewer at every size decides where it holds the most, and
+    the run says its features will repeat."""
     import terrasynth_core.exemplars.patch_size as patch_size
 
-    held = {"mid": {80: 12, 72: 15, 64: 22, 56: 26, 48: 30}, "rich": {80: 45, 72: 50, 64: 55, 56: 60, 48: 70},
-            "poor": {80: 3, 72: 3, 64: 4, 56: 5, 48: 6}}
+    held = {"mid": {80: 12, 72: 15, 64: 22, 56: 26, 48: 30, 40: 33, 32: 36},
+            "rich": {80: 45, 72: 50, 64: 55, 56: 60, 48: 70, 40: 75, 32: 80},
+            "poor": {80: 3, 72: 3, 64: 4, 56: 5, 48: 6, 40: 6, 32: 5}}
     monkeypatch.setattr(patch_size, "held_windows", lambda field, size, kinds, *, name: {"ridge": held[name][size]})
     assert fitting_patch_size([np.zeros((500, 500))], ["rich"], ("ridge",)) == (80, [])
-    size, notes = fitting_patch_size([np.zeros((500, 500))] * 3, ["rich", "mid", "poor"], ("ridge",))
+    size, notes = fitting_patch_size([np.zeros((500, 500))] * 2, ["rich", "mid"], ("ridge",))
     assert size == 64
-    assert any("at 80 cells mid holds only 12 ridge" in n and "no size holds 40 of each, so the largest where it holds 20" in n
+    assert any("at 80 cells mid holds only 12 ridge" in n and "the largest size where it holds 20 of each (none holds 40)"
+               in n for n in notes)
+    size, notes = fitting_patch_size([np.zeros((500, 500))] * 3, ["rich", "mid", "poor"], ("ridge",))
+    assert size == 48  # (the largest of poor's most, 6 at 48 and 40)
+    assert any("poor holds only 3 ridge" in n and "the size where it holds the most (none holds 20): 6 ridge" in n
                for n in notes)
-    assert any("poor holds only 4 ridge windows" in n and "repeat" in n for n in notes)
+    assert any("poor holds only 6 ridge windows" in n and "repeat" in n for n in notes)
     # Two deciding examples: each note names the rule that set the size for it.
-    held.update(a={80: 30, 72: 40, 64: 45, 56: 50, 48: 55}, b={80: 20, 72: 30, 64: 35, 56: 40, 48: 45})
+    held.update(a={80: 30, 72: 40, 64: 45, 56: 50, 48: 55, 40: 60, 32: 65},
+                b={80: 20, 72: 30, 64: 35, 56: 40, 48: 45, 40: 50, 32: 55})
     size, notes = fitting_patch_size([np.zeros((500, 500))] * 2, ["a", "b"], ("ridge",))
     assert size == 56
     assert any(n.startswith("patch size 56") and " a holds" in n and "the size another example needs" in n
