@@ -264,50 +264,64 @@ def _settled(session: Session, level: np.ndarray) -> np.ndarray:
     return level_under_stamps(level, lay.stamps, p.patch_size)
 
 
-#: The drawing's own regional relief where the landform pass cannot run
-#: (:func:`drawn_level`), in interquartile ranges of the examples' heights
-#: where a stroke runs: twice :data:`UPLIFT`, since nothing else gives the
-#: landform scale there.  On St. Helens (the pass skipped: one valley at
-#: its landform scale), 12 runs: failed targets per run 4.00 -> 2.50, the
-#: 64-128-cell power 3 -> 6 of 6 runs in range; 0.2 gave 2.83.
-DRAWN_UPLIFT = 0.4
+#: The landform/detail split of a run whose landform pass cannot serve, in
+#: split sigmas (:func:`split_sigma`): its examples give their detail above
+#: this low-pass, and the drawing's landforms (:func:`drawn_landforms`) the
+#: rest.  Three times the pass's split, so that patches keep their
+#: examples' landforms up to about one and a half patches (wider ones the
+#: drawing places).  On a 187x152 DEM of the Rocky Mountains (6 runs) the
+#: relief was 1.02 of the example's and the power at 16-64 cells 0.84-1.03
+#: of its; at the pass's own split, 0.93 and 0.25-0.43.
+DRAWN_SPLIT = 3.0
 
-#: What a run's skipped-pass warning adds when the drawing gives the relief.
+#: What a run's skipped-pass warning adds when the drawing gives the landforms.
 DRAWN_NOTE = "; the regional relief follows the drawing alone"
 
-#: Largest down-sampling of the grid :func:`drawn_level` traces the strokes
-#: on, in output cells per fade sigma: the field is smooth at a sixteenth
-#: of its fade (the blur of :func:`_stroke_regions`), so this loses nothing.
+#: Largest down-sampling of the grid :func:`drawn_landforms` fits on, in
+#: output cells per fade sigma: the field is smooth at a sixteenth of its
+#: fade (the blur of :func:`_stroke_regions`), so this loses nothing.
 DRAWN_CELLS_PER_SIGMA = 32
+
+
+def drawn_split(patch_size: int) -> float:
+    """The detail split of a run without the landform pass
+    (:data:`DRAWN_SPLIT`), output cells."""
+    return DRAWN_SPLIT * split_sigma(patch_size)
 
 
 def drawn_level(session: Session) -> np.ndarray | None:
     """The level field of the drawing alone, for a run whose landform pass
-    cannot serve: the examples' flat level plus :func:`drawn_relief`, bent
-    through the pins and flat under the stamps as the pass's level.
+    cannot serve: :func:`drawn_landforms` brought to the output and
+    low-passed as the pass's terrain, bent through the pins and flat under
+    the stamps.  The run then copies its examples' detail above
+    :func:`drawn_split`.
 
-    Without it, a sketch on an example too small for the pass kept no
-    structure above a patch: its valleys sat at the median height (St.
-    Helens: valley strokes at the 0.50 height percentile).  The examples
-    keep their whole heights as detail (no split): the patches bring their
-    own landforms, this only tilts the ground they stand on.
+    Before, patches kept their examples' whole heights and the drawing
+    only tilted the ground they stood on: on small examples the strokes
+    were lost among the patches' own landforms (a 187x152 DEM of the Rocky
+    Mountains, four seeds: 17-21 % of the Y-junction's ridge cells below
+    the output's median; now none) and, with chained copies of a
+    volcano's flanks, a valley sat at the median height (St. Helens at
+    80-cell patches: the S-valley at the 0.44 height percentile; now
+    0.13-0.16).
 
     Returns
     -------
     ndarray of float32, shape ``session.shape``, or None
-        None where :func:`drawn_relief` is.
+        None where :func:`drawn_landforms` is.
     """
-    lay = session.layout
-    drawn = drawn_relief(session.sketch, session.shape, lay, session.params.patch_size)
+    drawn = drawn_landforms(session.sketch, session.shape, session.layout, session.params.patch_size)
     if drawn is None:
         return None
-    return _settled(session, (lay.level + _upsampled(drawn[0], session.shape)).astype(np.float32))
+    level = landform_lowpass(_upsampled(drawn[0], session.shape), split_sigma(session.params.patch_size))
+    return _settled(session, level.astype(np.float32))
 
 
-def drawn_relief(sketch, shape: tuple[int, int], layout, patch_size: int) -> tuple[np.ndarray, int] | None:
-    """The drawing's regional relief on a coarse grid: :func:`_stroke_regions`
-    of the sketch times :data:`DRAWN_UPLIFT` of the interquartile range of
-    the examples' heights (its first style group's).
+def drawn_landforms(sketch, shape: tuple[int, int], layout, patch_size: int) -> tuple[np.ndarray, int] | None:
+    """The drawing's landforms on a coarse grid: a flat level raised about
+    the sketch's ridges and lowered about its valleys, fitted to the
+    examples' heights as the landform pass fits its coarse terrain
+    (:func:`fitted_to_examples`).
 
     Parameters
     ----------
@@ -316,12 +330,13 @@ def drawn_relief(sketch, shape: tuple[int, int], layout, patch_size: int) -> tup
     shape : (rows, cols)
         The output's size; the grid spans it.
     layout : StyleLayout
+        Before the split (its detail the examples' whole heights).
     patch_size : int
 
     Returns
     -------
-    relief : ndarray of float32, shape (ceil(rows / f), ceil(cols / f))
-        Metres about the flat level.
+    heights : ndarray of float32, shape (ceil(rows / f), ceil(cols / f))
+        Metres.
     f : int
         The grid's down-sampling.
     None without strokes, or with several style groups (each stands on
@@ -330,16 +345,14 @@ def drawn_relief(sketch, shape: tuple[int, int], layout, patch_size: int) -> tup
     if sketch is None or not sketch.has_strokes or len(layout.members) > 1:
         return None
     rows, cols = shape
-    reach = 2 * TREND_SIGMA * split_sigma(patch_size)
-    f = max(1, int(reach // DRAWN_CELLS_PER_SIGMA))
+    sigma = split_sigma(patch_size)
+    f = max(1, int(2 * TREND_SIGMA * sigma // DRAWN_CELLS_PER_SIGMA))
     grid = (-(-rows // f), -(-cols // f))
     strokes = sketch_features(sketch.resized(grid))
     if not (strokes.ridges.paths or strokes.valleys.paths):
         return None
-    detail = [layout.examples[i].valid_values(layout.detail[i]) for i in layout.members[0]]
-    q1, q3 = np.quantile(np.concatenate(detail), [0.25, 0.75])
-    regions = _stroke_regions(_StrokeDistances(strokes, grid), reach / f)
-    return (DRAWN_UPLIFT * float(q3 - q1) * regions).astype(np.float32), f
+    flat = np.full(grid, float(np.median(layout.level)), np.float32)
+    return fitted_to_examples(flat, layout, f, sigma, strokes), f
 
 
 def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray:

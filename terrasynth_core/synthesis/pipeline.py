@@ -32,7 +32,7 @@ from .feature_patches import Stations, memo_feature_pools, place_feature, place_
 from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
 from .fill_workers import MIN_PARALLEL_WINDOWS, WAVE, FillKit, FillWorkers, window_task
 from .finish import finish_heights
-from .landform import DRAWN_NOTE, drawn_level, landform_from, preview_patch, split_sigma
+from .landform import DRAWN_NOTE, drawn_level, drawn_split, landform_from, preview_patch, split_sigma
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
 from .workers import warm_up
@@ -141,10 +141,12 @@ def landform_stage(state: RunState):
     coarse, f, note = state.session.coarse_pass()
     if coarse is None and note is not None:
         # The examples cannot give landforms (the pass would have run on a
-        # map this size): the drawing gives the regional relief alone.
+        # map this size): the drawing gives them alone, and the examples
+        # their detail above a wider split.
         drawn = drawn_level(state.session)
         if drawn is not None:
-            state.layout = replace(state.layout, level=drawn)
+            detail, anchor = state.session.detail_above(drawn_split(state.params.patch_size))
+            state.layout = replace(state.layout, level=drawn, detail=detail, anchor=anchor)
             note += DRAWN_NOTE
     if note:
         state.warnings.append(note)

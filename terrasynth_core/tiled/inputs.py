@@ -25,8 +25,8 @@ from scipy import ndimage
 
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import HeightField
-from ..synthesis.landform import (DRAWN_NOTE, coarse_session_for, coherence, drawn_relief, fitted_to_examples,
-                                  landform_lowpass, split_sigma)
+from ..synthesis.landform import (DRAWN_NOTE, coarse_session_for, coherence, drawn_landforms, drawn_split,
+                                  fitted_to_examples, landform_lowpass, split_sigma)
 from ..synthesis.params import SynthesisParams
 from ..synthesis.session import Session
 
@@ -102,39 +102,50 @@ class CoarseLevel:
     ----------
     heights : ndarray of float32, shape (R, C)
         The coarse terrain (fitted to the examples' heights as the
-        whole-map pass does), metres; or the flat level with the drawing's
-        relief where the pass cannot serve
-        (:func:`~terrasynth_core.synthesis.landform.drawn_relief`).
+        whole-map pass does), metres; or the drawing's landforms where the
+        pass cannot serve
+        (:func:`~terrasynth_core.synthesis.landform.drawn_landforms`).
     shape : (rows, cols)
         The output's size; the coarse grid spans it.
-    sigma : float or None
-        The landform/detail split's standard deviation, output cells; None
-        for the drawing's relief (no split: the examples give their whole
-        heights, and the level is the interpolated grid as it is).
+    sigma : float
+        The standard deviation of the level's low-pass
+        (:func:`~terrasynth_core.synthesis.landform.split_sigma`), output
+        cells.
     factor : int
         The coarse grid's down-sampling.
     coherent : ndarray of float32, shape (R, C), or None
         Where the level and the detail carry the same landform
         (:func:`~terrasynth_core.synthesis.landform.coherence`); None
         without strokes.
+    split : float, optional
+        The examples' landform/detail split, output cells: ``sigma``
+        unless given (the drawing's landforms:
+        :func:`~terrasynth_core.synthesis.landform.drawn_split`).
     """
 
     heights: np.ndarray
     shape: tuple[int, int]
-    sigma: float | None
+    sigma: float
     factor: int
     coherent: np.ndarray | None = None
+    split: float | None = None
 
     def window(self, box: Box) -> "CoarseWindow":
         """What a tile needs to make the level over ``box`` (output cells):
         the coarse cells under it and its margins."""
         r0, r1, c0, c1 = box
-        pad = 0 if self.sigma is None else int(math.ceil(LOWPASS_MARGIN * self.sigma))
+        pad = int(math.ceil(LOWPASS_MARGIN * self.sigma))
         R, C = self.heights.shape
         q0, q1 = _coarse_span(r0 - pad, r1 + pad, self.shape[0], R)
         p0, p1 = _coarse_span(c0 - pad, c1 + pad, self.shape[1], C)
         coherent = None if self.coherent is None else np.array(self.coherent[q0:q1, p0:p1])
-        return CoarseWindow(np.array(self.heights[q0:q1, p0:p1]), (q0, p0), (R, C), self.shape, self.sigma, coherent)
+        return CoarseWindow(np.array(self.heights[q0:q1, p0:p1]), (q0, p0), (R, C), self.shape, self.sigma, coherent,
+                            self.detail_split)
+
+    @property
+    def detail_split(self) -> float:
+        """The examples' landform/detail split, output cells."""
+        return self.sigma if self.split is None else self.split
 
 
 def _coarse_span(lo: int, hi: int, size: int, coarse: int) -> tuple[int, int]:
@@ -157,18 +168,22 @@ class CoarseWindow:
         Its first cell on the coarse grid.
     coarse_shape, shape : (rows, cols)
         The whole coarse grid and the output.
-    sigma : float or None
-        Output cells (None: no low-pass, see :class:`CoarseLevel`).
+    sigma : float
+        The level's low-pass, output cells (:class:`CoarseLevel`).
     coherent : ndarray of float32, or None
         The coarse cells' coherence weights (:class:`CoarseLevel`).
+    split : float
+        The examples' landform/detail split, output cells
+        (:attr:`CoarseLevel.detail_split`).
     """
 
     heights: np.ndarray
     origin: tuple[int, int]
     coarse_shape: tuple[int, int]
     shape: tuple[int, int]
-    sigma: float | None
-    coherent: np.ndarray | None = None
+    sigma: float
+    coherent: np.ndarray | None
+    split: float
 
     def level(self, box: Box) -> np.ndarray:
         """The level field over ``box``: the coarse terrain interpolated
@@ -182,7 +197,7 @@ class CoarseWindow:
             Metres.
         """
         r0, r1, c0, c1 = box
-        pad = 0 if self.sigma is None else int(math.ceil(LOWPASS_MARGIN * self.sigma))
+        pad = int(math.ceil(LOWPASS_MARGIN * self.sigma))
         rows, cols = self.shape
         a0, a1 = max(r0 - pad, 0), min(r1 + pad, rows)
         b0, b1 = max(c0 - pad, 0), min(c1 + pad, cols)
@@ -195,7 +210,7 @@ class CoarseWindow:
         weight = None if self.coherent is None else ndimage.map_coordinates(
             self.coherent.astype(np.float64), [yy, xx], order=3, mode="nearest")
         del yy, xx
-        level = up if self.sigma is None else landform_lowpass(up, self.sigma, weight)
+        level = landform_lowpass(up, self.sigma, weight)
         return level[r0 - a0:r1 - a0, c0 - b0:c1 - b0].astype(np.float32)
 
 
@@ -238,13 +253,14 @@ def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap
     notes = [note] if note else []
     if coarse is None:
         # As the whole-map run (landform.drawn_level): where the examples
-        # cannot give landforms, the drawing gives the regional relief.
-        drawn = None if note is None else drawn_relief(sketch, tuple(shape), probe.layout, params.patch_size)
+        # cannot give landforms, the drawing gives them alone.
+        drawn = None if note is None else drawn_landforms(sketch, tuple(shape), probe.layout, params.patch_size)
         if drawn is None:
             return None, notes
-        relief, f = drawn
+        heights, f = drawn
         notes[-1] += DRAWN_NOTE
-        return CoarseLevel(np.float32(np.median(probe.layout.level)) + relief, tuple(shape), None, f), notes
+        return CoarseLevel(heights, tuple(shape), split_sigma(params.patch_size), f,
+                           split=drawn_split(params.patch_size)), notes
     result = coarse.run()
     # As the whole-map pass (landform.landform_from): chained patches may
     # carry the coarse terrain out of the examples' heights.

@@ -401,13 +401,13 @@ def _landform(client, store: TileStore, examples, sketch, shape, params) -> tupl
         coarse, notes = client.submit(coarse_level, examples, sketch, shape, params, pure=False).result()
         info = dict(notes=notes)
         if coarse is not None:
-            info.update(sigma=coarse.sigma, factor=coarse.factor)
+            info.update(sigma=coarse.sigma, factor=coarse.factor, split=coarse.detail_split)
         store.save_coarse(None if coarse is None else coarse.heights, info,
                           coherent=None if coarse is None else coarse.coherent)
         return coarse, notes
     heights, coherent, info = kept
-    sigma = None if info.get("sigma") is None else float(info["sigma"])
-    coarse = None if heights is None else CoarseLevel(heights, tuple(shape), sigma, int(info["factor"]), coherent)
+    coarse = None if heights is None else CoarseLevel(heights, tuple(shape), float(info["sigma"]), int(info["factor"]),
+                                                      coherent, float(info["split"]))
     return coarse, list(info.get("notes", []))
 
 

@@ -35,8 +35,9 @@ STORE_FORMAT = "terrasynth-tiles"
 #: Bumped when what a tile holds changes meaning, or the same inputs make
 #: other tiles (4: examples keep their voids inside instead of being
 #: cropped to their largest valid rectangle; 5: the engine's changes of
-#: bytes since, which had left it at 4).
-STORE_VERSION = 5
+#: bytes since, which had left it at 4; 6: where the landform pass cannot
+#: serve, the drawing's landforms and a wider detail split).
+STORE_VERSION = 6
 
 
 def store_path(out: Path) -> Path:

@@ -114,24 +114,24 @@ def synthesize_tile(job: TileJob, examples: Sequence[HeightField | np.ndarray]) 
 
 def _level(job: TileJob, crop_shape: tuple[int, int], stamps) -> tuple[np.ndarray, float | None]:
     """The tile's window of the whole map's level field, and the
-    landform/detail split it was made with (None: no landform pass, or the
-    drawing's relief standing in for it).
+    examples' landform/detail split to go with it (None: no landform pass,
+    nor the drawing's landforms standing in for it).
 
-    With the landform pass or the drawing's relief: its window
+    With the landform pass or the drawing's landforms: its window
     (:mod:`.inputs`); without: the style groups' bases blurred across their
     borders.  Then bent through the pins within reach and, under the pass
-    or the drawing's relief, made flat under the tile's stamps
+    or the drawing's landforms, made flat under the tile's stamps
     (``stamps``, in crop cells), as a whole-map run's
     (:func:`~terrasynth_core.synthesis.landform.landform_from`).
     """
     tile, tc, patch = job.tile, job.controls, job.params.patch_size
     r0, r1, c0, c1 = tile.crop
     if job.coarse is not None and not tc.steering and not stamps:
-        return job.coarse.level(tile.crop), job.coarse.sigma  # nothing bends it: the window itself
+        return job.coarse.level(tile.crop), job.coarse.split  # nothing bends it: the window itself
     e0, e1, f0, f1 = box = tc.level_box
     level = tc.plain_level(patch) if job.coarse is None else job.coarse.level(box)
     level = tc.steered(level, patch)[r0 - e0:r1 - e0, c0 - f0:c1 - f0]
     if job.coarse is None:
         return level, None
     rendered = [render_stamp(s, crop_shape, patch, cell_size=job.cell_size, notes=[]) for s in stamps]
-    return level_under_stamps(level, rendered, patch), job.coarse.sigma
+    return level_under_stamps(level, rendered, patch), job.coarse.split

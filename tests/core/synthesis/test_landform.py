@@ -298,23 +298,28 @@ def test_too_small_or_one_landform_examples_skip_it_with_a_reason(helens, y_sket
     assert any("landform pass skipped" in w for w in result.warnings)
 
 
-def test_without_the_pass_the_drawing_alone_tilts_the_level(helens, sketch_dir):
+def test_without_the_pass_the_drawing_gives_the_landforms(helens, sketch_dir):
     # An example too small for the pass: the level rises about the drawn
-    # ridges and falls about the valley (a smooth tilt, no step), and the
-    # run says so.
+    # ridges and falls about the valley (smoothly, no step), fitted to the
+    # example's heights; the patches give their detail above a wider split,
+    # so the strokes stand above and below the rest, and the run says so.
     small = helens.with_heights(helens.heights[:90, :300].copy())
     sketch = read_sketch(sketch_dir / "s_valley_1000.png").resized((256, 256))
     session = Session([small], sketch, shape=(256, 256), params=P)
     assert landform_pass(session)[0] is None
     level = drawn_level(session)
     strokes = session.sketch_maps
-    ridge, valley = level[graph_mask(strokes.ridges)].mean(), level[graph_mask(strokes.valleys)].mean()
-    base = float(np.median(session.layout.level))
-    assert valley < base < ridge
+    ridges, valleys = graph_mask(strokes.ridges), graph_mask(strokes.valleys)
+    ridge, valley = level[ridges].mean(), level[valleys].mean()
+    assert valley < float(np.median(level)) < ridge
     assert np.abs(np.diff(level, axis=0)).max() < 0.1 * (ridge - valley)  # strokes 45 cells apart
+    lo, hi = np.nanpercentile(small.heights, [0.5, 99.5])
+    assert lo - 0.1 * (hi - lo) < level.min() and level.max() < hi + 0.1 * (hi - lo)  # the example's heights
     result = session.run()
     assert any("the regional relief follows the drawing alone" in w for w in result.warnings)
-    # Nothing drawn, nothing tilted.
+    rank = result.heights.argsort(axis=None).argsort().reshape(result.heights.shape) / result.heights.size
+    assert rank[ridges].mean() >= 0.75 and rank[valleys].mean() <= 0.25
+    # Nothing drawn, no landforms.
     assert drawn_level(Session([small], None, shape=(256, 256), params=P)) is None
 
 

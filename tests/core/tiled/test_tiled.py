@@ -127,13 +127,13 @@ def test_level_windows_agree_where_they_overlap():
 
 def test_where_the_pass_cannot_serve_the_drawing_gives_the_level_as_a_whole_map_run(helens, sketch_dir):
     from terrasynth_core.synthesis import Session
-    from terrasynth_core.synthesis.landform import drawn_level
+    from terrasynth_core.synthesis.landform import drawn_level, drawn_split
     from terrasynth_core.tiled.inputs import coarse_level
 
     small = helens.with_heights(helens.heights[:90, :300].copy())  # too small for the landform pass
     sketch = read_sketch(sketch_dir / "s_valley_1000.png")
     coarse, notes = coarse_level([small], sketch, (256, 256), P)
-    assert coarse is not None and coarse.sigma is None
+    assert coarse is not None and coarse.detail_split == drawn_split(P.patch_size) > coarse.sigma
     assert any("the regional relief follows the drawing alone" in n for n in notes)
     whole = drawn_level(Session([small], sketch.resized((256, 256)), shape=(256, 256), params=P))
     box = (40, 200, 60, 256)
