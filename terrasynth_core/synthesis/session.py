@@ -125,6 +125,7 @@ class Session:
         checked = controls.checked((rows, cols), len(examples))
         check_heights(examples, checked)
         grounded = grounded_examples(examples, checked, params.cell_size)
+        automatic = params.patch_size is None
         params, size_notes = with_patch_size(params, grounded, sketch, (rows, cols))
         if min(rows, cols) < params.patch_size:
             raise ParamsError(
@@ -158,7 +159,7 @@ class Session:
         self._coarse = None
         self.warnings: list[str] = [*stretch_notes, *size_notes, *self.layout.notes]
         self.sketch_maps = self._sketch_maps()
-        self._check_features()
+        self._check_features(automatic)
         #: Cells of the selection kept as terrain that may be replaced (see ``band``).
         self.band = self._given_level_and_band(level, level_split, band)
 
@@ -202,16 +203,21 @@ class Session:
             )
         return maps
 
-    def _check_features(self) -> None:
+    def _check_features(self, automatic: bool) -> None:
+        """Every feature kind the sketch draws is in some example
+        (``automatic``: the patch size was chosen, at the size that holds
+        the most, so no other size would help)."""
         for graph in (self.sketch_maps.ridges, self.sketch_maps.valleys):
             if not graph.paths:
                 continue
             have = sum(len(ex.samples[graph.kind]) for ex in self.examples)
             if have == 0:
+                size = (f"a patch of any size from {PATCH_SIZES[0]} to {PATCH_SIZES[-1]} cells" if automatic
+                        else f"a patch of {self.params.patch_size} cells")
                 raise ParamsError(
                     f"the sketch has {graph.kind}s but no example has {graph.kind} features far enough "
-                    f"from its border for a {self.params.patch_size}-cell patch: choose a larger or more "
-                    "rugged example, or a smaller patch size"
+                    f"from its border for {size}: choose a larger or more rugged example"
+                    + ("" if automatic else ", or a smaller patch size")
                 )
 
     def coarse_pass(self):

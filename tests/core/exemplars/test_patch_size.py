@@ -165,3 +165,17 @@ def test_voids_that_leave_no_window_at_a_size_hold_none_there(white_mountains):
     size, _ = fitting_patch_size([field], ["holed"], BOTH)
     assert size in PATCH_SIZES and size < 80
     prepare_example(field, size, name="holed")  # (a size the example can host)
+
+
+def test_an_example_without_a_drawn_kind_at_any_size_is_named_without_a_vain_hint():
+    # A tilted plane has no ridge at any size: the automatic size has tried
+    # them all, so the error does not send the user to a smaller patch.
+    from terrasynth_core.errors import ParamsError
+
+    rr, cc = np.mgrid[0:200, 0:200]
+    plane = (3.0 * rr + cc).astype(np.float32)
+    sketch = SketchMap(np.abs(rr - cc) < 3, np.zeros((200, 200), bool))
+    with pytest.raises(ParamsError, match="any size from 80 to 32 cells: choose a larger or more rugged example$"):
+        Session([plane], sketch, params=SynthesisParams())
+    with pytest.raises(ParamsError, match="a patch of 40 cells: .*, or a smaller patch size$"):
+        Session([plane], sketch, params=SynthesisParams(patch_size=40))
