@@ -19,7 +19,7 @@ from .panel_widgets import error_label, hbox
 
 _TIPS = {
     "patch_size": "Side of a square patch in output cells (the paper uses 80). Larger patches copy "
-                  "bigger landforms; smaller ones follow the sketch more closely. Auto: 80, or down to 48 "
+                  "bigger landforms; smaller ones follow the sketch more closely. Auto: 80, or down to 32 "
                   "when an example holds too few distinct ridges or valleys at 80 (the run says so).",
     "overlap": "Width of the band a fill patch shares with its neighbours, in cells. "
                "Auto is a third of the patch, as in the paper.",

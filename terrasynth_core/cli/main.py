@@ -841,7 +841,7 @@ def build_parser() -> argparse.ArgumentParser:
     # Run options default to None here (their defaults: _RUN_OPTIONS), so
     # --project can tell which were given.
     p.add_argument("--patch-size", type=int,
-                   help="patch side in cells (default: automatic, 80, or down to 48 for a small example)")
+                   help="patch side in cells (default: automatic, 80, or down to 32 for a small example)")
     p.add_argument("--overlap", type=int, default=None, help="overlap in cells (default a third of the patch)")
     p.add_argument("--seed", type=int, help="random seed (default 0; with --project, the project's)")
     p.add_argument("--order", choices=("bfs", "raster"), help="patch order (default bfs)")

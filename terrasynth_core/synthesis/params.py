@@ -19,7 +19,7 @@ class SynthesisParams:
     ----------
     patch_size : int or None, default None
         Side of a square patch in output cells.  None: automatic, the
-        paper's 80, or down to 48 for examples that hold too few distinct
+        paper's 80, or down to 32 for examples that hold too few distinct
         feature windows at 80
         (:func:`~terrasynth_core.exemplars.patch_size.fitting_patch_size`;
         the session says why in its warnings, and its ``params`` hold the
