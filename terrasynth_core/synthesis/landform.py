@@ -244,19 +244,21 @@ def landform_from(session: Session, coarse, f: int) -> Landform:
     up = _upsampled(heights, session.shape)
     weight = coherence(coarse.sketch_features, p.patch_size, f)
     level = landform_lowpass(up, sigma, None if weight is None else _upsampled(weight, session.shape))
-    return Landform(_settled(session, level), sigma, coarse, f)
+    return Landform(_settled(session, level, sigma), sigma, coarse, f)
 
 
-def _settled(session: Session, level: np.ndarray) -> np.ndarray:
+def _settled(session: Session, level: np.ndarray, split: float) -> np.ndarray:
     """``level`` as the run uses it: bent through the pins (in a
-    re-synthesis, the previous terrain's level outside the selection) and
-    flat under the stamps."""
+    re-synthesis, the previous terrain's level outside the selection, its
+    low-pass at ``split``, the examples' landform/detail split, so that
+    the detail the patches add is not there twice) and flat under the
+    stamps."""
     c, p, lay = session.controls, session.params, session.layout
     if c.selection is not None:
         # A re-synthesis keeps the landforms it does not select: the level
         # follows the previous terrain outside the selection and moves to
         # the new landforms over about a patch inside it.
-        previous = ndimage.gaussian_filter(c.previous.astype(np.float64), split_sigma(p.patch_size), mode="reflect")
+        previous = ndimage.gaussian_filter(c.previous.astype(np.float64), split, mode="reflect")
         weight = smoothstep(ndimage.distance_transform_edt(c.selection) / max(p.patch_size / 4, 1.0))
         level = (previous + weight * (level - previous)).astype(np.float32)
     else:
@@ -314,7 +316,7 @@ def drawn_level(session: Session) -> np.ndarray | None:
     if drawn is None:
         return None
     level = landform_lowpass(_upsampled(drawn[0], session.shape), split_sigma(session.params.patch_size))
-    return _settled(session, level.astype(np.float32))
+    return _settled(session, level.astype(np.float32), drawn_split(session.params.patch_size))
 
 
 def drawn_landforms(sketch, shape: tuple[int, int], layout, patch_size: int) -> tuple[np.ndarray, int] | None:

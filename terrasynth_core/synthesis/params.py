@@ -8,7 +8,7 @@ from dataclasses import asdict, dataclass, fields
 from typing import Literal
 
 from ..errors import ParamsError
-from ..exemplars.patch_size import PATCH_SIZES
+from ..exemplars.patch_size import DEFAULT_PATCH
 
 
 @dataclass(frozen=True)
@@ -101,8 +101,9 @@ class SynthesisParams:
             or not 16 <= self.patch_size <= 512
         ):
             bad("patch_size", "an integer from 16 to 512 cells, or None (automatic)")
-        # (An automatic patch is at least the smallest automatic size.)
-        half = (self.patch_size or PATCH_SIZES[-1]) // 2
+        # (An automatic patch is at most the default; the session checks the
+        # overlap again against the size it chooses.)
+        half = (self.patch_size or DEFAULT_PATCH) // 2
         if self.overlap is not None and (not isinstance(self.overlap, int) or not 2 <= self.overlap <= half):
             bad("overlap", f"an integer from 2 to {half} (half the patch) or None")
         if not isinstance(self.k, int) or not 1 <= self.k <= 64:

@@ -212,7 +212,7 @@ class Session:
                 continue
             have = sum(len(ex.samples[graph.kind]) for ex in self.examples)
             if have == 0:
-                size = (f"a patch of any size from {PATCH_SIZES[0]} to {PATCH_SIZES[-1]} cells" if automatic
+                size = (f"a patch of any automatic size (down to {PATCH_SIZES[-1]} cells)" if automatic
                         else f"a patch of {self.params.patch_size} cells")
                 raise ParamsError(
                     f"the sketch has {graph.kind}s but no example has {graph.kind} features far enough "
@@ -282,6 +282,9 @@ def with_patch_size(params: SynthesisParams, grounded: Grounded, sketch: SketchM
     if min(shape) < PATCH_SIZES[-1]:
         return dataclasses.replace(params, patch_size=PATCH_SIZES[-1]), []
     size, notes = automatic_patch_size(grounded, () if sketch is None else sketch.kinds, largest=min(shape))
+    if params.overlap is not None and params.overlap > size // 2:
+        raise ParamsError(f"parameter overlap={params.overlap}: expected at most {size // 2}, half the automatic "
+                          f"patch size these examples need ({size} cells); give a smaller overlap or a patch size")
     return dataclasses.replace(params, patch_size=size), notes
 
 

@@ -237,8 +237,10 @@ def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap
     Returns
     -------
     level : CoarseLevel or None
-        None when the pass is off or cannot serve (then every tile builds on
-        the flat level, as with ``landform=False``).
+        The pass's terrain, or where it cannot serve the drawing's
+        landforms; None when the pass is off, or cannot serve and nothing
+        stands in for it (no strokes, several style regions): then every
+        tile builds on the flat level, as with ``landform=False``.
     notes : list of str
         The warnings of the probe and the pass.
     """

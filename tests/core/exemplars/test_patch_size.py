@@ -7,6 +7,7 @@ import pytest
 
 from terrasynth_core.exemplars.patch_size import (DEFAULT_PATCH, MIN_POOL, PATCH_SIZES, VARIED_POOL,
                                                   distinct_windows, fitting_patch_size, path_windows)
+from terrasynth_core.errors import ParamsError
 from terrasynth_core.exemplars.prepare import prepare_example
 from terrasynth_core.features.sketch import SketchMap
 from terrasynth_core.synthesis import Session, SynthesisParams
@@ -49,6 +50,14 @@ def test_a_single_landform_goes_down_to_the_size_where_it_varies(helens):
     assert size == PATCH_SIZES[-1] == 32
     assert min(path_windows(prepare_example(helens, size, name="st-helens").samples[k]) for k in BOTH) >= MIN_POOL
     assert len(notes) == 1 and "st-helens" in notes[0] and "the largest size where it holds 20 of each" in notes[0]
+    # An overlap an 80-cell patch allows but a 32-cell one does not is
+    # refused once the size is known, naming both.
+    ridge, valley = np.zeros(helens.heights.shape, bool), np.zeros(helens.heights.shape, bool)
+    ridge[100:300, 150] = True
+    valley[100:300, 60] = True
+    sketch = SketchMap(ridge, valley)
+    with pytest.raises(ParamsError, match="overlap=20: expected at most 16, half the automatic patch size .*\\(32 cells\\)"):
+        Session([helens], sketch, params=SynthesisParams(overlap=20))
 
 
 def test_without_strokes_no_example_is_analysed(highland, monkeypatch):
@@ -109,8 +118,8 @@ def test_the_session_chooses_and_reports_it_and_a_given_size_is_kept(highland):
 def test_an_example_short_of_the_varied_pool_takes_the_size_that_meets_the_floor(monkeypatch):
     """An example that never holds :data:`VARIED_POOL` windows but holds
     :data:`MIN_POOL` at some size decides at the largest such size; one
-    that holds fewer at every size decides where it holds the most, and
-    the run says its features will repeat."""
+    that holds fewer at every size decides at the largest size where it
+    holds nearly its most, and the run says its features will repeat."""
     import terrasynth_core.exemplars.patch_size as patch_size
 
     held = {"mid": {80: 12, 72: 15, 64: 22, 56: 26, 48: 30, 40: 33, 32: 36},
@@ -123,10 +132,12 @@ def test_an_example_short_of_the_varied_pool_takes_the_size_that_meets_the_floor
     assert any("at 80 cells mid holds only 12 ridge" in n and "the largest size where it holds 20 of each (none holds 40)"
                in n for n in notes)
     size, notes = fitting_patch_size([np.zeros((500, 500))] * 3, ["rich", "mid", "poor"], ("ridge",))
-    assert size == 48  # (the largest of poor's most, 6 at 48 and 40)
-    assert any("poor holds only 3 ridge" in n and "the size where it holds the most (none holds 20): 6 ridge" in n
-               for n in notes)
-    assert any("poor holds only 6 ridge windows" in n and "repeat" in n for n in notes)
+    assert size == 56  # (the largest size where poor holds 3/4 of its most, 6)
+    assert any("poor holds only 3 ridge" in n and "nearly its most (none holds 20): 5 ridge" in n for n in notes)
+    assert any("poor holds only 5 ridge windows" in n and "repeat" in n for n in notes)
+    # One window more is no reason to take the whole run to smaller patches.
+    held["tiny"] = {80: 5, 72: 5, 64: 5, 56: 5, 48: 6, 40: 6, 32: 6}
+    assert fitting_patch_size([np.zeros((500, 500))] * 2, ["rich", "tiny"], ("ridge",))[0] == 80
     # Two deciding examples: each note names the rule that set the size for it.
     held.update(a={80: 30, 72: 40, 64: 45, 56: 50, 48: 55, 40: 60, 32: 65},
                 b={80: 20, 72: 30, 64: 35, 56: 40, 48: 45, 40: 50, 32: 55})
@@ -175,7 +186,20 @@ def test_an_example_without_a_drawn_kind_at_any_size_is_named_without_a_vain_hin
     rr, cc = np.mgrid[0:200, 0:200]
     plane = (3.0 * rr + cc).astype(np.float32)
     sketch = SketchMap(np.abs(rr - cc) < 3, np.zeros((200, 200), bool))
-    with pytest.raises(ParamsError, match="any size from 80 to 32 cells: choose a larger or more rugged example$"):
+    with pytest.raises(ParamsError, match=r"any automatic size \(down to 32 cells\): choose a larger or more rugged example$"):
         Session([plane], sketch, params=SynthesisParams())
     with pytest.raises(ParamsError, match="a patch of 40 cells: .*, or a smaller patch size$"):
         Session([plane], sketch, params=SynthesisParams(patch_size=40))
+
+
+def test_a_kind_an_example_lacks_does_not_choose_its_size(monkeypatch):
+    # Rich in ridges, one valley window at 32 and none above, beside an
+    # example rich in both: the run keeps the size the ridges ask for (the
+    # valleys come from the other example).
+    import terrasynth_core.exemplars.patch_size as patch_size
+
+    rich = {80: 45, 72: 48, 64: 50, 56: 52, 48: 55, 40: 58, 32: 60}
+    counts = {"ridgy": lambda s: {"ridge": rich[s], "valley": int(s == 32)},
+              "both": lambda s: {"ridge": rich[s], "valley": rich[s]}}
+    monkeypatch.setattr(patch_size, "held_windows", lambda field, size, kinds, *, name: counts[name](size))
+    assert fitting_patch_size([np.zeros((500, 500))] * 2, ["ridgy", "both"], BOTH)[0] == 80

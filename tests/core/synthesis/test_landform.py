@@ -21,6 +21,7 @@ from terrasynth_core.synthesis.landform import (
     coarse_patch,
     detail_above,
     drawn_level,
+    drawn_split,
     landform_lowpass,
     landform_pass,
     preview_patch,
@@ -298,7 +299,7 @@ def test_too_small_or_one_landform_examples_skip_it_with_a_reason(helens, y_sket
     assert any("landform pass skipped" in w for w in result.warnings)
 
 
-def test_without_the_pass_the_drawing_gives_the_landforms(helens, sketch_dir):
+def test_without_the_pass_the_drawing_gives_the_landforms(helens, sketch_dir, monkeypatch):
     # An example too small for the pass: the level rises about the drawn
     # ridges and falls about the valley (smoothly, no step), fitted to the
     # example's heights; the patches give their detail above a wider split,
@@ -315,7 +316,10 @@ def test_without_the_pass_the_drawing_gives_the_landforms(helens, sketch_dir):
     assert np.abs(np.diff(level, axis=0)).max() < 0.1 * (ridge - valley)  # strokes 45 cells apart
     lo, hi = np.nanpercentile(small.heights, [0.5, 99.5])
     assert lo - 0.1 * (hi - lo) < level.min() and level.max() < hi + 0.1 * (hi - lo)  # the example's heights
+    asked, real = [], session.detail_above
+    monkeypatch.setattr(session, "detail_above", lambda sigma: asked.append(sigma) or real(sigma))
     result = session.run()
+    assert asked == [drawn_split(P.patch_size)] == [3 * split_sigma(P.patch_size)]  # the examples' detail split
     assert any("the regional relief follows the drawing alone" in w for w in result.warnings)
     rank = result.heights.argsort(axis=None).argsort().reshape(result.heights.shape) / result.heights.size
     assert rank[ridges].mean() >= 0.75 and rank[valleys].mean() <= 0.25

@@ -41,7 +41,7 @@ def test_params_are_validated():
     with pytest.raises(ParamsError, match="overlap"):
         SynthesisParams(patch_size=40, overlap=30)
     with pytest.raises(ParamsError, match="overlap"):
-        SynthesisParams(overlap=30)  # an automatic patch may be 32 cells
+        SynthesisParams(overlap=41)  # an automatic patch is at most 80 cells
     with pytest.raises(ParamsError, match="patch_size"):
         SynthesisParams(patch_size=True)
     with pytest.raises(ParamsError, match="unknown"):

@@ -141,6 +141,39 @@ def test_where_the_pass_cannot_serve_the_drawing_gives_the_level_as_a_whole_map_
     # (The whole-map run traces the strokes on the sketch resized to the
     # output, the tiled one on the painted sketch resized to the grid.)
     assert np.abs(tiled - whole[40:200, 60:256]).max() < 0.02 * float(np.ptp(whole))
+    # Each tile's window carries the wider split, and a resumed run reads it
+    # back from the store.
+    assert coarse.window(box).split == coarse.detail_split
+
+
+def test_a_kept_landform_pass_gives_back_its_splits(helens, sketch_dir, tmp_path):
+    from terrasynth_core.tiled.inputs import coarse_level
+    from terrasynth_core.tiled.run import _landform
+    from terrasynth_core.tiled.store import TileStore
+
+    class Done:  # what a Dask client's submit gives back, here at once
+        def __init__(self, fn, *args, **_):
+            self.value = fn(*args)
+
+        def result(self):
+            return self.value
+
+    class Client:
+        def submit(self, fn, *args, **kw):
+            return Done(fn, *args)
+
+    small = helens.with_heights(helens.heights[:90, :300].copy())
+    sketch = read_sketch(sketch_dir / "s_valley_1000.png")
+    made, _ = coarse_level([small], sketch, (256, 256), P)
+    store = TileStore(tmp_path / "t.tiles", "b" * 64)
+    try:
+        first, _ = _landform(Client(), store, [small], sketch, (256, 256), P)
+        again, _ = _landform(None, store, [small], sketch, (256, 256), P)  # (kept: no client needed)
+    finally:
+        store.close()
+    for coarse in (first, again):
+        assert (coarse.sigma, coarse.detail_split, coarse.factor) == (made.sigma, made.detail_split, made.factor)
+        np.testing.assert_array_equal(coarse.heights, made.heights)
 
 
 # -- runs -------------------------------------------------------------------------------------
