@@ -271,9 +271,9 @@ def _settled(session: Session, level: np.ndarray, split: float) -> np.ndarray:
 #: this low-pass, and the drawing's landforms (:func:`drawn_landforms`) the
 #: rest.  Three times the pass's split, so that patches keep their
 #: examples' landforms up to about one and a half patches (wider ones the
-#: drawing places).  On a 187x152 DEM of the Rocky Mountains (6 runs) the
-#: relief was 1.02 of the example's and the power at 16-64 cells 0.84-1.03
-#: of its; at the pass's own split, 0.93 and 0.25-0.43.
+#: drawing places).  On a 187x152 DEM of the Rocky Mountains (12 runs) the
+#: relief is 0.86-0.98 of the example's and the power at 16-64 cells
+#: 0.81-1.19 of its; at the pass's own split (6 runs), 0.93 and 0.25-0.43.
 DRAWN_SPLIT = 3.0
 
 #: What a run's skipped-pass warning adds when the drawing gives the landforms.
@@ -354,7 +354,8 @@ def drawn_landforms(sketch, shape: tuple[int, int], layout, patch_size: int) -> 
     if not (strokes.ridges.paths or strokes.valleys.paths):
         return None
     flat = np.full(grid, float(np.median(layout.level)), np.float32)
-    return fitted_to_examples(flat, layout, f, sigma, strokes), f
+    # (Fitted with the detail the run will add: above the wider split.)
+    return fitted_to_examples(flat, layout, f, sigma, strokes, detail_sigma=drawn_split(patch_size)), f
 
 
 def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray:
@@ -405,7 +406,7 @@ def level_under_stamps(level: np.ndarray, stamps, patch_size: int) -> np.ndarray
 
 
 def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
-                    strokes: FeatureMaps | None = None) -> np.ndarray:
+                    strokes: FeatureMaps | None = None, detail_sigma: float | None = None) -> np.ndarray:
     """The coarse terrain with the examples' heights: its regional relief
     fitted so that, with the examples' detail on it, its heights take the
     examples' distribution.
@@ -446,11 +447,16 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
         (:data:`UPLIFT`) before the fit, so that the regional relief
         follows the drawing, and each round holds the ridges high and the
         open valleys low along their whole length (:class:`_StrokeSides`).
+    detail_sigma : float, optional
+        The split above which the run takes the examples' detail, output
+        cells: ``sigma`` unless given (:func:`drawn_landforms` gives its
+        wider one).
 
     Returns
     -------
     ndarray of float32, shape (h, w)
     """
+    detail_sigma = (sigma if detail_sigma is None else detail_sigma) / f
     sigma = sigma / f
     groups, cover = np.unique(layout.group_map, return_counts=True)
     values, details, weights, landforms = [], [], [], []
@@ -464,7 +470,7 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
             valid = np.ones(coarse.size, bool) if valid is None else valid.ravel()
             values.append((coarse + base).ravel()[valid])
             landforms.append((landform_lowpass(coarse, sigma) + base).ravel()[valid])
-            details.append((coarse - ndimage.gaussian_filter(coarse, sigma, mode="reflect")).ravel()[valid])
+            details.append((coarse - ndimage.gaussian_filter(coarse, detail_sigma, mode="reflect")).ravel()[valid])
             weights.append(np.full(int(valid.sum()), n / (len(members) * int(valid.sum()))))
     values, details, weights = np.concatenate(values), np.concatenate(details), np.concatenate(weights)
     target = _weighted_quantiles(values, weights, FIT_QUANTILES)
