@@ -6,6 +6,7 @@ import tracemalloc
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from terrasynth_core.controls.drainage import _descending_fit, apply_drainage, drain
 from terrasynth_core.errors import ParamsError
@@ -356,3 +357,42 @@ def test_no_breach_runs_beside_locked_cells():
     # pools (as it did before breaching).
     assert float((out - h)[:, 110:].min()) > -0.5
     assert np.hypot(*(_trace(out, (80, 40))[-1] - 80)) < 62
+
+
+def _least_cut_told_every_end(heights, start, level, ends, step, passable):
+    """The least-cut path as first written: the search told every end."""
+    from skimage.graph import MCP_Geometric
+
+    costs = np.where(passable, np.maximum(heights - level, 0.0) + step, np.inf)
+    costs[start] = 0.0
+    search = MCP_Geometric(costs, fully_connected=True)
+    targets = np.argwhere(ends & passable)
+    total, _ = search.find_costs([start], [tuple(t) for t in targets], find_all_ends=False)
+    reach = total[targets[:, 0], targets[:, 1]]
+    best = int(np.argmin(reach))
+    return None if not np.isfinite(reach[best]) else np.asarray(search.traceback(tuple(targets[best])))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_least_cut_path_tells_the_search_only_reachable_rims(seed):
+    # Told only the rims of the end regions it can reach, the search takes
+    # the same path as told every end (a path enters a region at its rim);
+    # a pit walled in has no way out, found without a search.
+    from terrasynth_core.controls.drainage import least_cut_path
+
+    rng = np.random.default_rng(seed)
+    h = ndimage.gaussian_filter(rng.normal(0, 10, (90, 110)), 3) + np.linspace(0, 5, 110)[None, :]
+    passable = np.ones(h.shape, bool)
+    rr, cc = np.mgrid[0:90, 0:110]
+    ring = np.abs(np.hypot(rr - 45, cc - 55) - 25) < 1.5
+    passable[ring & ((cc < 50) | (seed % 2 == 0))] = False  # closed on even seeds, open on odd
+    start = (45, 55)
+    level = float(h[start])
+    ends = (h < level - 2) & (np.hypot(rr - 45, cc - 55) > 27)  # (outside the ring)
+    got = least_cut_path(h, start, level, ends, 0.5, passable=passable, free_start=True)
+    want = _least_cut_told_every_end(h, start, level, ends, 0.5, passable)
+    if seed % 2 == 0:
+        assert got is None and want is None
+    else:
+        assert want is not None
+        np.testing.assert_array_equal(got, want)
