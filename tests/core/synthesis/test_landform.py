@@ -28,7 +28,6 @@ from terrasynth_core.synthesis.landform import (
     FIT_QUANTILES,
     MAX_GAIN,
     STROKE_SIDE,
-    TREND_SIGMA,
     fitted_heights,
     split_sigma,
     fitted_to_examples,
