@@ -160,28 +160,25 @@ def fitting_patch_size(fields: Sequence, names: Sequence[str], kinds: Sequence[s
             counted[i, size] = held_windows(fields[i], size, kinds, name=names[i])
         return counted[i, size]
 
-    def held(i: int, size: int) -> int:
-        return min(count(i, size).values())
-
-    def poorest(i: int, s: int) -> int:
-        """Example ``i``'s fewest windows at size ``s`` among the kinds it
-        holds at the largest size (any size, when it holds none there): a
-        kind it lacks does not send the run to the size of its one window."""
-        have = [k for k in kinds if count(i, sizes[0])[k] > 0] or \
-            [k for k in kinds if any(count(i, z)[k] > 0 for z in sizes)]
-        return min((count(i, s)[k] for k in have), default=0)
+    def held(i: int, size: int, of: Sequence[str] = kinds) -> int:
+        """Example ``i``'s fewest windows at ``size`` among the kinds ``of``."""
+        return min((count(i, size)[k] for k in of), default=0)
 
     def wanted(i: int) -> int | None:
         """The largest size at which example ``i`` is varied enough, or
         failing that meets the issue's floor, or failing both holds
-        :data:`MOST_SHARE` of its most windows; None: it holds no window
-        at any size."""
+        :data:`MOST_SHARE` of its most windows (of the kinds it holds at
+        the largest size, or at any when none there: a kind it lacks does
+        not send the run to the size of its one window); None: it holds no
+        window at any size."""
         for need in (VARIED_POOL, MIN_POOL):
             size = next((s for s in sizes if held(i, s) >= need), None)
             if size is not None:
                 return size
-        most = max(poorest(i, s) for s in sizes)
-        return next(s for s in sizes if poorest(i, s) >= MOST_SHARE * most) if most > 0 else None
+        have = [k for k in kinds if count(i, sizes[0])[k] > 0] or \
+            [k for k in kinds if any(count(i, s)[k] > 0 for s in sizes)]
+        most = max(held(i, s, have) for s in sizes)
+        return next(s for s in sizes if held(i, s, have) >= MOST_SHARE * most) if most > 0 else None
 
     # Examples without lines of a kind drawn do not decide the size...
     wants = [wanted(i) for i in range(len(fields))]

@@ -205,8 +205,8 @@ class Session:
 
     def _check_features(self, automatic: bool) -> None:
         """Every feature kind the sketch draws is in some example
-        (``automatic``: the patch size was chosen, at the size that holds
-        the most, so no other size would help)."""
+        (``automatic``: the patch size was chosen from every automatic
+        size, so a smaller one is no hint to give)."""
         for graph in (self.sketch_maps.ridges, self.sketch_maps.valleys):
             if not graph.paths:
                 continue
