@@ -272,17 +272,20 @@ def _settled(session: Session, level: np.ndarray, split: float) -> np.ndarray:
 #: rest.  Three times the pass's split, so that patches keep their
 #: examples' landforms up to about one and a half patches (wider ones the
 #: drawing places).  On a 187x152 DEM of the Rocky Mountains (12 runs) the
-#: relief is 0.86-0.98 of the example's and the power at 16-64 cells
+#: relief is 0.84-0.99 of the example's and the power at 16-64 cells
 #: 0.81-1.19 of its; at the pass's own split (6 runs), 0.93 and 0.25-0.43.
 DRAWN_SPLIT = 3.0
 
 #: What a run's skipped-pass warning adds when the drawing gives the landforms.
 DRAWN_NOTE = "; the regional relief follows the drawing alone"
 
-#: Largest down-sampling of the grid :func:`drawn_landforms` fits on, in
-#: output cells per fade sigma: the field is smooth at a sixteenth of its
-#: fade (the blur of :func:`_stroke_regions`), so this loses nothing.
-DRAWN_CELLS_PER_SIGMA = 32
+#: Grid cells per fade sigma (twice :data:`TREND_SIGMA` splits) of the grid
+#: :func:`drawn_landforms` fits on: the blur of :func:`_stroke_regions`
+#: (an eighth of the fade) spans two of its cells, and so does the split's
+#: sigma (the fit's finest scale; half as many on the landform pass's
+#: coarse grid at 80-cell patches).  At 32 a 32-cell patch's fit ran on the output's own
+#: grid: 7.2 s for a 1000x1000 output, 0.47 s at 16.
+DRAWN_CELLS_PER_SIGMA = 16
 
 
 def drawn_split(patch_size: int) -> float:
