@@ -23,8 +23,13 @@ flat lakes of land: a closed basin on dry land reads as a crater, a flat
 as an artefact.
 
 Painted ridges are walls: no breach crosses them, so a ring of ridges the
-artist drew stays closed (its basin is the drawing's).  Locked cells never
-change.
+artist drew stays closed (its basin is the drawing's), unless a painted
+valley lies in the basin.  Painted valleys drain, so their basin opens
+through the walls where there is least to cut: a ring of ridges with a
+cross of valleys inside, on Big Tujunga, the Himalaya and St. Helens, had
+lain lower than everything outside it, its whole interior a lake 20-24 %
+of the map (the valleys' own breach, :mod:`.drainage`, finds nothing lower
+within its reach there).  Locked cells never change.
 
 References
 ----------
@@ -88,6 +93,13 @@ _SPLINE_PAD = 12
 #: Width (cells) a painted ridge is drawn at as a wall.
 WALL_WIDTH = 3
 
+#: Percentile of the terrain's slopes that the walls of a gap cut through a
+#: painted ridge (a basin of painted valleys opening) take; other breaches'
+#: walls take the 90th.  A gap as wide as a breach's on the 90th percentile
+#: took 6-14 % of a ring's cells below the median height (Big Tujunga, the
+#: Himalaya, St. Helens, four seeds each); at the 99.5th, 3-11 %.
+GAP_SLOPE = 99.5
+
 #: Rounds of :func:`drain_terrain`.
 ROUNDS = 2
 
@@ -109,7 +121,7 @@ class Breached(NamedTuple):
 
 def breach_depressions(heights: np.ndarray, *, walls: np.ndarray | None = None,
                        locked: np.ndarray | None = None, outlets: np.ndarray | None = None,
-                       min_depth: float = MIN_DEPTH) -> Breached:
+                       drains: np.ndarray | None = None, min_depth: float = MIN_DEPTH) -> Breached:
     """Breach every closed depression deeper than ``min_depth`` of the relief.
 
     Parameters
@@ -122,6 +134,9 @@ def breach_depressions(heights: np.ndarray, *, walls: np.ndarray | None = None,
         Cells that must not change; no breach crosses them either.
     outlets : ndarray of bool, shape (rows, cols), optional
         Where water leaves besides the map's border (painted water).
+    drains : ndarray of bool, shape (rows, cols), optional
+        Cells that must drain (painted valleys): a depression holding one
+        that has no way out within the walls is breached across them.
     min_depth : float
         Shallowest depression breached, as a share of the relief.
 
@@ -146,22 +161,28 @@ def breach_depressions(heights: np.ndarray, *, walls: np.ndarray | None = None,
             blocked |= mask
     frozen = locked if locked is not None and locked.any() else None
     eps = MIN_SLOPE * float(np.ptp(h))
-    steep = float(np.percentile(np.hypot(*np.gradient(h)), 90))
+    slope = np.hypot(*np.gradient(h))
+    steep = float(np.percentile(slope, 90))
+    gap = float(np.percentile(slope, GAP_SLOPE))
     if outlets is not None and not outlets.any():
         outlets = None
     lakes, pits = _depressions(h, min_depth * relief, outlets)
     objects = ndimage.find_objects(lakes)
+    draining = set() if drains is None or walls is None else set(np.unique(lakes[drains]).tolist())
+    held = locked if locked is not None else np.zeros(h.shape, bool)
     breached = left = 0
     # Lowest first: a higher depression's way out may run through a lower
     # one, which is open by then.
     for k in sorted(pits, key=lambda k: h[pits[k]]):
-        if blocked[pits[k]]:
-            continue  # (a locked cell's, or a wall's own: not ours to open)
-        path = _way_out(h, objects[k - 1], pits[k], blocked, outlets, 1e-3 * relief)
+        pit, box, slope = pits[k], objects[k - 1], steep
+        path = None if blocked[pit] else _way_out(h, box, pit, blocked, outlets, 1e-3 * relief)
+        if path is None and k in draining and not held[pit]:
+            # Walled in (or a wall's own): painted valleys drain, through a gap.
+            path, slope = _way_out(h, box, pit, held, outlets, 1e-3 * relief), gap
         if path is None:
-            left += 1
+            left += 0 if blocked[pit] else 1  # (a locked cell's, or a wall's own: not ours to open)
             continue
-        _cut(h, path, eps, steep, frozen)
+        _cut(h, path, eps, slope, frozen)
         breached += 1
     return Breached(h.astype(np.float32), breached, left)
 
@@ -400,31 +421,34 @@ def pooled_bands(read, shape: tuple[int, int], factor: int, how) -> np.ndarray |
     return None if out.dtype == bool and not out.any() else out
 
 
-def ridge_blocks(ridges: FeatureGraph | None, factor: int, grid: tuple[int, int]) -> np.ndarray | None:
-    """The blocks of the coarse grid a painted ridge (drawn
-    :data:`WALL_WIDTH` cells wide on the output's cells) meets: the
-    breach's walls.
+def stroke_blocks(strokes: FeatureGraph | None, factor: int, grid: tuple[int, int],
+                  width: int = WALL_WIDTH) -> np.ndarray | None:
+    """The blocks of the coarse grid a painted stroke (drawn ``width``
+    cells wide on the output's cells) meets: the breach's walls (ridges,
+    :data:`WALL_WIDTH` wide) or the cells that must drain (valleys).
 
     Parameters
     ----------
-    ridges : FeatureGraph or None
+    strokes : FeatureGraph or None
         In the output's cells.
     factor : int
     grid : (int, int)
         The block grid (:func:`coarse_grid`).
+    width : int
+        Cells, odd.
 
     Returns
     -------
     ndarray of bool, shape ``grid``, or None
-        None without ridges.  The blocks ``block_pool(graph_mask(ridges,
-        width=WALL_WIDTH), factor, grid, np.any)`` gives, from the lines'
-        cells alone (a world-size map's mask would not fit).
+        None without strokes.  The blocks ``block_pool(graph_mask(strokes,
+        width=width), factor, grid, np.any)`` gives, from the lines' cells
+        alone (a world-size map's mask would not fit).
     """
-    cells = np.zeros((0, 2), np.int64) if ridges is None else graph_cells(ridges)
+    cells = np.zeros((0, 2), np.int64) if strokes is None else graph_cells(strokes)
     if not len(cells):
         return None
-    rows, cols = ridges.shape
-    reach = WALL_WIDTH // 2
+    rows, cols = strokes.shape
+    reach = width // 2
     # graph_mask's widening: ``reach`` steps to the four neighbours.
     near = [(dr, dc) for dr in range(-reach, reach + 1) for dc in range(-reach, reach + 1)
             if abs(dr) + abs(dc) <= reach]
@@ -436,7 +460,8 @@ def ridge_blocks(ridges: FeatureGraph | None, factor: int, grid: tuple[int, int]
 
 
 def drain_terrain(heights: np.ndarray, *, factor: int, ridges: FeatureGraph | None = None,
-                  water: np.ndarray | None = None, locked: np.ndarray | None = None) -> np.ndarray:
+                  valleys: FeatureGraph | None = None, water: np.ndarray | None = None,
+                  locked: np.ndarray | None = None) -> np.ndarray:
     """:func:`breach_depressions` on a grid ``factor`` times coarser,
     brought back as a smooth lowering.
 
@@ -458,9 +483,9 @@ def drain_terrain(heights: np.ndarray, *, factor: int, ridges: FeatureGraph | No
         Metres; not modified.
     factor : int
         The coarse grid's down-sampling (block means; 1: the full grid).
-    ridges : FeatureGraph, optional
-        The painted ridges, in the output's cells: walls
-        (:func:`ridge_blocks`).
+    ridges, valleys : FeatureGraph, optional
+        The painted ridges and valleys, in the output's cells: walls, and
+        what must drain through them (:func:`stroke_blocks`).
     water, locked : ndarray of bool, shape (rows, cols), optional
         Painted water (an outlet) and cells that must not change, as
         :func:`breach_depressions` takes them.
@@ -480,13 +505,13 @@ def drain_terrain(heights: np.ndarray, *, factor: int, ridges: FeatureGraph | No
         lowering.apply((0, rows, 0, cols), out)
 
     breach_in_rounds((rows, cols), factor, lambda box: out[box[0]:box[1], box[2]:box[3]], add, ridges=ridges,
-                     water=None if water is None else ArrayMask(water),
+                     valleys=valleys, water=None if water is None else ArrayMask(water),
                      locked=None if locked is None else ArrayMask(locked))
     return out
 
 
 def breach_in_rounds(shape: tuple[int, int], factor: int, read, add, *, ridges: FeatureGraph | None,
-                     water: Mask | None, locked: Mask | None) -> None:
+                     valleys: FeatureGraph | None = None, water: Mask | None, locked: Mask | None) -> None:
     """:data:`ROUNDS` rounds of :func:`breach_round` on a map read band by
     band: the whole map's (:func:`drain_terrain`) or a tiled run's
     (:func:`terrasynth_core.tiled.drainage.breach_tiles`).
@@ -505,6 +530,9 @@ def breach_in_rounds(shape: tuple[int, int], factor: int, read, add, *, ridges: 
         reads give.
     ridges : FeatureGraph or None
         Painted ridges in output cells: walls.
+    valleys : FeatureGraph or None
+        Painted valleys in output cells: their depressions open through
+        the walls.
     water, locked : Mask or None
         Painted water (an outlet) and cells that must not change.
     """
@@ -512,21 +540,23 @@ def breach_in_rounds(shape: tuple[int, int], factor: int, read, add, *, ridges: 
     grid = coarse_grid(shape, f)
     if min(grid) < 3:
         return
-    walls = ridge_blocks(ridges, f, grid)
+    walls = stroke_blocks(ridges, f, grid)
+    drains = None if walls is None else stroke_blocks(valleys, f, grid, width=1)
     water_blocks, held = (None if m is None else pooled_bands(m.window, shape, f, np.any) for m in (water, locked))
     if held is not None:
         # A block beside a locked one would bring a lowering into it.
         held = ndimage.binary_dilation(held, np.ones((3, 3), bool))
     for _ in range(ROUNDS):
         means = pooled_bands(lambda box: read(box).astype(np.float64), shape, f, np.mean)
-        lowering = breach_round(means, f, walls=walls, water=water_blocks, held=held, locked=locked)
+        lowering = breach_round(means, f, walls=walls, water=water_blocks, held=held, locked=locked, drains=drains)
         if lowering is None:
             break
         add(lowering)
 
 
 def breach_round(coarse: np.ndarray, factor: int, *, walls: np.ndarray | None,
-                 water: np.ndarray | None, held: np.ndarray | None, locked: Mask | None) -> "Lowering | None":
+                 water: np.ndarray | None, held: np.ndarray | None, locked: Mask | None,
+                 drains: np.ndarray | None = None) -> "Lowering | None":
     """One round of :func:`drain_terrain`: the depressions of the block
     means ``coarse`` breached, as a :class:`Lowering` of the output's cells.
 
@@ -542,13 +572,16 @@ def breach_round(coarse: np.ndarray, factor: int, *, walls: np.ndarray | None,
         neighbours).
     locked : Mask or None
         The output's locked cells.
+    drains : ndarray of bool, shape (g_rows, g_cols), or None
+        The blocks painted valleys meet: their depressions open through
+        the walls.
 
     Returns
     -------
     Lowering or None
         None when no depression was breached.
     """
-    done = breach_depressions(coarse, walls=walls, outlets=water, locked=held)
+    done = breach_depressions(coarse, walls=walls, outlets=water, locked=held, drains=drains)
     if done.breached == 0:
         return None
     # Shifted by a ten-thousandth of the relief, where the cubic's ringing

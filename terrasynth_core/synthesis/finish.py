@@ -115,9 +115,9 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
         heights = apply_drainage(heights, sketch.valleys, sketch.ridges, patch_size=patch_size, water=water,
                                  locked=locked)
         # The rest of the terrain drains too: its closed depressions are
-        # breached, the painted ridges as walls.
+        # breached, the painted ridges as walls (but for a basin of painted valleys).
         heights = drain_terrain(heights, factor=grid_factor(patch_size, heights.shape), ridges=sketch.ridges,
-                                water=water, locked=locked)
+                                valleys=sketch.valleys, water=water, locked=locked)
     if layout.remap is None:
         # (After drainage, which may carve a valley floor below the range:
         # the knee keeps every descent a descent.)

@@ -198,14 +198,14 @@ def drain_tiles(store: TileStore, plan: TilePlan, sketch: SketchMap | None, *, p
         # are held still; the banks widened at the painted size.
         reach = math.ceil(patch_size / 2 * water.mask.shape[0] / plan.shape[0])
         banks = PaintedMask(ndimage.binary_dilation(painted.painted, iterations=reach), plan.shape)
-    ridges = None
+    ridges = valleys = None
     if sketch is not None and sketch.has_strokes:
         maps = map_strokes(sketch, plan.shape)
-        ridges = maps.ridges
+        ridges, valleys = maps.ridges, maps.valleys
         drain(surface, maps.valleys, maps.ridges, patch_size=patch_size, span=surface.span(), water=painted,
               locked=banks)
     strokes = len(surface.corrections)
-    breach_tiles(surface, ridges, patch_size=patch_size, water=painted, locked=banks)
+    breach_tiles(surface, ridges, valleys, patch_size=patch_size, water=painted, locked=banks)
     notes = []
     for p in pins:
         at = (np.array([p.row]), np.array([p.col]))
@@ -218,8 +218,8 @@ def drain_tiles(store: TileStore, plan: TilePlan, sketch: SketchMap | None, *, p
     return surface, notes
 
 
-def breach_tiles(surface: TiledSurface, ridges: FeatureGraph | None, *, patch_size: int,
-                 water: PaintedMask | None = None, locked: PaintedMask | None = None) -> None:
+def breach_tiles(surface: TiledSurface, ridges: FeatureGraph | None, valleys: FeatureGraph | None = None, *,
+                 patch_size: int, water: PaintedMask | None = None, locked: PaintedMask | None = None) -> None:
     """The closed depressions of a drained tiled map breached, as
     :func:`~terrasynth_core.controls.depressions.drain_terrain` breaches a
     whole map's (the same rounds,
@@ -235,12 +235,13 @@ def breach_tiles(surface: TiledSurface, ridges: FeatureGraph | None, *, patch_si
     ----------
     surface : TiledSurface
         Its valleys drained.
-    ridges : FeatureGraph or None
-        The painted ridges in output cells: walls.
+    ridges, valleys : FeatureGraph or None
+        The painted ridges and valleys in output cells: walls, and what
+        drains through them.
     patch_size : int
     water, locked : PaintedMask, optional
         Painted water (an outlet) and cells held still (its banks).
     """
     breach_in_rounds(surface.shape, grid_factor(patch_size, surface.shape),
                      lambda box: surface.corrected(box, compose(surface.store, surface.plan, box)), surface.add,
-                     ridges=ridges, water=water, locked=locked)
+                     ridges=ridges, valleys=valleys, water=water, locked=locked)

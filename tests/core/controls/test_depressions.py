@@ -14,7 +14,7 @@ import pytest
 from scipy import ndimage
 
 from terrasynth_core.controls.depressions import (WALL_WIDTH, block_pool, breach_depressions, breach_round,
-                                                  coarse_grid, drain_terrain, grid_factor, ridge_blocks)
+                                                  coarse_grid, drain_terrain, grid_factor, stroke_blocks)
 from terrasynth_core.controls.drainage import ArrayMask
 from terrasynth_core.features.graph import FeatureGraph, FeatureNode, FeaturePath
 from terrasynth_core.features.network import graph_mask
@@ -87,6 +87,17 @@ def test_a_ring_of_walls_keeps_its_basin():
     assert np.array_equal(done.heights[d < 28], h[d < 28])  # the basin inside, untouched
     opened = breach_depressions(h)  # without the wall it is opened
     assert opened.breached >= 1 and _deepest(opened.heights) < 1.0
+    # A painted valley in the basin must drain: the basin opens through the wall.
+    valley = (np.abs(yy - N / 2) < 1) & (d < 20)
+    drained = breach_depressions(h, walls=walls, drains=valley)
+    assert drained.breached >= 1 and drained.left == 0 and _deepest(drained.heights) < 1.0
+    assert (drained.heights <= h).all()
+    crossed = walls & (drained.heights < h - 1.0)
+    assert ndimage.label(crossed, structure=np.ones((3, 3)))[1] == 1  # one gap, not the wall torn down
+    assert crossed.sum() < 0.25 * walls.sum()
+    # ... but not through a locked cell.
+    held = breach_depressions(h, walls=walls, drains=valley, locked=walls)
+    assert held.left >= 1 and np.array_equal(held.heights[d < 28], h[d < 28])
 
 
 def test_locked_cells_keep_their_bytes():
@@ -131,6 +142,30 @@ def test_drain_terrain_keeps_locked_cells_and_flat_ground():
     assert drain_terrain(flat, factor=4) is flat
 
 
+def test_drain_terrain_opens_a_ring_of_painted_ridges_only_about_painted_valleys():
+    """The ring-and-cross case on a block grid: the ring's basin stays
+    closed as drawn, but with a painted valley in it the valley drains
+    through one gap in the ring (the depressions' fill sees no basin)."""
+    n = 128
+    yy, xx = np.mgrid[0:n, 0:n].astype(float)
+    d = np.hypot(yy - n / 2, xx - n / 2)
+    h = (100.0 + 0.3 * d + 60.0 * np.exp(-((d - 45.0) ** 2) / 40.0) - 40.0 * (d < 30) * (1 - d / 30)).astype(np.float32)
+    angle = np.linspace(0, 2 * np.pi, 200)
+    ring = np.stack([n / 2 + 45 * np.sin(angle), n / 2 + 45 * np.cos(angle)], axis=1)
+    ridges = FeatureGraph("ridge", (n, n), (FeatureNode(0, *ring[0], "end", 1), FeatureNode(1, *ring[-1], "end", 1)),
+                          (FeaturePath(0, 1, ring),))
+    line = np.stack([np.full(30, n / 2), np.linspace(n / 2 - 15, n / 2 + 15, 30)], axis=1)
+    valleys = FeatureGraph("valley", (n, n), (FeatureNode(0, *line[0], "end", 1), FeatureNode(1, *line[-1], "end", 1)),
+                           (FeaturePath(0, 1, line),))
+    inside = d < 40
+    closed = drain_terrain(h, factor=2, ridges=ridges)
+    assert np.array_equal(closed[inside], h[inside]) and _deepest(closed) > 30.0
+    opened = drain_terrain(h, factor=2, ridges=ridges, valleys=valleys)
+    assert (opened <= h).all() and _deepest(opened) < 0.25 * _deepest(h)
+    # Without walls the same valley needs no gap: the valleys change nothing.
+    assert np.array_equal(drain_terrain(h, factor=2, valleys=valleys), drain_terrain(h, factor=2))
+
+
 def test_grid_factor():
     assert grid_factor(80) == 4 and grid_factor(48) == 2 and grid_factor(16) == 1
     # A world-size map's grid stays within MOST_CELLS.
@@ -139,7 +174,7 @@ def test_grid_factor():
 
 
 @pytest.mark.parametrize("factor", [1, 3, 4])
-def test_ridge_blocks_are_the_blocks_of_the_wide_lines(factor):
+def test_stroke_blocks_are_the_blocks_of_the_wide_lines(factor):
     """From the lines' cells alone, the blocks the whole map's 3-cell-wide
     mask meets, the map's edges included."""
     shape = (97, 131)
@@ -152,8 +187,8 @@ def test_ridge_blocks_are_the_blocks_of_the_wide_lines(factor):
     ridges = FeatureGraph("ridge", shape, tuple(nodes), tuple(paths))
     grid = coarse_grid(shape, factor)
     expected = block_pool(graph_mask(ridges, width=WALL_WIDTH), factor, grid, np.any)
-    assert expected.any() and np.array_equal(ridge_blocks(ridges, factor, grid), expected)
-    assert ridge_blocks(FeatureGraph("ridge", shape, (), ()), factor, grid) is None
+    assert expected.any() and np.array_equal(stroke_blocks(ridges, factor, grid), expected)
+    assert stroke_blocks(FeatureGraph("ridge", shape, (), ()), factor, grid) is None
 
 
 def test_a_lowering_over_a_box_is_the_whole_maps():

@@ -402,7 +402,7 @@ def test_a_tiled_run_drains_the_whole_map_as_a_whole_map_step_would(one_worker, 
     maps = map_strokes(s_valley, (256, 256))
     assert maps.valleys.paths and maps.ridges.paths
     expected = drain_terrain(apply_drainage(as_made, maps.valleys, maps.ridges, patch_size=32),
-                             factor=grid_factor(32, (256, 256)), ridges=maps.ridges)
+                             factor=grid_factor(32, (256, 256)), ridges=maps.ridges, valleys=maps.valleys)
     assert np.array_equal(heights, expected)
     assert np.abs(heights - as_made).max() > 0.1  # the step changed something
     # Toggling drainage keeps the tiles: it runs after them.
@@ -440,7 +440,8 @@ def test_tiled_drainage_holds_painted_water_and_its_banks_and_names_a_pin_it_mov
     banks = PaintedMask(ndimage.binary_dilation(painted, iterations=7), (256, 256)).window((0, 256, 0, 256))
     expected = drain_terrain(apply_drainage(as_made, maps.valleys, maps.ridges, patch_size=32, water=water,
                                             locked=banks),
-                             factor=grid_factor(32, (256, 256)), ridges=maps.ridges, water=water, locked=banks)
+                             factor=grid_factor(32, (256, 256)), ridges=maps.ridges, valleys=maps.valleys, water=water,
+                             locked=banks)
     assert np.array_equal(heights, expected)
     assert np.array_equal(heights[banks], as_made[banks])  # water and banks held still
     assert any(f"pin at row {pin.row}, col {pin.col} moved" in n for n in drained.notes)
