@@ -94,7 +94,8 @@ _SPLINE_PAD = 12
 WALL_WIDTH = 3
 
 #: Percentile of the terrain's slopes that the walls of a gap cut through a
-#: painted ridge (a basin of painted valleys opening) take; other breaches'
+#: painted ridge (a basin of painted valleys opening) take, along its whole
+#: path (the outflow beyond the ridge is a canyon too); other breaches'
 #: walls take the 90th.  A gap as wide as a breach's on the 90th percentile
 #: took 6-14 % of a ring's cells below the median height (Big Tujunga, the
 #: Himalaya, St. Helens, four seeds each); at the 99.5th, 3-11 %.
@@ -129,14 +130,19 @@ def breach_depressions(heights: np.ndarray, *, walls: np.ndarray | None = None,
     heights : ndarray of float, shape (rows, cols)
         Metres; not modified.
     walls : ndarray of bool, shape (rows, cols), optional
-        Cells no breach may cross (painted ridges).
+        Cells no breach may cross (painted ridges), but for a gap out of a
+        depression that must drain (``drains``).
     locked : ndarray of bool, shape (rows, cols), optional
         Cells that must not change; no breach crosses them either.
     outlets : ndarray of bool, shape (rows, cols), optional
         Where water leaves besides the map's border (painted water).
     drains : ndarray of bool, shape (rows, cols), optional
-        Cells that must drain (painted valleys): a depression holding one
-        that has no way out within the walls is breached across them.
+        Cells that must drain (painted valleys; ignored without
+        ``walls``).  A depression whose flooded cells hold one, and that
+        the walls (not the locked cells) close in, is breached across
+        them: the path of least cut that crosses no locked cell, its walls
+        at the :data:`GAP_SLOPE` percentile of the slopes.  (A valley
+        that ends above the depression's spill level does not count.)
     min_depth : float
         Shallowest depression breached, as a share of the relief.
 
@@ -146,7 +152,8 @@ def breach_depressions(heights: np.ndarray, *, walls: np.ndarray | None = None,
         ``heights`` (float32, shape (rows, cols): lowered only, along the
         breaches and their walls; every other cell keeps its bytes), the
         number of depressions breached and of those left (no way out within
-        :data:`MAX_MARGIN` cells, or only across a wall).
+        :data:`MAX_MARGIN` cells, or only across a wall for a depression
+        that need not drain).
     """
     h = np.array(heights, dtype=np.float64)
     rows, cols = h.shape
@@ -161,28 +168,34 @@ def breach_depressions(heights: np.ndarray, *, walls: np.ndarray | None = None,
             blocked |= mask
     frozen = locked if locked is not None and locked.any() else None
     eps = MIN_SLOPE * float(np.ptp(h))
-    slope = np.hypot(*np.gradient(h))
-    steep = float(np.percentile(slope, 90))
-    gap = float(np.percentile(slope, GAP_SLOPE))
+    slopes = np.hypot(*np.gradient(h))
+    steep, gap = (float(v) for v in np.percentile(slopes, [90, GAP_SLOPE]))
     if outlets is not None and not outlets.any():
         outlets = None
     lakes, pits = _depressions(h, min_depth * relief, outlets)
     objects = ndimage.find_objects(lakes)
     draining = set() if drains is None or walls is None else set(np.unique(lakes[drains]).tolist())
-    held = locked if locked is not None else np.zeros(h.shape, bool)
     breached = left = 0
     # Lowest first: a higher depression's way out may run through a lower
     # one, which is open by then.
     for k in sorted(pits, key=lambda k: h[pits[k]]):
-        pit, box, slope = pits[k], objects[k - 1], steep
-        path = None if blocked[pit] else _way_out(h, box, pit, blocked, outlets, 1e-3 * relief)
-        if path is None and k in draining and not held[pit]:
-            # Walled in (or a wall's own): painted valleys drain, through a gap.
-            path, slope = _way_out(h, box, pit, held, outlets, 1e-3 * relief), gap
+        pit, box = pits[k], objects[k - 1]
+        step = 1e-3 * relief
+        path = None if blocked[pit] else _way_out(h, box, pit, blocked, outlets, step)
+        gap_asked = path is None and k in draining and not (locked is not None and locked[pit])
+        if gap_asked and locked is not None and locked.any() and not walls[pit]:
+            # Only the walls may be what closes the basin in: where locked
+            # cells do (a local re-synthesis's, painted water's banks),
+            # the depression is left as before.
+            gap_asked = _way_out(h, box, pit, walls, outlets, step) is None
+        if gap_asked:
+            # Walled in (or a wall's own pit): painted valleys drain, through a gap.
+            held = locked if locked is not None else np.zeros(h.shape, bool)
+            path = _way_out(h, box, pit, held, outlets, step)
         if path is None:
-            left += 0 if blocked[pit] else 1  # (a locked cell's, or a wall's own: not ours to open)
+            left += int(not blocked[pit] or gap_asked)  # (else a locked cell's or a wall's own: not ours)
             continue
-        _cut(h, path, eps, slope, frozen)
+        _cut(h, path, eps, gap if gap_asked else steep, frozen)
         breached += 1
     return Breached(h.astype(np.float32), breached, left)
 
@@ -511,7 +524,7 @@ def drain_terrain(heights: np.ndarray, *, factor: int, ridges: FeatureGraph | No
 
 
 def breach_in_rounds(shape: tuple[int, int], factor: int, read, add, *, ridges: FeatureGraph | None,
-                     valleys: FeatureGraph | None = None, water: Mask | None, locked: Mask | None) -> None:
+                     valleys: FeatureGraph | None, water: Mask | None, locked: Mask | None) -> None:
     """:data:`ROUNDS` rounds of :func:`breach_round` on a map read band by
     band: the whole map's (:func:`drain_terrain`) or a tiled run's
     (:func:`terrasynth_core.tiled.drainage.breach_tiles`).
@@ -572,9 +585,9 @@ def breach_round(coarse: np.ndarray, factor: int, *, walls: np.ndarray | None,
         neighbours).
     locked : Mask or None
         The output's locked cells.
-    drains : ndarray of bool, shape (g_rows, g_cols), or None
+    drains : ndarray of bool, shape (g_rows, g_cols), optional
         The blocks painted valleys meet: their depressions open through
-        the walls.
+        the walls (:func:`breach_depressions`).
 
     Returns
     -------

@@ -235,9 +235,11 @@ def breach_tiles(surface: TiledSurface, ridges: FeatureGraph | None, valleys: Fe
     ----------
     surface : TiledSurface
         Its valleys drained.
-    ridges, valleys : FeatureGraph or None
-        The painted ridges and valleys in output cells: walls, and what
-        drains through them.
+    ridges : FeatureGraph or None
+        The painted ridges in output cells: walls.
+    valleys : FeatureGraph or None, optional
+        The painted valleys in output cells: their basins drain through
+        the walls.
     patch_size : int
     water, locked : PaintedMask, optional
         Painted water (an outlet) and cells held still (its banks).

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from terrasynth_core.controls import depressions
 from terrasynth_core.controls.depressions import (WALL_WIDTH, block_pool, breach_depressions, breach_round,
                                                   coarse_grid, drain_terrain, grid_factor, stroke_blocks)
 from terrasynth_core.controls.drainage import ArrayMask
@@ -98,6 +99,38 @@ def test_a_ring_of_walls_keeps_its_basin():
     # ... but not through a locked cell.
     held = breach_depressions(h, walls=walls, drains=valley, locked=walls)
     assert held.left >= 1 and np.array_equal(held.heights[d < 28], h[d < 28])
+    # Where locked cells, not the walls, close the basin in (painted water
+    # inside the ring, held still with its banks, as a tiled run holds
+    # them), it is left as before: no gap through the ring.
+    lake = np.hypot(yy - N / 2, xx - (N / 2 - 18)) < 4
+    banks = ndimage.binary_dilation(lake, iterations=3)
+    fenced = breach_depressions(h, walls=walls, drains=valley, locked=banks, outlets=lake)
+    assert fenced.left >= 1 and np.array_equal(fenced.heights[np.abs(d - 30.0) < 4], h[np.abs(d - 30.0) < 4])
+    # A pit on the wall itself counts as left when its gap cannot be cut.
+    on_wall = h.copy()
+    on_wall[int(N / 2), int(N / 2 + 30)] -= 200.0
+    cell = np.zeros(h.shape, bool)
+    cell[int(N / 2), int(N / 2 + 30)] = True
+    ringed = breach_depressions(on_wall, walls=walls, drains=cell, locked=ndimage.binary_dilation(cell, iterations=3) & ~cell)
+    assert ringed.left >= 1
+
+
+def test_a_gap_is_narrower_than_a_breach(monkeypatch):
+    """The gap's walls take the GAP_SLOPE percentile of the slopes: fewer
+    wall cells cut than with the other breaches' 90th."""
+    yy, xx = np.mgrid[0:N, 0:N].astype(float)
+    d = np.hypot(yy - N / 2, xx - N / 2)
+    rng = np.random.default_rng(0)
+    h = (100.0 + 0.5 * d + 80.0 * np.exp(-((d - 30.0) ** 2) / 20.0) + 3.0 * rng.standard_normal((N, N))).astype(np.float32)
+    h[d < 10] -= 30.0
+    walls, valley = np.abs(d - 30.0) < 2.0, (np.abs(yy - N / 2) < 1) & (d < 20)
+    crossed = {}
+    for percentile in (90.0, depressions.GAP_SLOPE):
+        monkeypatch.setattr(depressions, "GAP_SLOPE", percentile)
+        done = breach_depressions(h, walls=walls, drains=valley)
+        assert done.breached >= 1
+        crossed[percentile] = int((walls & (done.heights < h - 1.0)).sum())
+    assert 0 < crossed[depressions.GAP_SLOPE] < crossed[90.0]
 
 
 def test_locked_cells_keep_their_bytes():
@@ -212,7 +245,6 @@ def test_a_lowering_over_a_box_is_the_whole_maps():
 def test_bands_give_the_whole_maps_blocks_and_lowering(monkeypatch):
     """Pooled and lowered a band of rows at a time (a large map is never
     held in float64), the same values as the whole map at once."""
-    from terrasynth_core.controls import depressions
 
     h = _slope_with_bowls(5)[:, :91]  # (not a whole number of blocks)
     water = np.zeros(h.shape, bool)
@@ -235,7 +267,6 @@ def test_a_gorge_widened_cell_by_cell_or_in_batches_is_the_same(monkeypatch, ter
     channel cell at a time on wide ones) give the same bytes, on gentle
     and on flat ground too, where a cut's reach has no bound (a flat map's
     steep slope is 0: the squares span the map)."""
-    from terrasynth_core.controls import depressions
 
     yy, xx = np.mgrid[0:120, 0:120].astype(float)
     if terrain == "bowls":

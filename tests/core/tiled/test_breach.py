@@ -100,3 +100,37 @@ def test_a_tiled_map_without_strokes_is_breached_and_reads_as_written(store):
     rr, cc = np.nonzero(tiled < heights)
     assert np.array_equal(drained[rr, cc], tiled[rr, cc])
     assert len(notes) == 1 and "moved" in notes[0] and "breaching of closed depressions" in notes[0]
+
+
+def _ring_and_valley(heights: np.ndarray) -> tuple[np.ndarray, FeatureGraph, FeatureGraph]:
+    """``heights`` with a ring of high ground about a sunken basin (radius
+    60 about (150, 180)), the ring painted as a ridge and a valley painted
+    down the basin's middle."""
+    yy, xx = np.mgrid[0:SHAPE[0], 0:SHAPE[1]].astype(float)
+    d = np.hypot(yy - 150, xx - 180)
+    h = heights + 120.0 * np.exp(-((d - 60.0) ** 2) / 60.0) - 80.0 * (d < 50) * (1 - d / 50)
+    angle = np.linspace(0, 2 * np.pi, 300)
+    ring = np.column_stack([150 + 60 * np.sin(angle), 180 + 60 * np.cos(angle)])
+    line = np.column_stack([np.full(40, 150.0), np.linspace(160, 200, 40)])
+    ridges = FeatureGraph("ridge", SHAPE, (FeatureNode(0, *ring[0], "end", 1), FeatureNode(1, *ring[-1], "end", 1)),
+                          (FeaturePath(0, 1, ring),))
+    valleys = FeatureGraph("valley", SHAPE, (FeatureNode(0, *line[0], "end", 1), FeatureNode(1, *line[-1], "end", 1)),
+                           (FeaturePath(0, 1, line),))
+    return h.astype(np.float32), ridges, valleys
+
+
+@pytest.mark.parametrize("patch_size", [80, 48])
+def test_a_painted_valley_in_a_ring_opens_it_in_tiles_as_in_the_whole_map(store, patch_size):
+    """The ring's basin holds a painted valley: the tiled breach cuts the
+    same gap through the ring as the whole map's, to the bit."""
+    heights, ridges, valleys = _ring_and_valley(_bowly_terrain())
+    surface = _tiled(heights, store)
+    breach_tiles(surface, ridges, valleys, patch_size=patch_size)
+    box = (0, SHAPE[0], 0, SHAPE[1])
+    tiled = surface.corrected(box, compose(surface.store, surface.plan, box))
+    whole = drain_terrain(heights, factor=grid_factor(patch_size, SHAPE), ridges=ridges, valleys=valleys)
+    assert np.array_equal(tiled, whole)
+    closed = drain_terrain(heights, factor=grid_factor(patch_size, SHAPE), ridges=ridges)
+    yy, xx = np.mgrid[0:SHAPE[0], 0:SHAPE[1]]
+    inside = np.hypot(yy - 150, xx - 180) < 40
+    assert (whole[inside] < closed[inside] - 10.0).any()  # (the valley's basin drained, not only kept)
