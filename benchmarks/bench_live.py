@@ -280,12 +280,17 @@ example = builtin_example("white-mountains").load()
 previous = data["previous"]
 before = SketchMap(data["ridge_before"], data["valley_before"])
 try:  # as in the app after its whole-map run: the run's worker processes up
-    from concurrent.futures import wait
-    from terrasynth_core.synthesis.workers import _WARMING, warm_up
+    from terrasynth_core.synthesis.workers import wait_warm, warm_up
     warm_up(params.thread_count, params.patch_size)
-    wait(list(_WARMING))
-except ImportError:
-    pass
+    wait_warm()
+except ImportError:  # (an engine from before wait_warm: its own warm-up list)
+    try:
+        from concurrent.futures import wait
+        from terrasynth_core.synthesis.workers import _WARMING, warm_up
+        warm_up(params.thread_count, params.patch_size)
+        wait(list(_WARMING))
+    except ImportError:
+        pass
 def stroke(i):
     after = SketchMap(data["ridge"][i], data["valley"][i])
     t = time.perf_counter()

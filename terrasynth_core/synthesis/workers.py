@@ -20,7 +20,7 @@ import pickle
 import tempfile
 import threading
 import time
-from concurrent.futures import Future
+from concurrent.futures import Future, wait
 from pathlib import Path
 
 #: Seconds an idle worker process waits for more work before it exits.
@@ -101,6 +101,16 @@ def ready() -> bool:
     with _WARMING_LOCK:
         futures = list(_WARMING)
     return bool(futures) and all(f.done() and not f.cancelled() and f.exception() is None for f in futures)
+
+
+def wait_warm(timeout: float | None = None) -> bool:
+    """Wait until the workers of the last :func:`warm_up` are warm (or
+    ``timeout`` seconds); whether they are (:func:`ready`).  For benchmarks
+    and tests that must time or exercise warm workers; a run never waits."""
+    with _WARMING_LOCK:
+        futures = list(_WARMING)
+    wait(futures, timeout=timeout)
+    return ready()
 
 
 def running(processes: int) -> bool:

@@ -3,8 +3,6 @@ prepared on a helper thread."""
 
 from __future__ import annotations
 
-from concurrent.futures import wait
-
 import numpy as np
 import pytest
 
@@ -15,8 +13,7 @@ from terrasynth_core.synthesis import Session, SynthesisParams, feature_ahead, p
 def _warm() -> bool:
     """The workers once their warm-up is done (a test must not depend on
     whether a fresh process imported in time)."""
-    wait(list(workers._WARMING))
-    return workers.ready()
+    return workers.wait_warm()
 
 
 @pytest.mark.parametrize("thread_first", [0, 5])

@@ -150,8 +150,6 @@ def test_the_whole_sketch_networks_are_made_on_a_worker_once_it_is_up(white_moun
     one beside the crop run; the crop's fill stays in this process (in the
     app the worker's core is the window's); the result is the bytes of a
     crop run in this process alone."""
-    from concurrent.futures import wait
-
     from terrasynth_core.synthesis import workers
 
     selection = stroke_selection(changed_cells(before, after), patch_size=P.patch_size)
@@ -160,7 +158,7 @@ def test_the_whole_sketch_networks_are_made_on_a_worker_once_it_is_up(white_moun
     here = resynthesize_region([white_mountains], after, params=SynthesisParams(**{**P.__dict__, "workers": 1}),
                                **kwargs)
     workers.warm_up(2, P.patch_size)
-    wait(list(workers._WARMING))
+    assert workers.wait_warm()
     assert workers.running(2)
     sent = []
     kit_submit = workers.KitWorkers.submit
