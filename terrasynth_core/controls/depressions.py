@@ -175,22 +175,21 @@ def breach_depressions(heights: np.ndarray, *, walls: np.ndarray | None = None,
     lakes, pits = _depressions(h, min_depth * relief, outlets)
     objects = ndimage.find_objects(lakes)
     draining = set() if drains is None or walls is None else set(np.unique(lakes[drains]).tolist())
+    # What a gap may not cross: only the locked cells.
+    held = None if not draining else locked if locked is not None else np.zeros(h.shape, bool)
+    step = 1e-3 * relief
     breached = left = 0
     # Lowest first: a higher depression's way out may run through a lower
     # one, which is open by then.
     for k in sorted(pits, key=lambda k: h[pits[k]]):
         pit, box = pits[k], objects[k - 1]
-        step = 1e-3 * relief
         path = None if blocked[pit] else _way_out(h, box, pit, blocked, outlets, step)
-        gap_asked = path is None and k in draining and not (locked is not None and locked[pit])
-        if gap_asked and locked is not None and locked.any() and not walls[pit]:
-            # Only the walls may be what closes the basin in: where locked
-            # cells do (a local re-synthesis's, painted water's banks),
-            # the depression is left as before.
-            gap_asked = _way_out(h, box, pit, walls, outlets, step) is None
+        # Walled in (or a wall's own pit): painted valleys drain, through a
+        # gap; but where locked cells close the basin in (a re-synthesis's,
+        # painted water's banks), it is left as before.
+        gap_asked = (path is None and k in draining and not held[pit]
+                     and (frozen is None or walls[pit] or _way_out(h, box, pit, walls, outlets, step) is None))
         if gap_asked:
-            # Walled in (or a wall's own pit): painted valleys drain, through a gap.
-            held = locked if locked is not None else np.zeros(h.shape, bool)
             path = _way_out(h, box, pit, held, outlets, step)
         if path is None:
             left += int(not blocked[pit] or gap_asked)  # (else a locked cell's or a wall's own: not ours)
