@@ -10,6 +10,15 @@ Usage::
 Each case hashes the heights, the patch-id map, the seam mask and the patch
 records (SHA-256, first 16 hex digits).  Run it on the commit before a
 refactor (a ``git worktree``) and after; the tables must match line for line.
+
+The bytes depend on the numerical libraries as well as on the engine: the
+BLAS kernels OpenBLAS picks for the machine's processor and the library
+versions move round-off, and a float32 height can round the other way
+(the same commit gave 4 of the 11 digests differently on two machines).
+So the JSON also records the environment (:func:`environment`), and
+``--compare`` names what differs from the reference's; where it does, make
+the reference again from the commit before, here, rather than read a
+difference as the change's.
 """
 
 from __future__ import annotations
@@ -20,6 +29,8 @@ import hashlib
 import json
 import sys
 import time
+from importlib import metadata
+from pathlib import Path
 
 import numpy as np
 
@@ -80,6 +91,44 @@ CASES = {
 }
 
 
+#: Distributions whose version can move the engine's round-off.
+PACKAGES = ("numpy", "scipy", "scikit-image", "PyMaxflow", "faiss-cpu")
+
+#: Key of the environment in the JSON (the other keys are the cases).
+ENVIRONMENT = "_environment"
+
+
+def environment() -> dict[str, str]:
+    """The numerical libraries' versions and the BLAS builds and kernels
+    in use (``threadpoolctl``), as strings."""
+    import scipy.linalg  # noqa: F401  (loads scipy's own BLAS, if it has one)
+    from threadpoolctl import threadpool_info
+
+    env = {}
+    for name in PACKAGES:
+        try:
+            env[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            env[name] = "absent"
+    for lib in threadpool_info():
+        if lib.get("user_api") == "blas":
+            # (Keyed by the folder it ships in: numpy's and scipy's wheels each bring one.)
+            where = Path(lib.get("filepath", "")).parent.name
+            env[f"blas in {where}"] = f"{lib.get('internal_api')} {lib.get('version')} {lib.get('architecture')}"
+    return env
+
+
+def environment_differences(reference: dict) -> list[str]:
+    """What differs between the reference's environment and this one, one
+    line each (the reference's first); a reference without one says so."""
+    theirs = reference.get(ENVIRONMENT)
+    if theirs is None:
+        return ["the reference does not record its environment"]
+    ours = environment()
+    return [f"{key}: {theirs.get(key, 'absent')} there, {ours.get(key, 'absent')} here"
+            for key in sorted(set(theirs) | set(ours)) if theirs.get(key) != ours.get(key)]
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--json", metavar="OUT", help="also write the digests as JSON")
@@ -87,6 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", metavar="TEXT", help="run only the cases whose name contains TEXT")
     args = ap.parse_args(argv)
     reference = json.loads(open(args.compare).read()) if args.compare else {}
+    moved = environment_differences(reference) if args.compare else []
     digests, differ = {}, 0
     print(f"{'case':42s} {'sha256[:16]':16s} {'seconds':>8s}  same")
     for name, run in CASES.items():
@@ -97,9 +147,14 @@ def main(argv: list[str] | None = None) -> int:
         same = "" if name not in reference else ("yes" if reference[name] == digests[name] else "NO")
         differ += same == "NO"
         print(f"{name:42s} {digests[name]:16s} {time.perf_counter() - t:8.1f}  {same}", flush=True)
+    if differ and moved:
+        print(f"\n{differ} digest(s) differ, but so does the environment (the bytes can follow it):")
+        for line in moved:
+            print(f"  {line}")
+        print("Make the reference from the commit before, in this environment (a git worktree), to tell.")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump(digests, f, indent=1)
+            json.dump({**digests, ENVIRONMENT: environment()}, f, indent=1)
     return 1 if differ else 0
 
 
