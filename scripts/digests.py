@@ -101,8 +101,14 @@ ENVIRONMENT = "_environment"
 def environment() -> dict[str, str]:
     """The numerical libraries' versions and the BLAS builds and kernels
     in use (``threadpoolctl``), as strings."""
-    import scipy.linalg  # noqa: F401  (loads scipy's own BLAS, if it has one)
+    # A BLAS shows only once its library is loaded: scipy's with its
+    # linalg, faiss's (the fill search's index) with faiss.
+    import scipy.linalg  # noqa: F401
     from threadpoolctl import threadpool_info
+    try:
+        import faiss  # noqa: F401
+    except ImportError:
+        pass
 
     env = {}
     for name in PACKAGES:
@@ -136,7 +142,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", metavar="TEXT", help="run only the cases whose name contains TEXT")
     args = ap.parse_args(argv)
     reference = json.loads(open(args.compare).read()) if args.compare else {}
-    moved = environment_differences(reference) if args.compare else []
     digests, differ = {}, 0
     print(f"{'case':42s} {'sha256[:16]':16s} {'seconds':>8s}  same")
     for name, run in CASES.items():
@@ -147,6 +152,7 @@ def main(argv: list[str] | None = None) -> int:
         same = "" if name not in reference else ("yes" if reference[name] == digests[name] else "NO")
         differ += same == "NO"
         print(f"{name:42s} {digests[name]:16s} {time.perf_counter() - t:8.1f}  {same}", flush=True)
+    moved = environment_differences(reference) if args.compare else []
     if differ and moved:
         print(f"\n{differ} digest(s) differ, but so does the environment (the bytes can follow it):")
         for line in moved:
