@@ -15,11 +15,13 @@ pure functions of what they are given.
 
 from __future__ import annotations
 
+import atexit
 import os
 import pickle
 import tempfile
 import threading
 import time
+from collections import OrderedDict
 from concurrent.futures import Future, wait
 from pathlib import Path
 
@@ -31,17 +33,52 @@ _THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS
 
 
 def executor(processes: int):
-    """loky's reusable executor with ``processes`` worker processes."""
-    from loky import get_reusable_executor
+    """The worker processes' executor, ``processes`` of them: one for the
+    whole process, whichever thread asks (a run's events are drained on
+    a new thread each time in the app).
 
-    # One BLAS thread per worker: the processes themselves use the cores
-    # (see pipeline.run_pipeline for what BLAS threads on top cost).  A
-    # worker keeps its stage's kit (searches, indexes) by design: loky, where
-    # psutil is installed (Dask brings it), would take that growth for a
-    # leak and restart the worker mid-run, with a warning.
-    return get_reusable_executor(max_workers=processes, timeout=IDLE_SECONDS,
-                                 env={**{name: "1" for name in _THREAD_VARIABLES},
-                                      "LOKY_MAX_MEMORY_LEAK_SIZE": str(2**62)})
+    loky's own reusable executor is kept per thread, so each run or live
+    stroke on a new thread started a new executor with cold worker
+    processes (imports, kits, indexes): eight worker processes in turn for
+    a run and six live strokes in the app, where one serves them all now.
+    This one is replaced only when broken, shut down or asked for another
+    number of processes.
+    """
+    from loky import ProcessPoolExecutor
+
+    with _EXECUTOR_LOCK:
+        pool = _EXECUTOR.get("pool")
+        # (loky's own reuse test reads the same flags.)
+        if pool is not None and pool._max_workers == processes and not (pool._flags.broken or
+                                                                         pool._flags.shutdown):
+            return pool
+        if pool is not None:
+            pool.shutdown(wait=False)
+        # One BLAS thread per worker: the processes themselves use the cores
+        # (see pipeline.run_pipeline for what BLAS threads on top cost).  A
+        # worker keeps its stage's kit (searches, indexes) by design: loky, where
+        # psutil is installed (Dask brings it), would take that growth for a
+        # leak and restart the worker mid-run, with a warning.
+        pool = ProcessPoolExecutor(max_workers=processes, timeout=IDLE_SECONDS,
+                                   env={**{name: "1" for name in _THREAD_VARIABLES},
+                                        "LOKY_MAX_MEMORY_LEAK_SIZE": str(2**62)})
+        _EXECUTOR["pool"] = pool
+        return pool
+
+
+#: The executor of :func:`executor` (key ``"pool"``).
+_EXECUTOR: dict = {}
+_EXECUTOR_LOCK = threading.Lock()
+
+
+@atexit.register
+def _shut_down() -> None:
+    # Before the interpreter tears its modules down: an executor collected
+    # after that prints an ignored exception from loky's clean-up.
+    with _EXECUTOR_LOCK:
+        pool = _EXECUTOR.pop("pool", None)
+    if pool is not None:
+        pool.shutdown(wait=False)
 
 
 def import_engine() -> None:
@@ -139,7 +176,11 @@ class KitWorkers:
 
     What the tasks share (the *kit*) is pickled to a temporary file, and
     the executor fetched, when the first task is sent: a stage whose
-    workers are never used pays nothing.  The file is removed on exit.
+    workers are never used pays nothing.  The file is removed on exit,
+    unless the kit has a ``keep`` key: then the file is kept for the next
+    stage whose kit has the same key (the next live stroke's fill), which
+    neither pickles it again nor has the workers load it again
+    (:data:`KEPT_KITS` files at most, removed at exit).
 
     Parameters
     ----------
@@ -147,11 +188,14 @@ class KitWorkers:
         Picklable.
     processes : int
         The run's processes, this one included (above 1).
+    keep : hashable, optional
+        Says which kits are the same: equal keys, the same kit.
     """
 
-    def __init__(self, kit, processes: int):
+    def __init__(self, kit, processes: int, *, keep=None):
         self.kit = kit
         self.processes = processes
+        self.keep = keep
         self._path: str | None = None
         self._pool = None
 
@@ -163,7 +207,7 @@ class KitWorkers:
     def submit(self, task, *args) -> Future:
         """``task(kit, *args)`` on a worker (:func:`with_kit`)."""
         if self._pool is None:
-            self._path = _kit_file(self.kit)
+            self._path = _kit_file(self.kit) if self.keep is None else _kept_kit_file(self.keep, self.kit)
             # (Every stage asks for the same size: resizing would restart warm workers.)
             self._pool = executor(self.processes - 1)
         _sent()
@@ -173,8 +217,47 @@ class KitWorkers:
         return self
 
     def __exit__(self, *exc) -> None:
-        if self._path is not None:
+        if self._path is not None and self.keep is None:
             Path(self._path).unlink(missing_ok=True)
+
+
+#: Kit files kept for later stages (:class:`KitWorkers` ``keep``), and as
+#: many kits a worker keeps loaded (a live stroke's fill kit and one
+#: other stage's; each holds the examples' searches and the indexes the
+#: worker loaded, tens of MB).
+KEPT_KITS = 2
+
+#: Kept kit files by key, oldest first: (path, kit).  The kit is held so
+#: that the objects its key names stay alive (an ``id`` in a key is not
+#: reused while they do).
+_KEPT: OrderedDict = OrderedDict()
+
+
+_KEPT_LOCK = threading.Lock()
+
+
+def _kept_kit_file(key, kit) -> str:
+    """The kept file of the kit ``key`` names, made now if there is none."""
+    with _KEPT_LOCK:
+        got = _KEPT.get(key)
+        if got is not None and Path(got[0]).exists():
+            _KEPT.move_to_end(key)
+            return got[0]
+    path = _kit_file(kit)
+    with _KEPT_LOCK:
+        _KEPT[key] = (path, kit)
+        while len(_KEPT) > KEPT_KITS:
+            old, _ = _KEPT.popitem(last=False)[1]
+            Path(old).unlink(missing_ok=True)
+    return path
+
+
+@atexit.register
+def _remove_kept() -> None:
+    with _KEPT_LOCK:
+        for path, _ in _KEPT.values():
+            Path(path).unlink(missing_ok=True)
+        _KEPT.clear()
 
 
 def _kit_file(kit) -> str:
@@ -189,20 +272,25 @@ def _kit_file(kit) -> str:
     return path
 
 
-#: In a worker: the kit it works with, and the file it came from (path,
-#: inode and modification time: a later kit may reuse a removed one's name).
-_KIT: tuple[tuple, object] | None = None
+#: In a worker: the kits it holds, by the file each came from (path, inode
+#: and modification time: a later kit may reuse a removed one's name),
+#: the last used last; at most :data:`KEPT_KITS`.
+_KITS: OrderedDict = OrderedDict()
 
 
 def with_kit(kit_path: str, task, *args):
     """In a worker: ``task(kit, *args)`` with the kit of ``kit_path``
-    (loaded on the first task that names it; the last stage's kit goes
-    first)."""
-    global _KIT
+    (loaded on the first task that names it; the least recently used of
+    more than :data:`KEPT_KITS` goes)."""
     st = os.stat(kit_path)
     which = (kit_path, st.st_ino, st.st_mtime_ns)
-    if _KIT is None or _KIT[0] != which:
-        _KIT = None
+    kit = _KITS.get(which)
+    if kit is None:
+        # (Room first: a worker never holds more than KEPT_KITS, even loading.)
+        while len(_KITS) >= KEPT_KITS:
+            _KITS.popitem(last=False)
         with open(kit_path, "rb") as f:
-            _KIT = (which, pickle.load(f))
-    return task(_KIT[1], *args)
+            kit = pickle.load(f)
+        _KITS[which] = kit
+    _KITS.move_to_end(which)
+    return task(kit, *args)
