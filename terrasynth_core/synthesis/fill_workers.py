@@ -57,6 +57,14 @@ class FillKit:
     patch_size: int
     k: int
 
+    def key(self) -> tuple:
+        """Equal for kits that are the same: the searches and the detail
+        are the memos' shared objects (by ``id``: a kept kit holds them,
+        so no other object takes their ids while it is kept), the rest by
+        value."""
+        return (tuple(map(id, self.searches)), tuple(map(id, self.detail)), self.anchor.tobytes(), self.seed,
+                self.patch_size, self.k)
+
 
 @dataclass(frozen=True, eq=False)
 class WindowTask:
@@ -145,7 +153,9 @@ class FillWorkers:
 
     def __enter__(self) -> "FillWorkers":
         if self.processes > 1:
-            self._workers = KitWorkers(self.kit, self.processes)
+            # Kept for the next stage with the same kit: a live stroke's fill
+            # finds it with the workers, its indexes loaded.
+            self._workers = KitWorkers(self.kit, self.processes, keep=self.kit.key())
         return self
 
     def __exit__(self, *exc) -> None:

@@ -35,7 +35,7 @@ from .finish import finish_heights
 from .landform import DRAWN_NOTE, drawn_level, drawn_split, landform_from, preview_patch, split_sigma
 from .params import SynthesisParams
 from .result import PatchRecord, SynthesisResult
-from .workers import warm_up
+from .workers import running, warm_up
 
 #: Fewest feature patches worth preparing on a worker process (sending it
 #: the run's pools and examples costs more than a few patches save).
@@ -311,11 +311,11 @@ def fill_stage(state: RunState):
     remaining = WindowQueue(windows, canvas.filled, defer_shared=defer)
     kit = FillKit(searches, lay.detail, lay.anchor, p.seed, p.patch_size, p.k)
     number = 0
-    # A short fill (a stroke's crop) stays in this process: in the app the
-    # worker process takes the core the window's own drawing needs (a
-    # crop's fill on both processes took a live update from 2.2 to 2.8 s
-    # in the app, though from 1.3 to 1.0 s without a window).
-    processes = state.processes if len(windows) >= MIN_PARALLEL_WINDOWS else 1
+    # A short fill (a live stroke's crop) goes to the worker processes only
+    # when they are up and warm already (starting them would cost it more
+    # than they save); its kit stays with them for the next stroke.
+    long = len(windows) >= MIN_PARALLEL_WINDOWS
+    processes = state.processes if long or running(state.processes) else 1
     with FillWorkers(kit, processes) as workers:
         while wave := remaining.pop_wave(WAVE):
             tasks = []

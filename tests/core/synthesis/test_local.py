@@ -9,6 +9,7 @@ from terrasynth_core.errors import ParamsError, SynthesisCancelled
 from terrasynth_core.features.sketch import SketchMap, read_sketch, sketch_features
 from terrasynth_core.synthesis import (Controls, PatchPlaced, Pin, Session, SynthesisFinished, SynthesisParams, Water,
                                        changed_cells, iter_resynthesize_region, resynthesize_region, stroke_selection)
+from terrasynth_core.synthesis.fill_workers import fill_window
 from terrasynth_core.synthesis.local import crop_box
 
 P = SynthesisParams(patch_size=32, k=2, seed=7)
@@ -143,13 +144,11 @@ def test_an_automatic_patch_size_is_chosen_as_a_whole_run_would(highland, after,
     assert local.params.patch_size == whole.params.patch_size < 80
 
 
-def test_the_whole_sketch_networks_are_made_on_a_worker_once_it_is_up(white_mountains, first, after, before,
-                                                                      monkeypatch):
+def test_a_stroke_uses_the_workers_once_they_are_up(white_mountains, first, after, before, monkeypatch):
     """A live stroke after a whole run: the run's worker processes are up,
     so the whole sketch's networks (for the result's overlays) are made on
-    one beside the crop run; the crop's fill stays in this process (in the
-    app the worker's core is the window's); the result is the bytes of a
-    crop run in this process alone."""
+    one beside the crop run, and the crop's fill windows go to them too;
+    the result is the bytes of a crop run in this process alone."""
     from terrasynth_core.synthesis import workers
 
     selection = stroke_selection(changed_cells(before, after), patch_size=P.patch_size)
@@ -167,7 +166,8 @@ def test_the_whole_sketch_networks_are_made_on_a_worker_once_it_is_up(white_moun
                         lambda n, task, *a: sent.append(task) or workers.submit(n, task, *a))
     there = resynthesize_region([white_mountains], after, params=SynthesisParams(**{**P.__dict__, "workers": 2}),
                                 **kwargs)
-    assert sent == [sketch_features]
+    assert sent[0] is sketch_features
+    assert len(sent) > 1 and all(task is fill_window for task in sent[1:])
     np.testing.assert_array_equal(here.heights, there.heights)
     np.testing.assert_array_equal(here.patch_id, there.patch_id)
     for kind in ("ridges", "valleys"):
