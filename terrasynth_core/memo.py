@@ -25,26 +25,51 @@ class Memo:
     Parameters
     ----------
     size : int
+    once : bool, default False
+        Make each value once even when threads ask for it together (see
+        :meth:`get`).
     """
 
-    def __init__(self, size: int):
+    def __init__(self, size: int, *, once: bool = False):
         self.size = int(size)
+        self.once = bool(once)
         self._values: OrderedDict = OrderedDict()
+        self._making: dict = {}  # key -> Event set when its maker is done
         self._lock = threading.Lock()
 
     def get(self, key: Hashable, make: Callable[[], T]) -> T:
-        """The value kept for ``key``, or ``make()`` (called outside the
-        lock, so two threads may both make a missing value; the values must
-        be equal) kept from now on."""
-        with self._lock:
-            if key in self._values:
-                self._values.move_to_end(key)
-                return self._values[key]
-        value = make()
-        with self._lock:
-            self._values[key] = value
-            while len(self._values) > self.size:
-                self._values.popitem(last=False)
+        """The value kept for ``key``, or ``make()`` kept from now on.
+
+        ``make`` runs outside the lock, so two threads may both make a
+        missing value (the values must be equal).  With ``once``, a thread
+        asking for a key being made waits for it instead (a live stroke
+        arriving while its examples' pools are being prepared); if ``make``
+        raises, a waiting thread makes the value itself.  A ``once`` memo's
+        ``make`` must not wait on another thread that asks this memo.
+        """
+        while True:
+            with self._lock:
+                if key in self._values:
+                    self._values.move_to_end(key)
+                    return self._values[key]
+                making = self._making.get(key) if self.once else None
+                if making is None:
+                    making = threading.Event()
+                    if self.once:
+                        self._making[key] = making
+                    break
+            making.wait()  # then look again: kept now, or to be made here
+        try:
+            value = make()
+            with self._lock:
+                self._values[key] = value
+                while len(self._values) > self.size:
+                    self._values.popitem(last=False)
+        finally:
+            if self.once:
+                with self._lock:
+                    del self._making[key]
+                making.set()
         return value
 
     def peek(self, key: Hashable):

@@ -13,7 +13,8 @@ if TYPE_CHECKING:
     from .params import SynthesisParams
     from .result import PatchRecord, SynthesisResult
     from .session import Session
-    from .local import changed_cells, iter_resynthesize_region, resynthesize_region, stroke_selection
+    from .local import (changed_cells, iter_resynthesize_region, prepare_resynthesis, resynthesize_region,
+                        stroke_selection)
     from .variations import run_variations
     from .workers import import_engine
 
@@ -26,7 +27,8 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     ".params": ("SynthesisParams",),
     ".result": ("PatchRecord", "SynthesisResult"),
     ".session": ("Session",),
-    ".local": ("changed_cells", "iter_resynthesize_region", "resynthesize_region", "stroke_selection"),
+    ".local": ("changed_cells", "iter_resynthesize_region", "prepare_resynthesis", "resynthesize_region",
+               "stroke_selection"),
     ".variations": ("run_variations",),
     ".workers": ("import_engine",),
 })

@@ -71,7 +71,7 @@ def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
 
 
 #: Feature pools kept between sessions (:func:`memo_feature_pools`).
-_POOLS = Memo(4)
+_POOLS = Memo(4, once=True)
 
 
 def memo_feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:

@@ -31,7 +31,7 @@ def fill_searches(layout: StyleLayout, params: SynthesisParams) -> list[FillSear
 #: a session per run and per live stroke, and a search's set-up (the
 #: windows on offer, their roughness prior, the indexes it has loaded) does
 #: not change with the sketch: 0.4 s a stroke saved.
-_SEARCHES = Memo(4)
+_SEARCHES = Memo(4, once=True)
 
 
 def _search(detail: np.ndarray, window: tuple[int, int], feature_mask, coarse: int, overlap: int,

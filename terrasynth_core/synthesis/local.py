@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import Callable, Iterator, Sequence
+from typing import Callable, Iterator, NamedTuple, Sequence
 
 import numpy as np
 from scipy import ndimage
@@ -52,13 +52,15 @@ from ..features.network import mask_box
 from ..heightfield import HeightField
 from ..io.resample import output_georeference
 from .events import PatchPlaced, SynthesisFinished, drive
+from .feature_patches import memo_feature_pools
+from .fill_patches import fill_searches
 from .params import SynthesisParams
 from .result import SynthesisResult
 from .session import Session, with_patch_size
 from .workers import running, submit
 
 __all__ = ["CONTEXT_PATCHES", "STROKE_REACH", "changed_cells", "crop_box", "iter_resynthesize_region",
-           "resynthesize_region", "stroke_selection"]
+           "prepare_resynthesis", "resynthesize_region", "stroke_selection"]
 
 #: Context kept around the selection's bounding box, in patch sizes: the
 #: level field and the landforms are smooth over about two patches.
@@ -251,43 +253,16 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
     carrying the whole map's result.  Closing the generator stops the run
     at the next patch.  Everything is checked before the first event."""
     t_start = time.perf_counter()
-    previous = np.asarray(previous, dtype=np.float32)
-    if previous.ndim != 2:
-        raise ParamsError(f"the previous result must be a 2-D height array, got shape {previous.shape}")
-    shape = previous.shape
-    controls = Controls() if controls is None else controls
-    if not isinstance(controls, Controls):
-        raise ParamsError(f"controls must be Controls, got {type(controls).__name__}")
-    if controls.previous is not None or controls.selection is not None:
-        raise ParamsError("give the previous result and the selection as arguments, not in the controls")
-    if not isinstance(params, SynthesisParams):
-        raise ParamsError(f"params must be SynthesisParams, got {type(params).__name__}")
     examples = list(examples or ())
-    # The whole map's controls, checked (and their maps fitted) once, so the
-    # crop cuts exactly what a whole-map re-synthesis would use.
-    whole = dataclasses.replace(controls, previous=previous, selection=selection).checked(shape, len(examples))
-    # An automatic patch size: chosen as a run of the whole map would, for
-    # the new strokes (the terrain's own run may have chosen another, for
-    # other strokes: pass its ``result.params`` to keep it).
-    if params.patch_size is None:
-        params, _ = with_patch_size(params, grounded_examples(examples, whole, params.cell_size), sketch, shape)
-    if sketch is not None and sketch.shape != shape:
-        sketch = sketch.resized(shape)
+    whole, box, sketch, params, local = _crop_session(examples, sketch, previous, selection, params, controls,
+                                                      context, landform)
+    previous = np.asarray(previous, dtype=np.float32)
+    shape = previous.shape
     for name, arr in (("patch ids", previous_patch_id), ("seam mask", previous_seam_mask)):
         if arr is not None and np.shape(arr) != shape:
             raise ParamsError(f"the previous {name} are {np.shape(arr)} but the terrain is {shape[0]}x{shape[1]}")
-
-    box = crop_box(whole.selection, patch_size=params.patch_size, context=context)
-    if not _same_styles_in(whole, box):
-        # With a height range, the styles' heights are scaled by the span of
-        # the styles present (controls/layout.py): a crop holding fewer
-        # styles would scale them differently.  The whole map keeps them alike.
-        box = (0, shape[0], 0, shape[1])
     r0, r1, c0, c1 = box
     crop = (slice(r0, r1), slice(c0, c1))
-    local = Session(examples, None if sketch is None else _cropped_sketch(sketch, crop), shape=(r1 - r0, c1 - c0),
-                    params=dataclasses.replace(params, landform=bool(landform)),
-                    controls=_cropped_controls(whole, crop))
     t_crop = time.perf_counter() - t_start
     whole_features = None
     if features is None and sketch is not None and running(params.thread_count):
@@ -362,6 +337,94 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
         cell_size=cell,
         georef=georef,
     ))
+
+
+class _Crop(NamedTuple):
+    """A re-synthesis's checked inputs and its crop's session.
+
+    Attributes
+    ----------
+    whole : Controls
+        The whole map's controls, checked, with the previous terrain
+        (float32, shape (rows, cols)) and the selection.
+    box : (r0, r1, c0, c1)
+        The crop, map cells.
+    sketch : SketchMap or None
+        At the map's size.
+    params : SynthesisParams
+        With the patch size chosen when it was automatic.
+    session : Session
+        The crop's.
+    """
+
+    whole: Controls
+    box: tuple[int, int, int, int]
+    sketch: SketchMap | None
+    params: SynthesisParams
+    session: Session
+
+
+def _crop_session(examples: list, sketch: SketchMap | None, previous: np.ndarray, selection: np.ndarray,
+                  params: SynthesisParams, controls: Controls | None, context: float, landform: bool) -> _Crop:
+    """Check a re-synthesis's inputs and make the crop's session."""
+    previous = np.asarray(previous, dtype=np.float32)
+    if previous.ndim != 2:
+        raise ParamsError(f"the previous result must be a 2-D height array, got shape {previous.shape}")
+    shape = previous.shape
+    controls = Controls() if controls is None else controls
+    if not isinstance(controls, Controls):
+        raise ParamsError(f"controls must be Controls, got {type(controls).__name__}")
+    if controls.previous is not None or controls.selection is not None:
+        raise ParamsError("give the previous result and the selection as arguments, not in the controls")
+    if not isinstance(params, SynthesisParams):
+        raise ParamsError(f"params must be SynthesisParams, got {type(params).__name__}")
+    # The whole map's controls, checked (and their maps fitted) once, so the
+    # crop cuts exactly what a whole-map re-synthesis would use.
+    whole = dataclasses.replace(controls, previous=previous, selection=selection).checked(shape, len(examples))
+    # An automatic patch size: chosen as a run of the whole map would, for
+    # the new strokes (the terrain's own run may have chosen another, for
+    # other strokes: pass its ``result.params`` to keep it).
+    if params.patch_size is None:
+        params, _ = with_patch_size(params, grounded_examples(examples, whole, params.cell_size), sketch, shape)
+    if sketch is not None and sketch.shape != shape:
+        sketch = sketch.resized(shape)
+    box = crop_box(whole.selection, patch_size=params.patch_size, context=context)
+    if not _same_styles_in(whole, box):
+        # With a height range, the styles' heights are scaled by the span of
+        # the styles present (controls/layout.py): a crop holding fewer
+        # styles would scale them differently.  The whole map keeps them alike.
+        box = (0, shape[0], 0, shape[1])
+    r0, r1, c0, c1 = box
+    crop = (slice(r0, r1), slice(c0, c1))
+    local = Session(examples, None if sketch is None else _cropped_sketch(sketch, crop), shape=(r1 - r0, c1 - c0),
+                    params=dataclasses.replace(params, landform=bool(landform)),
+                    controls=_cropped_controls(whole, crop))
+    return _Crop(whole, box, sketch, params, local)
+
+
+def prepare_resynthesis(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | None, *,
+                        previous: np.ndarray, params: SynthesisParams = SynthesisParams(),
+                        controls: Controls | None = None) -> None:
+    """Make, and keep, what a re-synthesis of this map reads from its
+    examples before it places a patch: their feature pools and fill
+    searches as a stroke's crop run (no landform pass) uses them.
+
+    They are kept in the core by what they are made of, so the first live
+    stroke after a run need not make them (0.4-0.5 s for a 1201x1201
+    example); a stroke asking for them while this runs waits for them
+    rather than making them twice.  The arguments are those of
+    :func:`resynthesize_region` (the selection is a cell at the map's
+    centre: the pools and searches do not depend on it).
+    """
+    rows, cols = np.shape(previous)[:2] if np.ndim(previous) == 2 else (0, 0)
+    selection = np.zeros((rows, cols), bool)
+    if selection.size:
+        selection[rows // 2, cols // 2] = True
+    session = _crop_session(list(examples or ()), sketch, previous, selection, params, controls,
+                            CONTEXT_PATCHES, False).session
+    p = session.params
+    memo_feature_pools(session.layout, p.patch_size / 2, mirror=p.mirror)
+    fill_searches(session.layout, p)
 
 
 # -- cutting the inputs --------------------------------------------------------------------

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from terrasynth_core.features.sketch import read_sketch
 from terrasynth_core.synthesis import Session, SynthesisParams
@@ -99,3 +100,81 @@ def test_an_analysis_read_again_from_disk_finds_its_pools_and_stations(white_mou
     assert len(made) == 1
     stations = [feature_patches.Stations(s.sketch_maps, s.layout.examples, 16.0) for s in (first, again)]
     assert stations[0]._of((0, "valley")) is stations[1]._of((0, "valley"))
+
+
+def test_a_once_memo_makes_a_value_once_for_threads_asking_together():
+    """Two threads asking a ``once`` memo for a missing key: one makes it,
+    the other waits for it; when the maker fails, the waiting one makes it."""
+    import threading
+
+    memo = Memo(4, once=True)
+    started, release = threading.Event(), threading.Event()
+    calls = []
+
+    def slow():
+        calls.append("slow")
+        started.set()
+        release.wait(10)
+        return 1
+
+    got = []
+    first = threading.Thread(target=lambda: got.append(memo.get("k", slow)))
+    first.start()
+    assert started.wait(10)
+    second = threading.Thread(target=lambda: got.append(memo.get("k", lambda: calls.append("again") or 2)))
+    second.start()
+    second.join(0.2)
+    assert second.is_alive()  # waiting for the first maker, not making its own
+    release.set()
+    first.join(10)
+    second.join(10)
+    assert got == [1, 1] and calls == ["slow"]
+
+    started.clear()
+    release.clear()
+
+    def failing():
+        started.set()
+        release.wait(10)
+        raise RuntimeError("disk full")
+
+    errors = []
+    first = threading.Thread(target=lambda: errors.append(pytest.raises(RuntimeError, memo.get, "f", failing)))
+    first.start()
+    assert started.wait(10)
+    second = threading.Thread(target=lambda: got.append(memo.get("f", lambda: 3)))
+    second.start()
+    release.set()
+    first.join(10)
+    second.join(10)
+    assert errors and got[-1] == 3 and memo.peek("f") == 3
+
+
+def test_prepare_resynthesis_makes_what_the_first_stroke_reads(white_mountains, sketch_dir, monkeypatch):
+    """After ``prepare_resynthesis`` a stroke's crop run makes no feature
+    pools and no fill search of its own, and its result is the same bytes."""
+    from terrasynth_core.features import SketchMap
+    from terrasynth_core.synthesis import (changed_cells, fill_patches, prepare_resynthesis, resynthesize_region,
+                                           stroke_selection)
+
+    sketch = read_sketch(sketch_dir / "y_junction_512.png").resized((160, 160))
+    first = Session([white_mountains], sketch, params=P).run()
+    ridge = sketch.ridge_mask.copy()
+    ridge[120:124, 20:80] = True
+    after = SketchMap(ridge, sketch.valley_mask)
+    selection = stroke_selection(changed_cells(sketch, after), patch_size=P.patch_size)
+    cold = resynthesize_region([white_mountains], after, previous=first.heights, selection=selection, params=P)
+
+    made = []
+    make_pools, make_search = feature_patches.feature_pools, fill_patches.FillSearch
+    monkeypatch.setattr(feature_patches, "_POOLS", Memo(4, once=True))
+    monkeypatch.setattr(fill_patches, "_SEARCHES", Memo(4, once=True))
+    monkeypatch.setattr(feature_patches, "feature_pools",
+                        lambda *a, **k: made.append("pools") or make_pools(*a, **k))
+    monkeypatch.setattr(fill_patches, "FillSearch", lambda *a, **k: made.append("search") or make_search(*a, **k))
+    prepare_resynthesis([white_mountains], after, previous=first.heights, params=P)
+    assert sorted(set(made)) == ["pools", "search"]
+    prepared = len(made)
+    warm = resynthesize_region([white_mountains], after, previous=first.heights, selection=selection, params=P)
+    assert len(made) == prepared
+    np.testing.assert_array_equal(warm.heights, cold.heights)
