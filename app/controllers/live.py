@@ -20,8 +20,8 @@ from PySide6.QtCore import QObject, QTimer, Signal
 
 from terrasynth_core.errors import TerraSynthError
 
-from ..model import Document, LiveUpdated, live_events, live_request
-from ..workers import LatestRunner
+from ..model import Document, LiveUpdated, live_events, live_preparation, live_request
+from ..workers import LatestRunner, run_in_background
 from .synthesis import SynthesisController
 
 #: Debounce after a finished stroke before a live update starts, ms: long
@@ -61,6 +61,10 @@ class LiveController(QObject):
         One line; the sketch and the terrain are as they were.
     cancelled()
         An update stopped for a newer stroke or a full run.
+    prepared()
+        What the first stroke's update reads from the examples is made
+        (after a full run, or Live turned on), or could not be (the stroke
+        then makes it).
     status(str, int)
         A status-bar message and how many ms to show it.
     error(str, str)
@@ -75,6 +79,7 @@ class LiveController(QObject):
     updated = Signal(object)
     failed = Signal(str)
     cancelled = Signal()
+    prepared = Signal()
     status = Signal(str, int)
     error = Signal(str, str)
 
@@ -119,6 +124,7 @@ class LiveController(QObject):
         self._enabled = on
         if on:
             self.schedule()
+            self._prepare()
         else:
             self._timer.stop()
             self.runner.cancel()
@@ -160,6 +166,30 @@ class LiveController(QObject):
         else:
             # Strokes drawn during the run are not in its terrain.
             self.schedule()
+            self._prepare()
+
+    def _prepare(self) -> None:
+        # The first stroke after a run would make the examples' pools and
+        # searches for its crop first (0.4-0.5 s for a 1201x1201 example):
+        # made now, in the background, while the artist looks at the
+        # terrain.  A stroke that comes meanwhile waits for them in the core
+        # rather than making them twice.
+        if not self._enabled or self.synthesis.running:
+            return
+        try:
+            prepare = live_preparation(self.document)
+        except TerraSynthError:
+            return  # the stroke's update will say what is wrong
+        if prepare is not None:
+            run_in_background(prepare, self._prepared, self._preparation_failed)
+
+    def _prepared(self, _value) -> None:
+        self.prepared.emit()
+
+    def _preparation_failed(self, _message: str) -> None:
+        # Nothing is lost: the first stroke's update makes them (and says so
+        # if it cannot).
+        self.prepared.emit()
 
     def _start(self) -> None:
         if not self._enabled or self.synthesis.running or self.document.sketch.stroking:

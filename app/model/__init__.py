@@ -25,7 +25,7 @@ from .example_maps import EXAMPLE_MAPS, example_map_document
 from .export import export_for_engine_preset, export_masks, export_terrain, mask_preview
 from .feature_graphs import DerivedGraph, SketchGraph, TerrainGraph
 from .history import SketchEdit, SketchHistory
-from .live import LiveRequest, LiveUpdated, live_events, live_request, same_strokes
+from .live import LiveRequest, LiveUpdated, live_events, live_preparation, live_request, same_strokes
 from .observable import Observable
 from .project import PROJECT_EXTENSION, ProjectError, load_project, save_project
 from .recovery import RecoveryStore
@@ -70,6 +70,7 @@ __all__ = [
     "export_terrain",
     "fitting_scale",
     "live_events",
+    "live_preparation",
     "live_request",
     "load_project",
     "resize_nearest",

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Iterator
+from typing import Callable, Iterator
 
 import numpy as np
 
@@ -29,7 +29,7 @@ from terrasynth_core.errors import ParamsError
 from terrasynth_core.exemplars.patch_size import DEFAULT_PATCH
 from terrasynth_core.features import SketchMap
 from terrasynth_core.synthesis import (SynthesisFinished, SynthesisResult, changed_cells, iter_resynthesize_region,
-                                       stroke_selection)
+                                       prepare_resynthesis, stroke_selection)
 
 from .result import TerrainResult
 from .run_request import SynthesisRequest
@@ -101,6 +101,25 @@ def live_request(document) -> LiveRequest | None:
     if same_strokes(run.sketch_map, document.result_strokes):
         return None
     return LiveRequest(run, document.result_strokes, terrain)
+
+
+def live_preparation(document) -> Callable[[], None] | None:
+    """What the first live stroke on ``document``'s terrain would make
+    before placing a patch (the examples' feature pools and fill searches
+    as its crop run reads them), as a function for a worker thread; None
+    when there is no terrain to change.  Snapshots the document here, on
+    the GUI thread."""
+    terrain = document.result
+    if terrain is None or terrain.shape != document.output_shape:
+        return None
+    run = document.synthesis_request()
+    params = terrain.params_for_change(run.params)
+
+    def prepare() -> None:
+        prepare_resynthesis(run.example_fields(), run.sketch_map, previous=terrain.heights, params=params,
+                            controls=run.make_controls())
+
+    return prepare
 
 
 def same_strokes(a: SketchMap | None, b: SketchMap | None) -> bool:

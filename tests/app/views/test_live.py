@@ -139,3 +139,28 @@ def test_an_update_of_a_terrain_replaced_meanwhile_is_dropped(qtbot, live_window
     with qtbot.waitSignal(live.runner.running_changed, timeout=RUN_TIMEOUT_MS):
         pass  # the update ends (it may be cancelled or finish)
     assert window.document.result is replaced
+
+
+def test_live_prepares_the_first_strokes_analysis_in_the_background(qtbot, window, monkeypatch):
+    """Turning Live on after a run makes the examples' pools and searches the
+    first stroke's crop reads, in the background; the stroke then makes none."""
+    from terrasynth_core.memo import Memo
+    from terrasynth_core.synthesis import feature_patches, fill_patches
+
+    with qtbot.waitSignals([window.synthesis.finished, window.heightmap.result_shown], timeout=RUN_TIMEOUT_MS):
+        window.synthesize()
+    made = []
+    make_pools, make_search = feature_patches.feature_pools, fill_patches.FillSearch
+    monkeypatch.setattr(feature_patches, "_POOLS", Memo(4, once=True))
+    monkeypatch.setattr(fill_patches, "_SEARCHES", Memo(4, once=True))
+    monkeypatch.setattr(feature_patches, "feature_pools", lambda *a, **k: made.append("pools") or make_pools(*a, **k))
+    monkeypatch.setattr(fill_patches, "FillSearch", lambda *a, **k: made.append("search") or make_search(*a, **k))
+    window.live._timer.setInterval(20)
+    with qtbot.waitSignal(window.live.prepared, timeout=RUN_TIMEOUT_MS):
+        window.actions.live.trigger()
+    assert sorted(set(made)) == ["pools", "search"]
+    prepared = len(made)
+    with qtbot.waitSignal(window.live.updated, timeout=RUN_TIMEOUT_MS):
+        window.document.sketch.draw_polyline([(120, 30), (125, 90)], "valley", radius=2)
+    assert len(made) == prepared
+    window.live.wait()
