@@ -9,7 +9,8 @@ and exec, safe beside Qt and BLAS threads; no ``if __name__ ==
 What a stage's tasks need from the examples (their detail, feature pools,
 fill searches) goes to the workers once per stage, as a *kit* file
 (:class:`KitWorkers`) that a worker loads on its first task of the stage
-(:func:`with_kit`).  Which process did a task changes nothing: tasks are
+(:func:`with_kit`); a fill's kit is kept for the next stage with the same
+one (the next live stroke's fill).  Which process did a task changes nothing: tasks are
 pure functions of what they are given.
 """
 
@@ -48,9 +49,10 @@ def executor(processes: int):
 
     with _EXECUTOR_LOCK:
         pool = _EXECUTOR.get("pool")
-        # (loky's own reuse test reads the same flags.)
-        if pool is not None and pool._max_workers == processes and not (pool._flags.broken or
-                                                                         pool._flags.shutdown):
+        # (loky's own reuse test reads the same flags.  The count asked for,
+        # not the pool's: loky caps it on some systems.)
+        if pool is not None and _EXECUTOR.get("processes") == processes and not (pool._flags.broken or
+                                                                                 pool._flags.shutdown):
             return pool
         if pool is not None:
             pool.shutdown(wait=False)
@@ -62,11 +64,12 @@ def executor(processes: int):
         pool = ProcessPoolExecutor(max_workers=processes, timeout=IDLE_SECONDS,
                                    env={**{name: "1" for name in _THREAD_VARIABLES},
                                         "LOKY_MAX_MEMORY_LEAK_SIZE": str(2**62)})
-        _EXECUTOR["pool"] = pool
+        _EXECUTOR.update(pool=pool, processes=processes)
         return pool
 
 
-#: The executor of :func:`executor` (key ``"pool"``).
+#: The executor of :func:`executor` (key ``"pool"``) and the count it was
+#: made for (``"processes"``).
 _EXECUTOR: dict = {}
 _EXECUTOR_LOCK = threading.Lock()
 
@@ -207,9 +210,12 @@ class KitWorkers:
     def submit(self, task, *args) -> Future:
         """``task(kit, *args)`` on a worker (:func:`with_kit`)."""
         if self._pool is None:
-            self._path = _kit_file(self.kit) if self.keep is None else _kept_kit_file(self.keep, self.kit)
-            # (Every stage asks for the same size: resizing would restart warm workers.)
-            self._pool = executor(self.processes - 1)
+            self._path = _kit_file(self.kit) if self.keep is None else _use_kept_kit(self.keep, self.kit)
+        # Asked for at every task: another thread may have replaced it (for
+        # another process count), and a worker of the new one loads the kit
+        # from the same file.  (Every stage asks for the same size: resizing
+        # would restart warm workers.)
+        self._pool = executor(self.processes - 1)
         _sent()
         return self._pool.submit(with_kit, self._path, task, *args)
 
@@ -217,45 +223,71 @@ class KitWorkers:
         return self
 
     def __exit__(self, *exc) -> None:
-        if self._path is not None and self.keep is None:
+        if self._path is None:
+            return
+        if self.keep is None:
             Path(self._path).unlink(missing_ok=True)
+        else:
+            _done_with_kept_kit(self.keep)
 
 
 #: Kit files kept for later stages (:class:`KitWorkers` ``keep``), and as
 #: many kits a worker keeps loaded (a live stroke's fill kit and one
-#: other stage's; each holds the examples' searches and the indexes the
-#: worker loaded, tens of MB).
+#: other stage's).  A fill's kit holds the examples' searches (tens of MB
+#: with the indexes a worker loads); its file, in the temporary folder,
+#: holds them without the indexes.
 KEPT_KITS = 2
 
-#: Kept kit files by key, oldest first: (path, kit).  The kit is held so
-#: that the objects its key names stay alive (an ``id`` in a key is not
-#: reused while they do).
+#: Kept kit files by key, oldest first: [path, kit, stages using it].  The
+#: kit is held so that the objects its key names stay alive (an ``id`` in
+#: a key is not reused while they do).  A file in use is never removed:
+#: beyond :data:`KEPT_KITS`, the oldest unused ones go.
 _KEPT: OrderedDict = OrderedDict()
-
-
 _KEPT_LOCK = threading.Lock()
 
 
-def _kept_kit_file(key, kit) -> str:
-    """The kept file of the kit ``key`` names, made now if there is none."""
+def _use_kept_kit(key, kit) -> str:
+    """The kept file of the kit ``key`` names (made now if there is none),
+    counted as in use until :func:`_done_with_kept_kit`."""
     with _KEPT_LOCK:
         got = _KEPT.get(key)
         if got is not None and Path(got[0]).exists():
+            got[2] += 1
             _KEPT.move_to_end(key)
             return got[0]
     path = _kit_file(kit)
     with _KEPT_LOCK:
-        _KEPT[key] = (path, kit)
-        while len(_KEPT) > KEPT_KITS:
-            old, _ = _KEPT.popitem(last=False)[1]
-            Path(old).unlink(missing_ok=True)
+        got = _KEPT.get(key)
+        if got is not None and Path(got[0]).exists():
+            # Another stage made it meanwhile: use theirs.
+            Path(path).unlink(missing_ok=True)
+            got[2] += 1
+            _KEPT.move_to_end(key)
+            return got[0]
+        _KEPT[key] = [path, kit, 1]
+        _trim_kept()
     return path
+
+
+def _done_with_kept_kit(key) -> None:
+    with _KEPT_LOCK:
+        got = _KEPT.get(key)
+        if got is not None:
+            got[2] -= 1
+        _trim_kept()
+
+
+def _trim_kept() -> None:
+    """Remove the oldest unused kept files beyond :data:`KEPT_KITS` (under
+    :data:`_KEPT_LOCK`)."""
+    for key in [k for k, (_, _, users) in _KEPT.items() if users <= 0][:max(len(_KEPT) - KEPT_KITS, 0)]:
+        Path(_KEPT.pop(key)[0]).unlink(missing_ok=True)
 
 
 @atexit.register
 def _remove_kept() -> None:
     with _KEPT_LOCK:
-        for path, _ in _KEPT.values():
+        for path, _, _ in _KEPT.values():
             Path(path).unlink(missing_ok=True)
         _KEPT.clear()
 
