@@ -45,32 +45,35 @@ class Memo:
         asking for a key being made waits for it instead (a live stroke
         arriving while its examples' pools are being prepared); if ``make``
         raises, a waiting thread makes the value itself.  A ``once`` memo's
-        ``make`` must not wait on another thread that asks this memo.
+        ``make`` must not ask it for its own key, nor wait on another
+        thread that does (it would wait for itself).
         """
-        while True:
-            with self._lock:
-                if key in self._values:
-                    self._values.move_to_end(key)
-                    return self._values[key]
-                making = self._making.get(key) if self.once else None
-                if making is None:
-                    making = threading.Event()
-                    if self.once:
-                        self._making[key] = making
-                    break
-            making.wait()  # then look again: kept now, or to be made here
+        mine = False
         try:
+            while True:
+                with self._lock:
+                    if key in self._values:
+                        self._values.move_to_end(key)
+                        return self._values[key]
+                    making = self._making.get(key) if self.once else None
+                    if making is None:
+                        making = threading.Event()
+                        mine = True
+                        if self.once:
+                            self._making[key] = making
+                        break
+                making.wait()  # then look again: kept now, or to be made here
             value = make()
             with self._lock:
                 self._values[key] = value
                 while len(self._values) > self.size:
                     self._values.popitem(last=False)
+            return value
         finally:
-            if self.once:
+            if mine and self.once:
                 with self._lock:
-                    del self._making[key]
+                    self._making.pop(key, None)
                 making.set()
-        return value
 
     def peek(self, key: Hashable):
         """The value kept for ``key`` (None when there is none), not made."""

@@ -63,8 +63,8 @@ class LiveController(QObject):
         An update stopped for a newer stroke or a full run.
     prepared()
         What the first stroke's update reads from the examples is made
-        (after a full run, or Live turned on), or could not be (the stroke
-        then makes it).
+        (after a full run, or Live turned on with a terrain), or there was
+        nothing to make, or it could not be made (the stroke then makes it).
     status(str, int)
         A status-bar message and how many ms to show it.
     error(str, str)
@@ -175,12 +175,14 @@ class LiveController(QObject):
         # terrain.  A stroke that comes meanwhile waits for them in the core
         # rather than making them twice.
         if not self._enabled or self.synthesis.running:
-            return
+            return  # (a run's end prepares)
         try:
             prepare = live_preparation(self.document)
         except TerraSynthError:
-            return  # the stroke's update will say what is wrong
-        if prepare is not None:
+            prepare = None  # the stroke's update will say what is wrong
+        if prepare is None:
+            self.prepared.emit()  # nothing to prepare
+        else:
             run_in_background(prepare, self._prepared, self._preparation_failed)
 
     def _prepared(self, _value) -> None:

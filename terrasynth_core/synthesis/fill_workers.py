@@ -29,8 +29,9 @@ from .workers import KitWorkers
 #: depend on how many processes fill them.
 WAVE = 4
 
-#: Fewest fill windows worth sending to worker processes (the result is
-#: the same either way).
+#: Fewest fill windows worth starting worker processes for; a shorter
+#: fill (a live stroke's crop) uses them only when they are up and warm
+#: already (the result is the same either way).
 MIN_PARALLEL_WINDOWS = 64
 
 

@@ -253,14 +253,10 @@ def iter_resynthesize_region(examples: Sequence[HeightField | np.ndarray], sketc
     carrying the whole map's result.  Closing the generator stops the run
     at the next patch.  Everything is checked before the first event."""
     t_start = time.perf_counter()
-    examples = list(examples or ())
-    whole, box, sketch, params, local = _crop_session(examples, sketch, previous, selection, params, controls,
-                                                      context, landform)
-    previous = np.asarray(previous, dtype=np.float32)
+    examples, previous, whole, box, sketch, params, local = _crop_session(
+        examples, sketch, previous, selection, params, controls, context, landform,
+        previous_patch_id=previous_patch_id, previous_seam_mask=previous_seam_mask)
     shape = previous.shape
-    for name, arr in (("patch ids", previous_patch_id), ("seam mask", previous_seam_mask)):
-        if arr is not None and np.shape(arr) != shape:
-            raise ParamsError(f"the previous {name} are {np.shape(arr)} but the terrain is {shape[0]}x{shape[1]}")
     r0, r1, c0, c1 = box
     crop = (slice(r0, r1), slice(c0, c1))
     t_crop = time.perf_counter() - t_start
@@ -344,9 +340,12 @@ class _Crop(NamedTuple):
 
     Attributes
     ----------
+    examples : list
+    previous : ndarray of float32, shape (rows, cols)
+        The terrain to change.
     whole : Controls
-        The whole map's controls, checked, with the previous terrain
-        (float32, shape (rows, cols)) and the selection.
+        The whole map's controls, checked, with the previous terrain and
+        the selection.
     box : (r0, r1, c0, c1)
         The crop, map cells.
     sketch : SketchMap or None
@@ -357,6 +356,8 @@ class _Crop(NamedTuple):
         The crop's.
     """
 
+    examples: list
+    previous: np.ndarray
     whole: Controls
     box: tuple[int, int, int, int]
     sketch: SketchMap | None
@@ -364,9 +365,12 @@ class _Crop(NamedTuple):
     session: Session
 
 
-def _crop_session(examples: list, sketch: SketchMap | None, previous: np.ndarray, selection: np.ndarray,
-                  params: SynthesisParams, controls: Controls | None, context: float, landform: bool) -> _Crop:
-    """Check a re-synthesis's inputs and make the crop's session."""
+def _crop_session(examples, sketch: SketchMap | None, previous: np.ndarray, selection: np.ndarray,
+                  params: SynthesisParams, controls: Controls | None, context: float, landform: bool, *,
+                  previous_patch_id: np.ndarray | None = None,
+                  previous_seam_mask: np.ndarray | None = None) -> _Crop:
+    """Check a re-synthesis's inputs (those of :func:`resynthesize_region`)
+    and make the crop's session."""
     previous = np.asarray(previous, dtype=np.float32)
     if previous.ndim != 2:
         raise ParamsError(f"the previous result must be a 2-D height array, got shape {previous.shape}")
@@ -378,6 +382,7 @@ def _crop_session(examples: list, sketch: SketchMap | None, previous: np.ndarray
         raise ParamsError("give the previous result and the selection as arguments, not in the controls")
     if not isinstance(params, SynthesisParams):
         raise ParamsError(f"params must be SynthesisParams, got {type(params).__name__}")
+    examples = list(examples or ())
     # The whole map's controls, checked (and their maps fitted) once, so the
     # crop cuts exactly what a whole-map re-synthesis would use.
     whole = dataclasses.replace(controls, previous=previous, selection=selection).checked(shape, len(examples))
@@ -388,6 +393,10 @@ def _crop_session(examples: list, sketch: SketchMap | None, previous: np.ndarray
         params, _ = with_patch_size(params, grounded_examples(examples, whole, params.cell_size), sketch, shape)
     if sketch is not None and sketch.shape != shape:
         sketch = sketch.resized(shape)
+    for name, arr in (("patch ids", previous_patch_id), ("seam mask", previous_seam_mask)):
+        if arr is not None and np.shape(arr) != shape:
+            raise ParamsError(f"the previous {name} are {np.shape(arr)} but the terrain is {shape[0]}x{shape[1]}")
+
     box = crop_box(whole.selection, patch_size=params.patch_size, context=context)
     if not _same_styles_in(whole, box):
         # With a height range, the styles' heights are scaled by the span of
@@ -399,7 +408,7 @@ def _crop_session(examples: list, sketch: SketchMap | None, previous: np.ndarray
     local = Session(examples, None if sketch is None else _cropped_sketch(sketch, crop), shape=(r1 - r0, c1 - c0),
                     params=dataclasses.replace(params, landform=bool(landform)),
                     controls=_cropped_controls(whole, crop))
-    return _Crop(whole, box, sketch, params, local)
+    return _Crop(examples, previous, whole, box, sketch, params, local)
 
 
 def prepare_resynthesis(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | None, *,
@@ -413,15 +422,17 @@ def prepare_resynthesis(examples: Sequence[HeightField | np.ndarray], sketch: Sk
     stroke after a run need not make them (0.4-0.5 s for a 1201x1201
     example); a stroke asking for them while this runs waits for them
     rather than making them twice.  The arguments are those of
-    :func:`resynthesize_region` (the selection is a cell at the map's
-    centre: the pools and searches do not depend on it).
+    :func:`resynthesize_region`.  The selection is a cell at the map's
+    centre: the pools do not depend on it, nor do the searches on a map
+    of one style (with several, only the styles within the crop around
+    it get theirs; a stroke elsewhere makes the others).
     """
     rows, cols = np.shape(previous)[:2] if np.ndim(previous) == 2 else (0, 0)
     selection = np.zeros((rows, cols), bool)
     if selection.size:
         selection[rows // 2, cols // 2] = True
-    session = _crop_session(list(examples or ()), sketch, previous, selection, params, controls,
-                            CONTEXT_PATCHES, False).session
+    session = _crop_session(examples, sketch, previous, selection, params, controls, CONTEXT_PATCHES,
+                            False).session
     p = session.params
     memo_feature_pools(session.layout, p.patch_size / 2, mirror=p.mirror)
     fill_searches(session.layout, p)

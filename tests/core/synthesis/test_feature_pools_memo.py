@@ -144,6 +144,8 @@ def test_a_once_memo_makes_a_value_once_for_threads_asking_together():
     assert started.wait(10)
     second = threading.Thread(target=lambda: got.append(memo.get("f", lambda: 3)))
     second.start()
+    second.join(0.2)
+    assert second.is_alive()  # waiting for the failing maker
     release.set()
     first.join(10)
     second.join(10)

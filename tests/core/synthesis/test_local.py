@@ -159,6 +159,8 @@ def test_a_stroke_uses_the_workers_once_they_are_up(white_mountains, first, afte
     workers.warm_up(2, P.patch_size)
     assert workers.wait_warm()
     assert workers.running(2)
+    # However few its windows, a fill finds the warm workers.
+    monkeypatch.setattr("terrasynth_core.synthesis.pipeline.MIN_PARALLEL_WINDOWS", 10**9)
     sent = []
     kit_submit = workers.KitWorkers.submit
     monkeypatch.setattr(workers.KitWorkers, "submit", lambda self, task, *a: sent.append(task) or kit_submit(self, task, *a))
