@@ -48,6 +48,12 @@ class Memo:
         ``make`` must not ask it for its own key, nor wait on another
         thread that does (it would wait for itself).
         """
+        if not self.once:
+            with self._lock:
+                if key in self._values:
+                    self._values.move_to_end(key)
+                    return self._values[key]
+            return self._keep(key, make())
         mine = False
         try:
             while True:
@@ -55,25 +61,25 @@ class Memo:
                     if key in self._values:
                         self._values.move_to_end(key)
                         return self._values[key]
-                    making = self._making.get(key) if self.once else None
+                    making = self._making.get(key)
                     if making is None:
-                        making = threading.Event()
+                        making = self._making[key] = threading.Event()
                         mine = True
-                        if self.once:
-                            self._making[key] = making
                         break
                 making.wait()  # then look again: kept now, or to be made here
-            value = make()
-            with self._lock:
-                self._values[key] = value
-                while len(self._values) > self.size:
-                    self._values.popitem(last=False)
-            return value
+            return self._keep(key, make())
         finally:
-            if mine and self.once:
+            if mine:
                 with self._lock:
-                    self._making.pop(key, None)
+                    del self._making[key]
                 making.set()
+
+    def _keep(self, key: Hashable, value: T) -> T:
+        with self._lock:
+            self._values[key] = value
+            while len(self._values) > self.size:
+                self._values.popitem(last=False)
+        return value
 
     def peek(self, key: Hashable):
         """The value kept for ``key`` (None when there is none), not made."""

@@ -52,9 +52,8 @@ from ..features.network import mask_box
 from ..heightfield import HeightField
 from ..io.resample import output_georeference
 from .events import PatchPlaced, SynthesisFinished, drive
-from .feature_patches import memo_feature_pools
-from .fill_patches import fill_searches
 from .params import SynthesisParams
+from .pipeline import examples_read
 from .result import SynthesisResult
 from .session import Session, with_patch_size
 from .workers import running, submit
@@ -433,9 +432,7 @@ def prepare_resynthesis(examples: Sequence[HeightField | np.ndarray], sketch: Sk
         selection[rows // 2, cols // 2] = True
     session = _crop_session(examples, sketch, previous, selection, params, controls, CONTEXT_PATCHES,
                             False).session
-    p = session.params
-    memo_feature_pools(session.layout, p.patch_size / 2, mirror=p.mirror)
-    fill_searches(session.layout, p)
+    examples_read(session.layout, session.params)
 
 
 # -- cutting the inputs --------------------------------------------------------------------

@@ -83,7 +83,7 @@ class RunState:
 
     @property
     def radius(self) -> float:
-        return self.params.patch_size / 2
+        return feature_radius(self.params)
 
     def placed(self, rec: PatchRecord, total: int) -> PatchPlaced:
         """Record a placed patch; its progress event."""
@@ -177,12 +177,26 @@ def landform_stage(state: RunState):
 
 
 def _made_ahead(state: RunState, sigma: float) -> tuple[StyleLayout, dict, list]:
-    """The layout with the examples' detail above the landform split, its
-    feature pools and fill searches (none of them reads the output)."""
+    """The layout with the examples' detail above the landform split, and
+    what the run reads from that detail (:func:`examples_read`)."""
     detail, anchor = state.session.detail_above(sigma)
     layout = replace(state.layout, detail=detail, anchor=anchor)
-    pools = memo_feature_pools(layout, state.radius, mirror=state.params.mirror)
-    return layout, pools, fill_searches(layout, state.params)
+    return (layout, *examples_read(layout, state.params))
+
+
+def feature_radius(params: SynthesisParams) -> float:
+    """A feature patch's inscribed radius, cells: its samples' spacing and
+    its pools' neighbourhood."""
+    return params.patch_size / 2
+
+
+def examples_read(layout: StyleLayout, params: SynthesisParams) -> tuple[dict, list]:
+    """What a run reads from its examples' detail before it places a patch,
+    none of it from the output: the feature pools and the fill searches
+    (both kept in the core by what they are made of, for the next run or
+    live stroke)."""
+    return (memo_feature_pools(layout, feature_radius(params), mirror=params.mirror),
+            fill_searches(layout, params))
 
 
 def analyse_stage(state: RunState):

@@ -250,23 +250,29 @@ def _use_kept_kit(key, kit) -> str:
     """The kept file of the kit ``key`` names (made now if there is none),
     counted as in use until :func:`_done_with_kept_kit`."""
     with _KEPT_LOCK:
-        got = _KEPT.get(key)
-        if got is not None and Path(got[0]).exists():
-            got[2] += 1
-            _KEPT.move_to_end(key)
-            return got[0]
+        kept = _claim_kept(key)
+    if kept is not None:
+        return kept
     path = _kit_file(kit)
     with _KEPT_LOCK:
-        got = _KEPT.get(key)
-        if got is not None and Path(got[0]).exists():
-            # Another stage made it meanwhile: use theirs.
+        kept = _claim_kept(key)
+        if kept is not None:  # another stage made it meanwhile: theirs
             Path(path).unlink(missing_ok=True)
-            got[2] += 1
-            _KEPT.move_to_end(key)
-            return got[0]
+            return kept
         _KEPT[key] = [path, kit, 1]
         _trim_kept()
     return path
+
+
+def _claim_kept(key) -> str | None:
+    """The kept file of ``key``, now counted in use, or None (under
+    :data:`_KEPT_LOCK`)."""
+    got = _KEPT.get(key)
+    if got is None or not Path(got[0]).exists():
+        return None
+    got[2] += 1
+    _KEPT.move_to_end(key)
+    return got[0]
 
 
 def _done_with_kept_kit(key) -> None:
