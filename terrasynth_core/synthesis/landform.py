@@ -37,6 +37,7 @@ from ..heightfield import HeightField
 from ..exemplars.prepare import WIDE_VOIDS
 from ..measures import surface_gradient
 from .finish import within_examples_range
+from .workers import running
 
 if TYPE_CHECKING:
     from ..features.graph import FeatureMaps
@@ -202,10 +203,13 @@ def coarse_session_for(params, layout, shape: tuple[int, int], controls: Control
     styles = tuple(replace(s, example=fields[n_plain + i]) for i, s in enumerate(c.styles))
     style_map = None if c.style_map is None else c.style_map[::f, ::f]
     coarse_controls = Controls(styles=styles, style_map=style_map, height_range=c.height_range)
-    # One process: the coarse fill is short, and the full pass's workers
-    # are still starting meanwhile (the result does not depend on it).
+    # The full pass's worker processes when they are up and warm already
+    # (a process that has run before: the app's next run), else this one
+    # alone: a fresh process's workers are still starting meanwhile.  The
+    # result does not depend on it.
+    workers = p.thread_count if running(p.thread_count) else 1
     coarse_params = replace(p, patch_size=pc, overlap=None, cell_size=cell, drainage=False, landform=False,
-                            workers=1)
+                            workers=workers)
     coarse_sketch = None if sketch is None else sketch.resized(grid)
     from .session import Session  # the pass is a session of its own
     try:

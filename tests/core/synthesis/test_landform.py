@@ -3,6 +3,8 @@ level field, and the full-resolution pass copies only the detail above it."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy import ndimage
@@ -286,6 +288,34 @@ def test_a_run_puts_its_detail_on_the_landform(white_mountains, y_sketch):
     # Same seed, same bytes.
     again = Session([white_mountains], y_sketch, params=P).run()
     assert np.array_equal(on.heights, again.heights)
+
+
+def test_the_pass_fills_on_warm_worker_processes_with_the_same_bytes(white_mountains, y_sketch, monkeypatch):
+    """A process that has run before finds its workers warm: the coarse
+    pass fills its windows there too, and the level is the same bytes as a
+    pass in this process alone (a fresh process's, whose workers are still
+    starting)."""
+    from terrasynth_core.synthesis import landform, workers
+    from terrasynth_core.synthesis.fill_workers import fill_window
+
+    with monkeypatch.context() as m:
+        m.setattr(landform, "running", lambda processes: False)
+        alone = landform_pass(Session([white_mountains], y_sketch, params=replace(P, workers=2)))[0]
+    workers.warm_up(2, P.patch_size)
+    assert workers.wait_warm() and workers.running(2)
+    sent = []
+    kit_submit = workers.KitWorkers.submit
+    monkeypatch.setattr(workers.KitWorkers, "submit", lambda self, task, *a: sent.append(task) or kit_submit(self, task, *a))
+    coarse, _, _ = landform.coarse_session(Session([white_mountains], y_sketch, params=replace(P, workers=2)))
+    assert coarse.params.workers == 2
+    warm = landform_pass(Session([white_mountains], y_sketch, params=replace(P, workers=2)))[0]
+    assert fill_window in sent
+    np.testing.assert_array_equal(alone.level, warm.level)
+    np.testing.assert_array_equal(alone.coarse.heights, warm.coarse.heights)
+    # Workers that are not warm: this process alone.
+    monkeypatch.setattr(landform, "running", lambda processes: False)
+    coarse, _, _ = landform.coarse_session(Session([white_mountains], y_sketch, params=replace(P, workers=2)))
+    assert coarse.params.workers == 1
 
 
 def test_too_small_or_one_landform_examples_skip_it_with_a_reason(helens, y_sketch):
