@@ -21,6 +21,7 @@ Controllable Texture Synthesis", SIGGRAPH 2005.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -36,6 +37,7 @@ from ..features.sketch import sketch_features
 from ..heightfield import HeightField
 from ..exemplars.prepare import WIDE_VOIDS
 from ..measures import surface_gradient
+from ..placing.windows import estimate_fill_count
 from .finish import within_examples_range
 from .workers import running
 
@@ -61,6 +63,13 @@ MIN_EXAMPLE_PATCHES = 1.5
 #: Fewest landform-scale feature samples (of each kind the sketch has) the
 #: coarse examples must hold.
 MIN_COARSE_SAMPLES = 4
+
+#: Fewest coarse fill windows for which the pass uses worker processes
+#: that are still starting: about 1.5 s of fill at 5 ms a window, which
+#: outlasts a fresh worker's imports.  Measured in fresh processes: at
+#: 1000x1000 (71 windows) the pass took as long either way; at 2000x2000
+#: (about 300) 7.5-8.4 s in one process against 6.7-7.1 s.
+COARSE_PARALLEL_WINDOWS = 256
 
 #: Standard deviation of the low-pass that splits landform from detail, in
 #: full-resolution patch sizes.  Its half-power wavelength is about 5.3
@@ -203,13 +212,16 @@ def coarse_session_for(params, layout, shape: tuple[int, int], controls: Control
     styles = tuple(replace(s, example=fields[n_plain + i]) for i, s in enumerate(c.styles))
     style_map = None if c.style_map is None else c.style_map[::f, ::f]
     coarse_controls = Controls(styles=styles, style_map=style_map, height_range=c.height_range)
-    # The full pass's worker processes when they are up and warm already
-    # (a process that has run before: the app's next run), else this one
-    # alone: a fresh process's workers are still starting meanwhile.  The
-    # result does not depend on it.
-    workers = p.thread_count if running(p.thread_count) else 1
     coarse_params = replace(p, patch_size=pc, overlap=None, cell_size=cell, drainage=False, landform=False,
-                            workers=workers)
+                            workers=1)
+    # The run's worker processes when they are up and warm already (a
+    # process that has run before: the app's next run) or the coarse fill
+    # is long enough to outlast their start; else this one alone (a fresh
+    # process's workers are still importing).  The result does not depend
+    # on it.
+    if running(p.thread_count) or estimate_fill_count(
+            grid, pc, overlap=coarse_params.overlap_cells, n_features=0) >= COARSE_PARALLEL_WINDOWS:
+        coarse_params = replace(coarse_params, workers=p.thread_count)
     coarse_sketch = None if sketch is None else sketch.resized(grid)
     from .session import Session  # the pass is a session of its own
     try:
@@ -243,11 +255,15 @@ def landform_from(session: Session, coarse, f: int) -> Landform:
     p, lay, c = session.params, session.layout, session.controls
     heights = coarse.heights
     sigma = split_sigma(p.patch_size)
-    if c.height_range is None:  # (a height range maps the result onto itself at the end)
-        heights = fitted_to_examples(heights, lay, f, sigma, coarse.sketch_features)
-    up = _upsampled(heights, session.shape)
     weight = coherence(coarse.sketch_features, p.patch_size, f)
-    level = landform_lowpass(up, sigma, None if weight is None else _upsampled(weight, session.shape))
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-landform") as pool:
+        # The weights' up-sampling reads nothing the fit makes: beside it
+        # (zoom releases the interpreter lock; 1.8 s of a 4000x4000 run's).
+        weight_up = None if weight is None else pool.submit(_upsampled, weight, session.shape)
+        if c.height_range is None:  # (a height range maps the result onto itself at the end)
+            heights = fitted_to_examples(heights, lay, f, sigma, coarse.sketch_features)
+        up = _upsampled(heights, session.shape)
+        level = landform_lowpass(up, sigma, None if weight_up is None else weight_up.result())
     return Landform(_settled(session, level, sigma), sigma, coarse, f)
 
 
@@ -888,10 +904,14 @@ def landform_lowpass(heights: np.ndarray, sigma: float, coherent: np.ndarray | N
     g = np.exp(-2 * np.pi**2 * sigma**2 * (fy**2 + fx**2))
     spectrum = np.fft.rfft2(h)
     inner = (slice(pad, pad + heights.shape[0]), slice(pad, pad + heights.shape[1]))
-    out = np.fft.irfft2(spectrum * np.sqrt(1.0 - (1.0 - g) ** 2), s=h.shape)[inner]
-    if coherent is not None:
-        amplitude = np.fft.irfft2(spectrum * g, s=h.shape)[inner]
-        out += np.clip(coherent, 0.0, 1.0) * (amplitude - out)
+    if coherent is None:
+        return np.fft.irfft2(spectrum * np.sqrt(1.0 - (1.0 - g) ** 2), s=h.shape)[inner].astype(np.float32)
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-landform") as pool:
+        # Both inverse transforms at once (numpy's FFT releases the
+        # interpreter lock).
+        amplitude = pool.submit(lambda: np.fft.irfft2(spectrum * g, s=h.shape)[inner])
+        out = np.fft.irfft2(spectrum * np.sqrt(1.0 - (1.0 - g) ** 2), s=h.shape)[inner]
+        out += np.clip(coherent, 0.0, 1.0) * (amplitude.result() - out)
     return out.astype(np.float32)
 
 

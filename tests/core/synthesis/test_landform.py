@@ -294,7 +294,7 @@ def test_the_pass_fills_on_warm_worker_processes_with_the_same_bytes(white_mount
     """A process that has run before finds its workers warm: the coarse
     pass fills its windows there too, and the level is the same bytes as a
     pass in this process alone (a fresh process's, whose workers are still
-    starting)."""
+    starting, when its fill is short)."""
     from terrasynth_core.synthesis import landform, workers
     from terrasynth_core.synthesis.fill_workers import fill_window
 
@@ -312,10 +312,14 @@ def test_the_pass_fills_on_warm_worker_processes_with_the_same_bytes(white_mount
     assert fill_window in sent
     np.testing.assert_array_equal(alone.level, warm.level)
     np.testing.assert_array_equal(alone.coarse.heights, warm.coarse.heights)
-    # Workers that are not warm: this process alone.
+    # Workers that are not warm: this process alone, unless the coarse
+    # fill is long enough to wait for them.
     monkeypatch.setattr(landform, "running", lambda processes: False)
     coarse, _, _ = landform.coarse_session(Session([white_mountains], y_sketch, params=replace(P, workers=2)))
     assert coarse.params.workers == 1
+    monkeypatch.setattr(landform, "COARSE_PARALLEL_WINDOWS", 1)
+    coarse, _, _ = landform.coarse_session(Session([white_mountains], y_sketch, params=replace(P, workers=2)))
+    assert coarse.params.workers == 2
 
 
 def test_too_small_or_one_landform_examples_skip_it_with_a_reason(helens, y_sketch):
