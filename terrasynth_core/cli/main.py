@@ -128,7 +128,7 @@ def _check_cog(args: argparse.Namespace, out: Path) -> None:
 
 
 #: Options that name what a command writes, not what it reads.
-_OUTPUT_OPTIONS = ("out", "output", "report", "debug_dir")
+_OUTPUT_OPTIONS = ("out", "output", "report", "debug_dir", "json", "overlay")
 
 
 def _input_files(args: argparse.Namespace) -> list[Path]:
@@ -183,7 +183,15 @@ def _refuse_replacing(args: argparse.Namespace, outputs, inputs=()) -> None:
             check_sidecar_ours(out)
         if out.suffix.lower() == ".asc":
             written.append(out.with_suffix(".prj"))
+    seen = {}
     for out in written:
+        # (One output written over another: a --report named as --out.)
+        other = seen.setdefault(out.resolve(), out)
+        if other is not out:
+            raise TerraSynthError(f"two of the outputs are the same file, {out}: give each its own name")
+    for out in written:
+        if out.is_dir():
+            raise TerraSynthError(f"{out} is a folder; give a file name for the output")
         if not out.exists():
             continue
         if any(os.path.samefile(out, i) for i in inputs):
@@ -207,6 +215,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
     from ..io import MESH_EXTENSIONS, save_dem, save_mesh
 
     out = Path(args.output)
+    _check_output_file(out)
     _check_cog(args, out)
     is_mesh = out.suffix.lower() in MESH_EXTENSIONS
     if (args.texture or args.triangles) and not is_mesh:
@@ -283,9 +292,15 @@ def cmd_features(args: argparse.Namespace) -> int:
     from ..features import FeatureMaps, extract_features, read_sketch, sketch_features
     from ..pictures import render_overlay, save_png
 
+    outputs = [Path(p) for p in (args.json, args.overlay) if p]
+    if args.overlay and Path(args.overlay).suffix.lower() != ".png":
+        raise TerraSynthError(f"--overlay writes a PNG picture: give a .png file, got {args.overlay}")
+    for out in outputs:
+        _check_output_file(out)
     stages = _Stages(3, "features")
     try:
         if args.sketch:
+            _refuse_replacing(args, outputs)
             sketch = read_sketch(args.input)
             stages.step("read sketch")
             maps = sketch_features(sketch)
@@ -295,6 +310,7 @@ def cmd_features(args: argparse.Namespace) -> int:
             from ..examples import resolve_dem
 
             field = resolve_dem(args.input, size=args.size, band=args.band)
+            _refuse_replacing(args, outputs, _sources([field]))  # (the file a builtin:KEY names too)
             stages.step("read DEM")
             maps = extract_features(field, kind=args.kind)
             heights, cell_size = field.heights, field.cell_size
@@ -590,6 +606,15 @@ def _synthesize(examples, sketch, size, params, args, controls=None, *, inputs=(
     return EXIT_OK
 
 
+def _check_output_file(out: Path) -> None:
+    """Refuse an output path that is a folder, or in a folder that does not
+    exist (one line, before any work)."""
+    if out.is_dir():
+        raise TerraSynthError(f"{out} is a folder; give a file name for the output (in it or elsewhere)")
+    if not out.parent.is_dir():
+        raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
+
+
 def _check_writable(out: Path) -> None:
     """Refuse an output whose folder takes no new file (read-only, full of
     permissions), before the run: found only when the result is written,
@@ -611,13 +636,12 @@ def _check_output(args, inputs=()) -> Path:
     from ..io import MESH_EXTENSIONS, WRITE_EXTENSIONS
 
     out = Path(args.out)
+    _check_output_file(out)
     if out.suffix.lower() not in WRITE_EXTENSIONS + MESH_EXTENSIONS:
         raise TerraSynthError(
             f"cannot write {out}: unknown extension {out.suffix!r}; expected one of "
             + ", ".join(WRITE_EXTENSIONS + MESH_EXTENSIONS)
         )
-    if not out.parent.is_dir():
-        raise TerraSynthError(f"cannot write {out}: folder {out.parent} does not exist")
     _check_writable(out)
     _check_cog(args, out)
     _check_report_path(args, out)
@@ -824,6 +848,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--kind", choices=("ridge", "valley", "both"), default="both")
     p.add_argument("--json", metavar="OUT.json", help="write the feature graphs as JSON")
     p.add_argument("--overlay", metavar="OUT.png", help="write a hillshade with ridges red, valleys blue")
+    _add_overwrite(p)
     p.add_argument("--size", type=parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
     _add_band(p)
     p.set_defaults(func=cmd_features)

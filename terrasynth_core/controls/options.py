@@ -118,6 +118,13 @@ def check_heights(examples, controls: "Controls") -> None:
             raise ParamsError(f"{name}: holds a height of {worst:g} m; heights must be within "
                               f"+-{HEIGHT_LIMIT:g} m (a DEM in other units, or an unmarked fill value?)")
         finite[id(ex)] = (heights, lo, hi)
+    for i, st in enumerate(controls.styles):
+        if id(st.example) in finite:
+            lo, hi = _styled_span(st, *finite[id(st.example)])
+            if max(abs(lo), abs(hi)) > HEIGHT_LIMIT:
+                raise ParamsError(f"style {_style_name(st, i)}: its relief scale {st.relief_scale:g} (and base) put "
+                                  f"its heights at {lo:.3g}..{hi:.3g} m; heights must be within "
+                                  f"+-{HEIGHT_LIMIT:g} m: give a smaller relief=")
     if not controls.pins:
         return
     if controls.height_range is not None:
@@ -129,10 +136,7 @@ def check_heights(examples, controls: "Controls") -> None:
                 spans.append(finite[id(ex)][1:])
         for st in controls.styles:
             if id(st.example) in finite:
-                heights, lo, hi = finite[id(st.example)]
-                median = float(np.nanmedian(np.where(np.isfinite(heights), heights, np.nan)))
-                base = median if st.base is None else float(st.base)
-                spans.append((base + st.relief_scale * (lo - median), base + st.relief_scale * (hi - median)))
+                spans.append(_styled_span(st, *finite[id(st.example)]))
         if not spans:
             return
         lo, hi = min(s[0] for s in spans), max(s[1] for s in spans)
@@ -140,6 +144,14 @@ def check_heights(examples, controls: "Controls") -> None:
     reach = PIN_SPANS * max(hi - lo, MIN_PIN_SPAN)
     check_pin_heights(controls.pins, (lo - reach, hi + reach),
                       f"{source} {lo:.0f}..{hi:.0f} m widened by {PIN_SPANS:g} times their span")
+
+
+def _styled_span(style: "Style", heights: np.ndarray, lo: float, hi: float) -> tuple[float, float]:
+    """The heights of ``style``'s example (lowest ``lo``, highest ``hi``,
+    metres) about its base, times its relief scale."""
+    median = float(np.nanmedian(np.where(np.isfinite(heights), heights, np.nan)))
+    base = median if style.base is None else float(style.base)
+    return base + style.relief_scale * (lo - median), base + style.relief_scale * (hi - median)
 
 
 def check_height_range(height_range) -> tuple[float, float] | None:
@@ -292,8 +304,9 @@ class Controls:
             if not (math.isfinite(s.relief_scale) and s.relief_scale > 0):
                 raise ParamsError(f"style {_style_name(s, i)}: relief scale must be a positive number, "
                                   f"got {s.relief_scale}")
-            if s.base is not None and not math.isfinite(s.base):
-                raise ParamsError(f"style {_style_name(s, i)}: base height must be finite, got {s.base}")
+            if s.base is not None and not (math.isfinite(s.base) and abs(s.base) <= HEIGHT_LIMIT):
+                raise ParamsError(f"style {_style_name(s, i)}: base height must be a height within "
+                                  f"+-{HEIGHT_LIMIT:g} m, got {s.base}")
         style_map = None
         if self.style_map is not None:
             if not styles:
@@ -316,6 +329,9 @@ class Controls:
         if self.water is not None:
             fitted = _fit_map("water mask", np.asarray(self.water.mask), shape, order=0)
             water = Water(fitted, self.water.level, self.water.depth, self.water.bank_width).checked(shape)
+            for name, v in (("level", water.level), ("depth", water.depth)):
+                if v is not None and abs(v) > HEIGHT_LIMIT:
+                    raise ParamsError(f"water {name} {v:g} m: heights must be within +-{HEIGHT_LIMIT:g} m")
         for i, st in enumerate(self.stamps):
             check_stamp_transform(st.scale, st.rotation, f"stamp {i + 1}")
             r, c = st.center

@@ -55,7 +55,8 @@ class Water:
         Raises
         ------
         ParamsError
-            Wrong mask shape, non-finite level, negative depth or width.
+            Wrong mask shape, non-finite level, negative depth or width, a
+            bank wider than the map.
         """
         mask = np.asarray(self.mask)
         if mask.shape != tuple(shape):
@@ -66,6 +67,9 @@ class Water:
         for name, v in (("depth", self.depth), ("bank width", self.bank_width)):
             if v is not None and not (math.isfinite(v) and v >= 0):
                 raise ParamsError(f"water {name} must be a non-negative number, got {v}")
+        if self.bank_width is not None and self.bank_width > max(shape):
+            raise ParamsError(f"water bank width {self.bank_width:g} cells is wider than the {shape[0]}x{shape[1]} "
+                              f"map: at most {max(shape)} cells (its longer side)")
         return Water(mask.astype(bool), float(self.level), self.depth, self.bank_width)
 
 

@@ -48,6 +48,12 @@ UNREAL_SIZES = (127, 253, 505, 1009, 2017, 4033, 8129)
 UNITY_SIZES = tuple(2**n + 1 for n in range(5, 13))
 #: Largest side of an EXR preset grid.
 MAX_EXR_SIDE = 16384
+#: Most tiles a side (32 x 32: 1024 heightmap files).
+MAX_TILES = 32
+#: Most samples a side of a whole grid of tiles (8 x 8 Unreal tiles of 2017
+#: samples hold 16129, 8 x 8 Unity tiles of 2049 this; the grid is made in
+#: memory, 1 GB at this side).
+MAX_TILED_SIDE = 16385
 
 
 @dataclass(frozen=True)
@@ -223,8 +229,8 @@ def _check_options(preset_name: str, size: int | None, tiles: int) -> EnginePres
     preset = PRESETS.get(preset_name)
     if preset is None:
         raise ParamsError(f"unknown preset {preset_name!r}; expected one of {', '.join(PRESETS)}")
-    if not (isinstance(tiles, int) and tiles >= 1):
-        raise ParamsError(f"tiles must be a whole number >= 1, got {tiles!r}")
+    if not (isinstance(tiles, int) and 1 <= tiles <= MAX_TILES):
+        raise ParamsError(f"tiles must be a whole number from 1 to {MAX_TILES}, got {tiles!r}")
     if tiles > 1 and not preset.tiles:
         raise ParamsError(f"the {preset_name} preset writes one heightfield; --tiles is for unreal and unity")
     if size is not None:
@@ -240,6 +246,19 @@ def _tile_paths(out_dir: Path, stem: str, ext: str, tiles: int) -> list[tuple[in
     if tiles == 1:
         return [(0, 0, out_dir / f"{stem}{ext}")]
     return [(i, j, out_dir / f"{stem}_x{i}_y{j}{ext}") for j in range(tiles) for i in range(tiles)]
+
+
+def check_stem(stem: str) -> None:
+    """Refuse a start of file names that is empty or names a folder
+    (``/``, ``..``): every file an export writes goes into its folder.
+
+    Raises
+    ------
+    ParamsError
+    """
+    if (not isinstance(stem, str) or not stem.strip() or stem in (".", "..")
+            or any(c in stem for c in ("/", "\\", "\0"))):
+        raise ParamsError(f"name {stem!r}: expected the start of a file name without folders, e.g. 'terrain'")
 
 
 def check_folder(out_dir: Path) -> None:
@@ -305,6 +324,9 @@ def preset_grid(field: HeightField, preset: str, *, size: int | None = None,
     if size is None and chosen.sizes is not None:
         size = default_size(chosen, max(ready.shape), tiles)
         notes.append(f"size {size} chosen: the smallest {chosen.name} size that keeps every sample")
+    if size is not None and tiles * (size - 1) + 1 > MAX_TILED_SIDE:
+        raise ParamsError(f"{tiles} x {tiles} tiles of {size} samples make a grid of {tiles * (size - 1) + 1} "
+                          f"samples a side; at most {MAX_TILED_SIDE}: fewer tiles or a smaller size")
     shape = preset_shape(chosen, ready, size, tiles)
     grid = resample_nodes(ready, shape)
     if grid is not ready:
@@ -343,11 +365,13 @@ def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | N
     ------
     ParamsError
         Unknown preset, a size the preset does not take, tiles where not
-        supported.
+        supported or making a grid over :data:`MAX_TILED_SIDE`, a ``stem``
+        with folders in it.
     DEMFormatError
         A file the export would write exists, or writing failed (the files
         this call wrote are removed).
     """
+    check_stem(stem)
     chosen = PRESETS.get(preset)
     grid, size, notes = preset_grid(field, preset, size=size, tiles=tiles)
     out_dir = Path(out_dir)

@@ -20,7 +20,7 @@ from PIL import Image
 
 from ..errors import ParamsError
 from ..io._common import atomic_outputs, open_new, wrap_errors
-from .engines import check_folder, refuse_existing
+from .engines import check_folder, check_stem, refuse_existing
 from .masks import TerrainMasks
 
 #: ``--format`` values.
@@ -99,12 +99,13 @@ def write_masks(masks: TerrainMasks, out_dir, *, fmt: str = "png8", stem: str = 
     Raises
     ------
     ParamsError
-        Unknown format.
+        Unknown format, or a ``stem`` with folders in it.
     DEMFormatError
         A file exists, or writing failed (the files written are removed).
     """
     if fmt not in MASK_FORMATS:
         raise ParamsError(f"unknown mask format {fmt!r}; expected one of {', '.join(MASK_FORMATS)}")
+    check_stem(stem)
     out_dir = Path(out_dir)
     check_folder(out_dir)
     paths = mask_paths(masks.masks, out_dir, stem, fmt)

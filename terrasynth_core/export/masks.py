@@ -171,11 +171,14 @@ def terrain_masks(field: HeightField, *, water: np.ndarray | None = None, sea_le
     Raises
     ------
     ParamsError
-        An unknown mask name, or a water mask of another shape.
+        An unknown mask name, a water mask of another shape, a sea level
+        that is not a finite height.
     """
     unknown = [n for n in names if n not in MASK_NAMES]
     if unknown:
         raise ParamsError(f"unknown mask {unknown[0]!r}; expected some of {', '.join(MASK_NAMES)}")
+    if not np.isfinite(sea_level):
+        raise ParamsError(f"sea level must be a finite height in metres, got {sea_level}")
     notes = []
     cell_size = field.cell_size
     if cell_size is None:

@@ -525,11 +525,71 @@ def _export_into_a_missing_folder(tmp, sketches, example):
     return ("export", example, "--preset", "unity", "--out", tmp / "nowhere" / "unity"), ["nowhere", "does not exist"]
 
 
+def _report_named_as_the_output(tmp, sketches, example):
+    return (synth_args(example, sketches / Y_JUNCTION, tmp / "out.tif", "--report", tmp / "out.tif"),
+            ["same file", "out.tif"])
+
+
+def _output_that_is_a_folder(tmp, sketches, example):
+    (tmp / "terrain.tif").mkdir()
+    return synth_args(example, sketches / Y_JUNCTION, tmp / "terrain.tif", "--overwrite"), ["terrain.tif", "folder"]
+
+
+def _convert_into_a_missing_folder(tmp, sketches, example):
+    return ("convert", example, tmp / "nowhere" / "a.exr"), ["nowhere", "does not exist"]
+
+
+def _export_name_with_folders(tmp, sketches, example):
+    return ("export", example, "--preset", "godot", "--out", tmp / "godot", "--name", "../../evil"), ["'../../evil'",
+                                                                                                    "without folders"]
+
+
+def _masks_name_with_folders(tmp, sketches, example):
+    return ("masks", example, "--out", tmp / "masks", "--name", "/tmp/abs"), ["'/tmp/abs'", "without folders"]
+
+
+def _masks_sea_level_nan(tmp, sketches, example):
+    return ("masks", example, "--out", tmp / "masks", "--sea-level", "nan"), ["sea level", "nan"]
+
+
+def _export_too_many_tiles(tmp, sketches, example):
+    return ("export", example, "--preset", "unity", "--out", tmp / "unity", "--tiles", "1000"), ["1 to 32", "1000"]
+
+
+def _features_overlay_not_a_png(tmp, sketches, example):
+    return ("features", example, "--overlay", tmp / "over.tif"), ["--overlay", ".png", "over.tif"]
+
+
+def _features_json_into_a_missing_folder(tmp, sketches, example):
+    return ("features", example, "--json", tmp / "nowhere" / "f.json"), ["nowhere", "does not exist"]
+
+
+def _features_json_and_overlay_one_file(tmp, sketches, example):
+    return ("features", example, "--json", tmp / "f.png", "--overlay", tmp / "f.png"), ["same file", "f.png"]
+
+
+def _bank_wider_than_the_map(tmp, sketches, example):
+    Image.fromarray(np.full((64, 64), 255, np.uint8)).save(tmp / "water.png")
+    return (synth_args(example, sketches / Y_JUNCTION, tmp / "out.tif", "--size", "64x64", "--water", tmp / "water.png",
+                       "--water-level", "0", "--bank-width", "1e9"), ["bank width", "64x64", "at most 64"])
+
+
+def _style_relief_beyond_any_height(tmp, sketches, example):
+    Image.fromarray(np.full((64, 64, 3), (230, 217, 140), np.uint8)).save(tmp / "styles.png")
+    return (synth_args(example, sketches / Y_JUNCTION, tmp / "out.tif", "--size", "64x64", "--styles",
+                       tmp / "styles.png", "--style", f"#e6d98c={example},relief=1e30"),
+            ["relief scale 1e+30", "+-100000 m"])
+
+
 @pytest.mark.parametrize("case", [
     _missing, _unknown_extension, _truncated_hgt, _corrupt_tif, _truncated_tif, _sketch_not_an_image,
     _synth_sketch_not_an_image, _coloured_png_as_dem, _example_smaller_than_patch, _unknown_output_extension,
     _missing_output_folder, _all_nodata, _synth_all_nodata_example, _unknown_builtin, _patch_size_out_of_range,
     _band_of_a_builtin, _a_cell_size_too_fine, _a_debug_dir_that_is_a_file, _export_into_a_missing_folder,
+    _report_named_as_the_output, _output_that_is_a_folder, _convert_into_a_missing_folder,
+    _export_name_with_folders, _masks_name_with_folders, _masks_sea_level_nan, _export_too_many_tiles,
+    _features_overlay_not_a_png, _features_json_into_a_missing_folder, _features_json_and_overlay_one_file,
+    _bank_wider_than_the_map, _style_relief_beyond_any_height,
 ], ids=lambda f: f.__name__.strip("_"))
 def test_bad_input_exits_2_with_one_line(capsys, tmp_path, sketch_dir, example_200, case):
     argv, words = case(tmp_path, sketch_dir, example_200)
@@ -543,6 +603,23 @@ def test_bad_input_exits_2_with_one_line(capsys, tmp_path, sketch_dir, example_2
     for word in words:
         assert word in lines[0]
     assert not (tmp_path / "out.tif").exists()
+
+
+def test_features_never_writes_over_its_input_and_replaces_an_output_only_when_asked(capsys, tmp_path, sketch_dir):
+    sketch = tmp_path / "sketch.png"
+    shutil.copy(sketch_dir / Y_JUNCTION, sketch)
+    before = sketch.read_bytes()
+    for option in ("--json", "--overlay"):
+        code, _, err = run(capsys, "features", sketch, "--sketch", option, sketch, "--overwrite")
+        assert code == EXIT_BAD_INPUT and "is an input of this command" in err
+    assert sketch.read_bytes() == before
+    mine = tmp_path / "mine.json"
+    mine.write_text("my notes")
+    code, _, err = run(capsys, "features", sketch, "--sketch", "--json", mine)
+    assert code == EXIT_BAD_INPUT and "exists; give --overwrite" in err and mine.read_text() == "my notes"
+    code, _, err = run(capsys, "features", sketch, "--sketch", "--json", mine, "--overwrite")
+    assert code == EXIT_OK, err
+    assert json.loads(mine.read_text())["ridges"]
 
 
 def test_unwritable_output_folder_is_refused_before_the_run(capsys, monkeypatch, tmp_path, sketch_dir,
