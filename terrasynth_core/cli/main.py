@@ -887,7 +887,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="processes that fill windows (default: one per core; the terrain is the same); with --tile, "
                         "the Dask workers of the local cluster")
     p.add_argument("--tile", metavar="N",
-                   help="synthesize the output as N x N tiles on Dask (world-size terrains; GeoTIFF output, "
+                   help="synthesize the output in tiles of N x N cells on Dask (world-size terrains; GeoTIFF output, "
                         "resumable: finished tiles are kept in OUT.tiles until the output is written)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="with --tile: run on the Dask cluster of this scheduler (tcp://host:8786) instead of "
