@@ -15,11 +15,14 @@ process holds the whole terrain.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import os
 import re
 import secrets
+import signal
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -379,10 +382,29 @@ def _client(workers: int | None, scheduler: str | None):
     # One thread per worker: a worker is one core (the engine runs in one
     # process there).  The scheduler's web server (the dashboard when bokeh
     # is installed) on a free port: a fixed one may be taken.
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=logging.ERROR)
+    with _ctrl_c_ignored():
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                               silence_logs=logging.ERROR)
     client = Client(cluster)
     return client, (client, cluster)
+
+
+@contextlib.contextmanager
+def _ctrl_c_ignored():
+    """SIGINT ignored while the local workers start, so that they ignore it
+    too (an ignored signal stays ignored in a new process, and Python then
+    installs no KeyboardInterrupt for it).  Ctrl-C reaches the terminal's
+    whole process group: this process stops the run and closes the
+    cluster, and each worker's own KeyboardInterrupt printed its traceback
+    first (67 lines for two workers)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield  # (only the main thread sets handlers; Ctrl-C is its anyway)
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _close(client, own) -> None:

@@ -465,3 +465,17 @@ def test_map_strokes_are_traced_as_the_tiles_trace_theirs_and_scaled_beyond_a_si
     assert scaled.ridges.shape == (300, 600)
     for a, b in zip(small.ridges.paths, scaled.ridges.paths):
         np.testing.assert_allclose(b.points, (a.points + 0.5) * 2.0 - 0.5)
+
+
+def test_local_workers_start_with_ctrl_c_ignored():
+    """Ctrl-C reaches the whole process group: the local workers, started
+    with SIGINT ignored, ignore it (their own KeyboardInterrupt tracebacks
+    came before the run's one line), and this process keeps its handler."""
+    from terrasynth_core.tiled.run import _ctrl_c_ignored
+
+    before = signal.getsignal(signal.SIGINT)
+    with _ctrl_c_ignored():
+        child = subprocess.run([sys.executable, "-c", "import signal; print(int(signal.getsignal(signal.SIGINT)))"],
+                               capture_output=True, text=True, check=True)
+    assert int(child.stdout) == int(signal.SIG_IGN)
+    assert signal.getsignal(signal.SIGINT) is before
