@@ -297,6 +297,10 @@ def cmd_features(args: argparse.Namespace) -> int:
         raise TerraSynthError(f"--overlay writes a PNG picture: give a .png file, got {args.overlay}")
     for out in outputs:
         _check_output_file(out)
+    if args.json:
+        from ..io._common import check_not_sidecar
+
+        check_not_sidecar(Path(args.json))  # (a DEM's metres and cell size, read with it: never replaced)
     stages = _Stages(3, "features")
     try:
         if args.sketch:

@@ -88,6 +88,14 @@ def wrap_errors(path: Path, action: str) -> Iterator[None]:
         raise DEMFormatError(f"cannot {action} {path}: no such file or directory") from exc
     except LIBRARY_ERRORS as exc:
         detail = " ".join(str(exc).split()) or type(exc).__name__
+        cause = exc.__cause__ or exc.__context__
+        if "See previous exception" in detail and cause is not None:
+            # rasterio's "Read failed. See previous exception for details.":
+            # GDAL's own words are in the exception before it.
+            detail = detail.replace("See previous exception for details.", "").strip()
+            detail += f" ({' '.join(str(cause).split())})"
+            if action == "read":
+                detail += "; the file is damaged or cut short"
         raise DEMFormatError(f"cannot {action} {path}: {detail}") from exc
 
 

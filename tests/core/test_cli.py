@@ -462,7 +462,7 @@ def _corrupt_tif(tmp, sketches, example):
 def _truncated_tif(tmp, sketches, example):
     source = Path(__file__).parents[2] / "resources" / "dems" / "bigtujunga.tif"
     (tmp / "cut.tif").write_bytes(source.read_bytes()[:3000])
-    return ("convert", tmp / "cut.tif", tmp / "cut.npy"), ["cut.tif"]
+    return ("convert", tmp / "cut.tif", tmp / "cut.npy"), ["cut.tif", "damaged or cut short", "IReadBlock failed"]
 
 
 def _sketch_not_an_image(tmp, sketches, example):
