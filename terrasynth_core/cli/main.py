@@ -1038,7 +1038,7 @@ def _run_command(args: argparse.Namespace) -> int:
     try:
         return args.func(args)
     except TerraSynthError as exc:
-        print(f"terrasynth-cli: error: {exc}", file=sys.stderr)
+        print(f"terrasynth-cli: error: {_with_option(str(exc), args)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except FileNotFoundError as exc:
         print(f"terrasynth-cli: error: {exc.filename or exc}: no such file", file=sys.stderr)
@@ -1051,6 +1051,20 @@ def _run_command(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print("terrasynth-cli: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+
+
+def _with_option(message: str, args: argparse.Namespace) -> str:
+    """``message`` with the option to change named after a library
+    parameter it names (``parameter patch_size=3`` -> ``(--patch-size)``,
+    ``band=1..3`` -> ``--band``)."""
+    import re
+
+    match = re.match(r"parameter (\w+)=", message)
+    if match and hasattr(args, match.group(1)):
+        message += f" (--{match.group(1).replace('_', '-')})"
+    if hasattr(args, "band"):
+        message = re.sub(r"\bwith band=", "with --band ", message)
+    return message
 
 
 if __name__ == "__main__":

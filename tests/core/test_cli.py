@@ -503,7 +503,8 @@ def _unknown_builtin(tmp, sketches, example):
 
 
 def _patch_size_out_of_range(tmp, sketches, example):
-    return synth_args(example, sketches / Y_JUNCTION, tmp / "out.tif", "--patch-size", "8"), ["patch_size=8"]
+    return synth_args(example, sketches / Y_JUNCTION, tmp / "out.tif", "--patch-size", "8"), ["patch_size=8",
+                                                                                            "(--patch-size)"]
 
 
 def _band_of_a_builtin(tmp, sketches, example):
