@@ -120,6 +120,7 @@ def atomic_outputs(*paths: Path) -> Iterator[list[Path]]:
     try:
         yield temps
         for temp, target in zip(temps, paths):
+            _keep_mode(target, temp)
             os.replace(temp, target)
     except Exception as exc:
         _raise_if_disk_full(exc, temps[0].parent if temps else Path("."))
@@ -129,6 +130,16 @@ def atomic_outputs(*paths: Path) -> Iterator[list[Path]]:
             temp.unlink(missing_ok=True)
         with _UNFINISHED_LOCK:
             _UNFINISHED.difference_update(temps)
+
+
+def _keep_mode(target: Path, temp: Path) -> None:
+    """Give ``temp`` the permissions of the file it replaces (a replaced
+    read-only file stays read-only; a new file keeps the umask's)."""
+    try:
+        mode = os.stat(target).st_mode
+    except FileNotFoundError:
+        return
+    os.chmod(temp, mode & 0o7777)
 
 
 #: A failed write with less than this free beside it failed for want of space.

@@ -334,3 +334,24 @@ def test_obj_text_of_a_larger_grid_parses_exactly(tmp_path):
     # Seven significant digits at the largest magnitude of each axis.
     np.testing.assert_allclose(parsed_vertices, vertices, atol=0.01)
     assert np.abs(parsed_vertices[:, 2] - vertices[:, 2]).max() <= 0.0005
+
+
+def test_a_replaced_file_keeps_its_permissions(tmp_path):
+    """``--overwrite`` of a read-only file leaves a read-only file (the
+    atomic writer's temporary would otherwise bring the umask's mode)."""
+    import os
+    import stat
+
+    from terrasynth_core.io._common import atomic_outputs, open_new
+
+    target = tmp_path / "terrain.bin"
+    target.write_bytes(b"old")
+    os.chmod(target, 0o444)
+    with atomic_outputs(target) as (tmp,), open_new(tmp) as f:
+        f.write(b"new")
+    assert target.read_bytes() == b"new"
+    assert stat.S_IMODE(os.stat(target).st_mode) == 0o444
+    fresh = tmp_path / "fresh.bin"
+    with atomic_outputs(fresh) as (tmp,), open_new(tmp) as f:
+        f.write(b"x")
+    assert stat.S_IMODE(os.stat(fresh).st_mode) != 0o444
