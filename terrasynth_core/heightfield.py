@@ -44,6 +44,10 @@ LEAST_SIDE = 2
 #: the solvers take gigabytes).
 MOST_GRID_CELLS = 64_000_000
 
+#: Heights the engine takes, metres: within +- this (Earth's relief is under 20 km;
+#: larger values are other units or fill values, and overflow the solvers).
+HEIGHT_LIMIT = 100_000.0
+
 #: Mean Earth radius in metres (IUGG), used to turn arc-seconds into metres.
 EARTH_RADIUS_M = 6_371_008.8
 

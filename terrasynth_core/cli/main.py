@@ -190,8 +190,7 @@ def _refuse_replacing(args: argparse.Namespace, outputs, inputs=()) -> None:
         if other is not out:
             raise TerraSynthError(f"two of the outputs are the same file, {out}: give each its own name")
     for out in written:
-        if out.is_dir():
-            raise TerraSynthError(f"{out} is a folder; give a file name for the output")
+        _check_output_file(out)
         if not out.exists():
             continue
         if any(os.path.samefile(out, i) for i in inputs):
@@ -247,7 +246,9 @@ def cmd_convert(args: argparse.Namespace) -> int:
 def cmd_export(args: argparse.Namespace) -> int:
     from ..examples import resolve_dem
     from ..export import export_for_engine
+    from ..export.engines import check_stem
 
+    check_stem(args.name)
     field = resolve_dem(args.input, size=args.input_size, band=args.band)
     done = export_for_engine(field, args.preset, args.out, size=args.size, tiles=args.tiles, stem=args.name)
     for note in done.notes:
@@ -262,9 +263,12 @@ def cmd_export(args: argparse.Namespace) -> int:
 def cmd_masks(args: argparse.Namespace) -> int:
     from ..examples import resolve_dem
     from ..export import terrain_masks, write_masks
-    from ..export.engines import engine_ready, longer_side_shape, preset_grid
+    from ..export.engines import check_stem, engine_ready, longer_side_shape, preset_grid
     from ..io.resample import resample_nodes
 
+    check_stem(args.name)
+    if not math.isfinite(args.sea_level):
+        raise TerraSynthError(f"sea level (--sea-level) must be a finite height in metres, got {args.sea_level}")
     field = resolve_dem(args.input, size=args.input_size, band=args.band)
     notes = []
     if args.preset is not None:
@@ -1060,7 +1064,7 @@ def _with_option(message: str, args: argparse.Namespace) -> str:
     import re
 
     match = re.match(r"parameter (\w+)=", message)
-    if match and hasattr(args, match.group(1)):
+    if match and getattr(args, match.group(1), None) is not None:  # (given: not a project's own)
         message += f" (--{match.group(1).replace('_', '-')})"
     if hasattr(args, "band"):
         message = re.sub(r"\bwith band=", "with --band ", message)

@@ -27,9 +27,9 @@ import numpy as np
 
 from ..errors import ParamsError
 from ..features.sketch import resize_nearest
-from ..heightfield import HeightField
+from ..heightfield import HEIGHT_LIMIT, HeightField
 from .pins import check_pin_heights, check_pins
-from .water import Water
+from .water import Water, check_bank_width
 
 #: Footprint scales a :class:`Stamp` may have, (lowest, highest).
 STAMP_SCALE_RANGE = (0.05, 20.0)
@@ -54,9 +54,6 @@ def check_stamp_transform(scale: float, rotation: float, what: str = "stamp") ->
         raise ParamsError(f"{what}: rotation must be a finite angle in degrees, got {rotation}")
 
 
-#: Heights the engine takes, metres: within +- this (Earth's relief is under 20 km;
-#: larger values are other units or fill values, and overflow the solvers).
-HEIGHT_LIMIT = 100_000.0
 #: Pins may lie up to this many times the examples' height span beyond it ...
 PIN_SPANS = 3.0
 #: ... the span counting as at least this many metres (flat examples).
@@ -119,12 +116,18 @@ def check_heights(examples, controls: "Controls") -> None:
                               f"+-{HEIGHT_LIMIT:g} m (a DEM in other units, or an unmarked fill value?)")
         finite[id(ex)] = (heights, lo, hi)
     for i, st in enumerate(controls.styles):
-        if id(st.example) in finite:
-            lo, hi = _styled_span(st, *finite[id(st.example)])
+        if id(st.example) not in finite:
+            continue
+        heights, lo, hi = finite[id(st.example)]
+        # (The median, and so the exact span, only when a bound that needs
+        # none is over: a session is made for every live stroke.)
+        bound = (abs(st.base) if st.base is not None else max(abs(lo), abs(hi))) + st.relief_scale * (hi - lo)
+        if bound > HEIGHT_LIMIT:
+            lo, hi = _styled_span(st, heights, lo, hi)
             if max(abs(lo), abs(hi)) > HEIGHT_LIMIT:
-                raise ParamsError(f"style {_style_name(st, i)}: its relief scale {st.relief_scale:g} (and base) put "
+                raise ParamsError(f"style {_style_name(st, i)}: its relief scale {st.relief_scale:g} and base put "
                                   f"its heights at {lo:.3g}..{hi:.3g} m; heights must be within "
-                                  f"+-{HEIGHT_LIMIT:g} m: give a smaller relief=")
+                                  f"+-{HEIGHT_LIMIT:g} m: a smaller relief scale or base would do")
     if not controls.pins:
         return
     if controls.height_range is not None:
@@ -329,9 +332,8 @@ class Controls:
         if self.water is not None:
             fitted = _fit_map("water mask", np.asarray(self.water.mask), shape, order=0)
             water = Water(fitted, self.water.level, self.water.depth, self.water.bank_width).checked(shape)
-            for name, v in (("level", water.level), ("depth", water.depth)):
-                if v is not None and abs(v) > HEIGHT_LIMIT:
-                    raise ParamsError(f"water {name} {v:g} m: heights must be within +-{HEIGHT_LIMIT:g} m")
+            if self.previous is None:  # (a re-synthesis's crop keeps the whole map's bank)
+                check_bank_width(water.bank_width, shape)
         for i, st in enumerate(self.stamps):
             check_stamp_transform(st.scale, st.rotation, f"stamp {i + 1}")
             r, c = st.center

@@ -25,6 +25,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..errors import ParamsError
+from ..heightfield import HEIGHT_LIMIT
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,7 +57,7 @@ class Water:
         ------
         ParamsError
             Wrong mask shape, non-finite level, negative depth or width, a
-            bank wider than the map.
+            level or depth beyond :data:`~terrasynth_core.heightfield.HEIGHT_LIMIT`.
         """
         mask = np.asarray(self.mask)
         if mask.shape != tuple(shape):
@@ -67,10 +68,23 @@ class Water:
         for name, v in (("depth", self.depth), ("bank width", self.bank_width)):
             if v is not None and not (math.isfinite(v) and v >= 0):
                 raise ParamsError(f"water {name} must be a non-negative number, got {v}")
-        if self.bank_width is not None and self.bank_width > max(shape):
-            raise ParamsError(f"water bank width {self.bank_width:g} cells is wider than the {shape[0]}x{shape[1]} "
-                              f"map: at most {max(shape)} cells (its longer side)")
+        for name, v in (("level", self.level), ("depth", self.depth)):
+            if v is not None and abs(v) > HEIGHT_LIMIT:
+                raise ParamsError(f"water {name} {v:g} m: heights must be within +-{HEIGHT_LIMIT:g} m")
         return Water(mask.astype(bool), float(self.level), self.depth, self.bank_width)
+
+
+def check_bank_width(bank_width: float | None, shape: tuple[int, int]) -> None:
+    """Refuse a bank wider than the whole output ``shape`` (its banks'
+    Gaussian would need memory beyond any machine's: 1e9 cells took 23 GB).
+
+    Raises
+    ------
+    ParamsError
+    """
+    if bank_width is not None and bank_width > max(shape):
+        raise ParamsError(f"water bank width {bank_width:g} cells is wider than the {shape[0]}x{shape[1]} map: "
+                          f"at most {max(shape)} cells (its longer side)")
 
 
 #: Cells over which wide water reaches its full depth.

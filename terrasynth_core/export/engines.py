@@ -50,10 +50,11 @@ UNITY_SIZES = tuple(2**n + 1 for n in range(5, 13))
 MAX_EXR_SIDE = 16384
 #: Most tiles a side (32 x 32: 1024 heightmap files).
 MAX_TILES = 32
-#: Most samples a side of a whole grid of tiles (8 x 8 Unreal tiles of 2017
-#: samples hold 16129, 8 x 8 Unity tiles of 2049 this; the grid is made in
-#: memory, 1 GB at this side).
-MAX_TILED_SIDE = 16385
+#: Most samples a side of a whole grid of tiles (16 x 16 Unreal tiles of
+#: 2017 samples hold 32257, 4 x 4 of 8129 32513: what the app's export
+#: dialog offered and a machine can hold; the grid is made in memory, 4 GB
+#: at this side).
+MAX_TILED_SIDE = 32769
 
 
 @dataclass(frozen=True)
@@ -250,14 +251,15 @@ def _tile_paths(out_dir: Path, stem: str, ext: str, tiles: int) -> list[tuple[in
 
 def check_stem(stem: str) -> None:
     """Refuse a start of file names that is empty or names a folder
-    (``/``, ``..``): every file an export writes goes into its folder.
+    (``/``, ``\\``, ``..``, a Windows drive's ``:``): every file an export
+    writes goes into its folder.
 
     Raises
     ------
     ParamsError
     """
     if (not isinstance(stem, str) or not stem.strip() or stem in (".", "..")
-            or any(c in stem for c in ("/", "\\", "\0"))):
+            or any(c in stem for c in ("/", "\\", ":", "\0"))):
         raise ParamsError(f"name {stem!r}: expected the start of a file name without folders, e.g. 'terrain'")
 
 

@@ -95,7 +95,7 @@ def wrap_errors(path: Path, action: str) -> Iterator[None]:
             detail = detail.replace("See previous exception for details.", "").strip()
             detail += f" ({' '.join(str(cause).split())})"
             if action == "read":
-                detail += "; the file is damaged or cut short"
+                detail += "; the file may be damaged or cut short"
         raise DEMFormatError(f"cannot {action} {path}: {detail}") from exc
 
 
@@ -134,12 +134,13 @@ def atomic_outputs(*paths: Path) -> Iterator[list[Path]]:
 
 def _keep_mode(target: Path, temp: Path) -> None:
     """Give ``temp`` the permissions of the file it replaces (a replaced
-    read-only file stays read-only; a new file keeps the umask's)."""
+    read-only file stays read-only; a new file keeps the umask's).  Best
+    effort: a file system without permissions (some network and FUSE
+    mounts) must not fail a write that succeeded."""
     try:
-        mode = os.stat(target).st_mode
-    except FileNotFoundError:
-        return
-    os.chmod(temp, mode & 0o7777)
+        os.chmod(temp, os.stat(target).st_mode & 0o777)
+    except OSError:
+        pass
 
 
 #: A failed write with less than this free beside it failed for want of space.

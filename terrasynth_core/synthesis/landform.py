@@ -904,14 +904,10 @@ def landform_lowpass(heights: np.ndarray, sigma: float, coherent: np.ndarray | N
     g = np.exp(-2 * np.pi**2 * sigma**2 * (fy**2 + fx**2))
     spectrum = np.fft.rfft2(h)
     inner = (slice(pad, pad + heights.shape[0]), slice(pad, pad + heights.shape[1]))
-    if coherent is None:
-        return np.fft.irfft2(spectrum * np.sqrt(1.0 - (1.0 - g) ** 2), s=h.shape)[inner].astype(np.float32)
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="terrasynth-landform") as pool:
-        # Both inverse transforms at once (numpy's FFT releases the
-        # interpreter lock).
-        amplitude = pool.submit(lambda: np.fft.irfft2(spectrum * g, s=h.shape)[inner])
-        out = np.fft.irfft2(spectrum * np.sqrt(1.0 - (1.0 - g) ** 2), s=h.shape)[inner]
-        out += np.clip(coherent, 0.0, 1.0) * (amplitude.result() - out)
+    out = np.fft.irfft2(spectrum * np.sqrt(1.0 - (1.0 - g) ** 2), s=h.shape)[inner]
+    if coherent is not None:
+        amplitude = np.fft.irfft2(spectrum * g, s=h.shape)[inner]
+        out += np.clip(coherent, 0.0, 1.0) * (amplitude - out)
     return out.astype(np.float32)
 
 

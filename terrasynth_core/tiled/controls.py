@@ -28,7 +28,7 @@ from ..controls.levels import LEVEL_SIGMA, PIN_LEVEL_REACH, level_field, steer_l
 from ..controls.options import Controls, Stamp, Style, check_heights
 from ..controls.pins import Pin
 from ..controls.stamps import render_stamp
-from ..controls.water import Water
+from ..controls.water import Water, check_bank_width
 from ..errors import ParamsError
 from ..heightfield import HeightField
 from .plan import TilePlan
@@ -273,6 +273,7 @@ def map_controls(controls: Controls | None, examples: Sequence, shape: tuple[int
     if controls.water is not None:
         mask = _same_aspect("water mask", controls.water.mask, shape)
         water = Water(mask, controls.water.level, controls.water.depth, controls.water.bank_width).checked(mask.shape)
+        check_bank_width(water.bank_width, shape)  # (the output's size, not the painted mask's)
         if water.depth is None:
             water = dataclasses.replace(water, depth=DEPTH_SHARE * _height_span(layout, bases))
     stamp_tiles = tuple(_stamp_tile(i, st, shape, plan, params.patch_size, layout.cell_size)

@@ -404,7 +404,8 @@ def _ctrl_c_ignored():
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        # (None: a handler set outside Python; Python's own is the default.)
+        signal.signal(signal.SIGINT, signal.default_int_handler if previous is None else previous)
 
 
 def _close(client, own) -> None:

@@ -84,3 +84,21 @@ def test_water_beside_locked_water_still_lies_below_the_level():
     assert np.array_equal(out[locked], heights[locked])
     assert (out[lake] < 330.0).all()
     assert (heights[lake & ~locked] > 400.0).any()  # (the hill was well above it)
+
+
+def test_a_bank_wider_than_the_map_is_refused_but_a_crop_keeps_the_maps_bank():
+    """The bank is checked against the whole output; a re-synthesis's crop
+    (smaller than the bank) keeps the whole map's bank width."""
+    import pytest
+
+    from terrasynth_core.errors import ParamsError
+
+    mask = np.zeros((133, 133), bool)
+    mask[:20] = True
+    with pytest.raises(ParamsError, match=r"bank width 150 cells is wider than the 133x133 map: at most 133"):
+        Controls(water=Water(mask, 0.0, None, 150.0)).checked((133, 133), 1)
+    crop = Controls(water=Water(mask, 0.0, None, 150.0), previous=np.zeros((133, 133), np.float32),
+                    selection=np.ones((133, 133), bool)).checked((133, 133), 1)
+    assert crop.water.bank_width == 150.0
+    with pytest.raises(ParamsError, match=r"water depth 1e\+06 m"):
+        Controls(water=Water(mask, 0.0, 1e6, None)).checked((133, 133), 1)

@@ -21,8 +21,10 @@ from terrasynth_core.cli.main import EXIT_BAD_INPUT
 from terrasynth_core.cli.main import main as cli_main
 from terrasynth_core.errors import ParamsError, SynthesisCancelled
 from terrasynth_core.features.sketch import read_sketch
-from terrasynth_core.synthesis import Controls, SynthesisParams
+from terrasynth_core.controls.water import Water
+from terrasynth_core.synthesis import Controls, Session, SynthesisParams
 from terrasynth_core.tiled import TileFinished, check_scheduler, plan_tiles, run_tiled
+from terrasynth_core.tiled.controls import map_controls
 from terrasynth_core.tiled.inputs import CoarseLevel, sketch_window
 from terrasynth_core.tiled.measure import border_ratio
 from terrasynth_core.tiled.store import run_digest, store_path
@@ -479,3 +481,18 @@ def test_local_workers_start_with_ctrl_c_ignored():
                                capture_output=True, text=True, check=True)
     assert int(child.stdout) == int(signal.SIG_IGN)
     assert signal.getsignal(signal.SIGINT) is before
+
+
+def test_a_tiled_runs_bank_is_checked_against_the_output_not_the_painted_mask(white_mountains, one_worker, tmp_path):
+    painted = np.zeros((64, 64), bool)
+    painted[:10] = True
+    for bank, fits in ((100.0, True), (300.0, False)):
+        controls = Controls(water=Water(painted, 300.0, None, bank))
+        if fits:
+            map_controls(controls, [white_mountains], (256, 256), plan_tiles((256, 256), 128, patch_size=32), P,
+                         Session([white_mountains], None, shape=(64, 64), params=P).layout)
+        else:
+            with pytest.raises(ParamsError, match="wider than the 256x256 map"):
+                run_tiled([white_mountains], None, shape=(256, 256), tile=128, out=tmp_path / "o.tif", params=P,
+                          client=one_worker, controls=controls)
+    assert not (tmp_path / "o.tif").exists()
