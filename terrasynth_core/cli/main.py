@@ -155,7 +155,8 @@ def _input_files(args: argparse.Namespace) -> list[Path]:
 def _refuse_replacing(args: argparse.Namespace, outputs, inputs=()) -> None:
     """Refuse, before any work, to write over a file the command reads (ever)
     or over any existing file (unless ``--overwrite``): a run never loses
-    what the user owns.
+    what the user owns: nor over a heightmap's sidecar, nor two outputs
+    over one file, nor into a folder that does not exist.
 
     Parameters
     ----------
@@ -173,12 +174,13 @@ def _refuse_replacing(args: argparse.Namespace, outputs, inputs=()) -> None:
         One line naming the file.
     """
     from ..io import sidecar_of
-    from ..io._common import check_sidecar_ours
+    from ..io._common import check_not_sidecar, check_sidecar_ours
 
     inputs = [*_input_files(args), *(Path(i) for i in inputs if i and Path(i).is_file())]
     written = []
     for out in map(Path, outputs):
         written.append(out)
+        check_not_sidecar(out, "output")  # (another heightmap's metres and cell size: never replaced)
         if sidecar_of(out) is not None:
             check_sidecar_ours(out)
         if out.suffix.lower() == ".asc":
@@ -267,8 +269,6 @@ def cmd_masks(args: argparse.Namespace) -> int:
     from ..io.resample import resample_nodes
 
     check_stem(args.name)
-    if not math.isfinite(args.sea_level):
-        raise TerraSynthError(f"sea level (--sea-level) must be a finite height in metres, got {args.sea_level}")
     field = resolve_dem(args.input, size=args.input_size, band=args.band)
     notes = []
     if args.preset is not None:
@@ -296,20 +296,13 @@ def cmd_features(args: argparse.Namespace) -> int:
     from ..features import FeatureMaps, extract_features, read_sketch, sketch_features
     from ..pictures import render_overlay, save_png
 
-    outputs = [Path(p) for p in (args.json, args.overlay) if p]
     if args.overlay and Path(args.overlay).suffix.lower() != ".png":
         raise TerraSynthError(f"--overlay writes a PNG picture: give a .png file, got {args.overlay}")
-    for out in outputs:
-        _check_output_file(out)
-    if args.json:
-        from ..io._common import check_not_sidecar
-
-        check_not_sidecar(Path(args.json))  # (a DEM's metres and cell size, read with it: never replaced)
     stages = _Stages(3, "features")
     try:
         if args.sketch:
-            _refuse_replacing(args, outputs)
             sketch = read_sketch(args.input)
+            _refuse_replacing(args, [p for p in (args.json, args.overlay) if p])
             stages.step("read sketch")
             maps = sketch_features(sketch)
             heights = np.where(sketch.ridge_mask, 1.0, np.where(sketch.valley_mask, -1.0, 0.0)).astype(np.float32)
@@ -318,7 +311,8 @@ def cmd_features(args: argparse.Namespace) -> int:
             from ..examples import resolve_dem
 
             field = resolve_dem(args.input, size=args.size, band=args.band)
-            _refuse_replacing(args, outputs, _sources([field]))  # (the file a builtin:KEY names too)
+            # (Inputs: the file a builtin:KEY names too.)
+            _refuse_replacing(args, [p for p in (args.json, args.overlay) if p], _sources([field]))
             stages.step("read DEM")
             maps = extract_features(field, kind=args.kind)
             heights, cell_size = field.heights, field.cell_size
@@ -667,9 +661,9 @@ def _run_outputs(args, out: Path) -> list[Path]:
 
 
 def _check_report_path(args, out: Path) -> None:
-    """Refuse a ``--report`` that would be (or replace) a heightmap's sidecar, before the run."""
+    """Refuse a ``--report`` that would be this run's output's sidecar, before the run (another
+    heightmap's: :func:`_refuse_replacing`)."""
     from ..io import sidecar_of
-    from ..io._common import check_not_sidecar
 
     if not getattr(args, "report", None):
         return
@@ -682,7 +676,6 @@ def _check_report_path(args, out: Path) -> None:
         if side is not None and report.resolve() == side.resolve():
             raise TerraSynthError(f"--report {report} is the sidecar of the output {o} (its metres and "
                                   "cell size); give the report another name")
-    check_not_sidecar(report, "report")
 
 
 def _after_output(out: Path, what: str, write) -> None:

@@ -232,11 +232,14 @@ class KitWorkers:
 
 
 #: Kit files kept for later stages (:class:`KitWorkers` ``keep``), and as
-#: many kits a worker keeps loaded (a live stroke's fill kit and one
-#: other stage's).  A fill's kit holds the examples' searches (tens of MB
-#: with the indexes a worker loads); its file, in the temporary folder,
-#: holds them without the indexes.
-KEPT_KITS = 2
+#: many kits a worker keeps loaded: one for each fill that comes back, the
+#: landform pass's (a coarse one, a few MB), the whole map's and a live
+#: stroke's crop's (the examples without the landform split).  With two,
+#: the app's run after a stroke pickled and loaded the whole map's again
+#: and its next stroke the crop's.  A fill's kit holds the examples'
+#: searches (tens of MB with the indexes a worker loads); its file, in the
+#: temporary folder, holds them without the indexes.
+KEPT_KITS = 3
 
 #: Kept kit files by key, oldest first: [path, kit, stages using it].  The
 #: kit is held so that the objects its key names stay alive (an ``id`` in

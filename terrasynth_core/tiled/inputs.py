@@ -246,14 +246,15 @@ def coarse_level(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap
     """
     if not params.landform:
         return None, []
-    side = 2 * params.patch_size
-    probe = Session(examples, None, shape=(side, side),
-                    params=dataclasses.replace(params, landform=False, drainage=False, workers=1))
-    maps = probe.sketch_maps if sketch is None or not sketch.has_strokes else sketch_features(sketch)
     # One process: this runs in a Dask worker, whose cores the cluster
     # schedules (a worker of a remote cluster may not start processes).
-    coarse, factor, note = coarse_session_for(dataclasses.replace(params, workers=1), probe.layout, tuple(shape),
-                                              probe.controls, probe.n_plain, sketch, maps)
+    params = dataclasses.replace(params, workers=1)
+    side = 2 * params.patch_size
+    probe = Session(examples, None, shape=(side, side), params=dataclasses.replace(params, landform=False,
+                                                                                  drainage=False))
+    maps = probe.sketch_maps if sketch is None or not sketch.has_strokes else sketch_features(sketch)
+    coarse, factor, note = coarse_session_for(params, probe.layout, tuple(shape), probe.controls, probe.n_plain,
+                                              sketch, maps)
     notes = [note] if note else []
     if coarse is None:
         # As the whole-map run (landform.drawn_level): where the examples
