@@ -248,11 +248,17 @@ def cmd_convert(args: argparse.Namespace) -> int:
 def cmd_export(args: argparse.Namespace) -> int:
     from ..examples import resolve_dem
     from ..export import export_for_engine
-    from ..export.engines import check_stem
+    from ..export.engines import check_stem, export_file_for_engine
 
     check_stem(args.name)
-    field = resolve_dem(args.input, size=args.input_size, band=args.band)
-    done = export_for_engine(field, args.preset, args.out, size=args.size, tiles=args.tiles, stem=args.name)
+    if Path(args.input).is_file():
+        # Read window by window where the format allows: a world-size
+        # terrain's tiles are cut without holding it whole.
+        done = export_file_for_engine(args.input, args.preset, args.out, size=args.size, tiles=args.tiles,
+                                      stem=args.name, band=args.band, input_size=args.input_size)
+    else:
+        field = resolve_dem(args.input, size=args.input_size, band=args.band)
+        done = export_for_engine(field, args.preset, args.out, size=args.size, tiles=args.tiles, stem=args.name)
     for note in done.notes:
         print(f"terrasynth-cli: note: {note}", file=sys.stderr)
     heightmaps = [f for f in done.files if f.name in done.settings["files"]]

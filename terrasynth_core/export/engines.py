@@ -33,14 +33,16 @@ the export would write exists, the export refuses before writing anything.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+
+import numpy as np
 
 from ..errors import DEMFormatError, ParamsError
 from ..heightfield import HeightField
-from ..io import save_dem
+from ..io import load_dem, open_raster_windows, save_dem
 from ..io._common import atomic_outputs, open_new, sidecar_path, wrap_errors
-from ..io.resample import resample_nodes, to_square_cells
+from ..io.resample import NodeGrid, already_square, node_grid_placement, resample_nodes, to_square_cells
 
 #: The Landscape Technical Guide's recommended heightmap sizes (samples a side).
 UNREAL_SIZES = (127, 253, 505, 1009, 2017, 4033, 8129)
@@ -323,18 +325,25 @@ def preset_grid(field: HeightField, preset: str, *, size: int | None = None,
     """
     chosen = _check_options(preset, size, tiles)
     ready, notes = engine_ready(field)
-    if size is None and chosen.sizes is not None:
-        size = default_size(chosen, max(ready.shape), tiles)
-        notes.append(f"size {size} chosen: the smallest {chosen.name} size that keeps every sample")
+    size, shape = _plan(chosen, ready, size, tiles, notes)
+    return resample_nodes(ready, shape), size, notes
+
+
+def _plan(preset: EnginePreset, ready, size: int | None, tiles: int, notes: list) -> tuple[int | None, tuple]:
+    """The size per tile and the whole grid's shape for an engine-ready
+    ``ready`` (anything with ``shape`` and ``cell_size``); adds to ``notes``
+    what was chosen and how the grid is resampled."""
+    if size is None and preset.sizes is not None:
+        size = default_size(preset, max(ready.shape), tiles)
+        notes.append(f"size {size} chosen: the smallest {preset.name} size that keeps every sample")
     if size is not None and tiles * (size - 1) + 1 > MAX_TILED_SIDE:
         raise ParamsError(f"{tiles} x {tiles} tiles of {size} samples make a grid of {tiles * (size - 1) + 1} "
                           f"samples a side; at most {MAX_TILED_SIDE}: fewer tiles or a smaller size")
-    shape = preset_shape(chosen, ready, size, tiles)
-    grid = resample_nodes(ready, shape)
-    if grid is not ready:
+    shape = preset_shape(preset, ready, size, tiles)
+    if tuple(shape) != tuple(ready.shape):
         notes.append(f"resampled from {ready.shape[0]} x {ready.shape[1]} to {shape[0]} x {shape[1]} samples "
                      f"({'area average' if shape[0] * shape[1] < ready.shape[0] * ready.shape[1] else 'cubic'})")
-    return grid, size, notes
+    return size, tuple(shape)
 
 
 def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | None = None, tiles: int = 1,
@@ -374,30 +383,134 @@ def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | N
         this call wrote are removed).
     """
     check_stem(stem)
-    chosen = PRESETS.get(preset)
-    grid, size, notes = preset_grid(field, preset, size=size, tiles=tiles)
-    out_dir = Path(out_dir)
+    chosen = _check_options(preset, size, tiles)
+    ready, notes = engine_ready(field)
+    return _export(_FieldWindows(ready), chosen, Path(out_dir), size, tiles, stem, notes)
+
+
+def export_file_for_engine(path, preset: str, out_dir, *, size: int | None = None, tiles: int = 1,
+                           stem: str = "terrain", band: int | None = None,
+                           input_size: tuple[int, int] | None = None) -> EngineExport:
+    """:func:`export_for_engine` of a DEM file, read window by window.
+
+    A raster GDAL reads (a world-size terrain's GeoTIFF) with square cells
+    in metres and no nodata is never held whole: each tile reads only the
+    cells its resampling reaches, so memory follows the tile, not the
+    terrain.  Any other file (another format, cells to make square, nodata
+    to fill) is read whole and exported as :func:`export_for_engine` does.
+    The files written are the same either way.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The DEM.
+    band : int, optional
+        1-based band of a multi-band raster.
+    input_size : (rows, cols), optional
+        Of a headerless ``.r16``/``.r32`` file (``size`` of
+        :func:`~terrasynth_core.io.load_dem`).
+    preset, out_dir, size, tiles, stem
+        As in :func:`export_for_engine`.
+
+    Returns
+    -------
+    EngineExport
+
+    Raises
+    ------
+    ParamsError, DEMFormatError
+        As :func:`export_for_engine` and :func:`~terrasynth_core.io.load_dem`.
+    """
+    check_stem(stem)
+    chosen = _check_options(preset, size, tiles)
+    path = Path(path)
+    raster = open_raster_windows(path, band=band)
+    if raster is not None and raster.cell_size is not None and already_square(raster, min(raster.cell_size)):
+        try:
+            return _export(raster, chosen, Path(out_dir), size, tiles, stem, [])
+        except _HasNodata:
+            pass  # found before anything was written: filled below, as a whole
+    field = load_dem(path, size=input_size, band=band)
+    return export_for_engine(field, preset, out_dir, size=size, tiles=tiles, stem=stem)
+
+
+class _HasNodata(Exception):
+    """A windowed source holds nodata, which only a whole grid can fill."""
+
+
+class _FieldWindows:
+    """A field in memory as the windowed source :func:`_export` reads."""
+
+    def __init__(self, field: HeightField):
+        self.field, self.shape, self.cell_size, self.georef = field, field.shape, field.cell_size, field.georef
+
+    def read(self, r0: int, r1: int, c0: int, c1: int):
+        return self.field.heights[r0:r1, c0:c1]
+
+
+#: Rows of the resampled grid made at a time (their float64 temporaries are
+#: a few tens of MB on the widest grid).
+_BAND_ROWS = 256
+
+
+def _export(source, preset: EnginePreset, out_dir: Path, size: int | None, tiles: int, stem: str,
+            notes: list) -> EngineExport:
+    """Write the heightmaps of an engine-ready windowed ``source`` (``shape``,
+    ``cell_size``, ``georef`` and ``read(r0, r1, c0, c1)``), one tile at a time.
+
+    The grid is resampled twice window by window, never held whole: once in
+    bands of rows for the height range every tile shares, then tile by tile
+    to write.
+
+    Raises
+    ------
+    _HasNodata
+        Before anything is written.
+    """
+    size, shape = _plan(preset, source, size, tiles, notes)
     check_folder(out_dir)
-    tile_paths = _tile_paths(out_dir, stem, chosen.extension, tiles)
-    settings_path = out_dir / f"{stem}.{chosen.name}.json"
+    tile_paths = _tile_paths(out_dir, stem, preset.extension, tiles)
+    settings_path = out_dir / f"{stem}.{preset.name}.json"
     heightmaps = [p for _, _, p in tile_paths]
-    sidecars = [sidecar_path(p) for p in heightmaps] if chosen.extension in (".png", ".r16") else []
+    sidecars = [sidecar_path(p) for p in heightmaps] if preset.extension in (".png", ".r16") else []
     refuse_existing([*heightmaps, *sidecars, settings_path])
-    settings = _settings(chosen, grid, size, tiles, tile_paths)
+    grid = NodeGrid(source.shape, shape)
+
+    def read(i0, i1, j0, j1):
+        block = source.read(i0, i1, j0, j1)
+        if np.isnan(block).any():
+            raise _HasNodata
+        return block
+
+    def block(r0, r1, c0, c1):
+        # In bands of rows: the filters' float64 temporaries stay a band's size.
+        out = np.empty((r1 - r0, c1 - c0), np.float32)
+        for b0 in range(r0, r1, _BAND_ROWS):
+            b1 = min(b0 + _BAND_ROWS, r1)
+            out[b0 - r0:b1 - r0] = grid.window(read, b0, b1, c0, c1)
+        return out
+
+    lo, hi = np.inf, -np.inf
+    for r0 in range(0, shape[0], _BAND_ROWS):
+        band = grid.window(read, r0, min(r0 + _BAND_ROWS, shape[0]), 0, shape[1])
+        lo, hi = min(lo, float(band.min())), max(hi, float(band.max()))
+    cell_size, georef = node_grid_placement(source, shape)
+    settings = _settings(preset, shape, cell_size, (lo, hi), size, tiles, tile_paths)
+    level_range = (lo, hi if hi > lo else lo + 1.0) if preset.extension != ".exr" else None
+    side = size if tiles > 1 else None
     written: list[Path] = []
     try:
         out_dir.mkdir(exist_ok=True)
-        lo, hi = grid.min, grid.max
-        level_range = (lo, hi if hi > lo else lo + 1.0) if chosen.extension != ".exr" else None
         for i, j, path in tile_paths:
-            if tiles == 1:
-                tile = grid
-            else:
-                r0, c0 = j * (size - 1), i * (size - 1)
-                tile = grid.window(r0, r0 + size, c0, c0 + size)
+            r0, c0 = (j * (side - 1), i * (side - 1)) if side else (0, 0)
+            r1, c1 = (r0 + side, c0 + side) if side else shape
+            geo = georef
+            if geo is not None:
+                geo = replace(geo, x_origin=geo.x_origin + c0 * geo.x_step, y_origin=geo.y_origin - r0 * geo.y_step)
+            tile = HeightField(block(r0, r1, c0, c1), cell_size=cell_size, georef=geo)
             save_dem(tile, path, level_range=level_range)
             written.append(path)
-            if chosen.extension != ".exr":
+            if preset.extension != ".exr":
                 written.append(sidecar_path(path))
         settings["notes"] = notes
         with wrap_errors(settings_path, "write"), atomic_outputs(settings_path) as (temp,), open_new(temp) as fh:
@@ -407,14 +520,15 @@ def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | N
         for path in written:  # only what this call created
             path.unlink(missing_ok=True)
         raise
-    return EngineExport(chosen.name, tuple(written), settings, notes)
+    return EngineExport(preset.name, tuple(written), settings, notes)
 
 
-def _settings(preset: EnginePreset, grid: HeightField, size: int, tiles: int, tile_paths) -> dict:
+def _settings(preset: EnginePreset, shape: tuple[int, int], cell_size: tuple[float, float],
+              height_range: tuple[float, float], size: int, tiles: int, tile_paths) -> dict:
     """The settings JSON: what to type into the engine, and the terrain's metres."""
-    rows, cols = grid.shape
-    dy, dx = grid.cell_size
-    lo, hi = grid.min, grid.max
+    rows, cols = shape
+    dy, dx = cell_size
+    lo, hi = height_range
     span = hi - lo if hi > lo else 1.0
     settings = {
         "format": "terrasynth-engine-export",
@@ -463,6 +577,6 @@ def unity_heights_m(levels, settings: dict):
 
 
 __all__ = ["EngineExport", "EnginePreset", "PRESETS", "UNITY_SIZES", "UNREAL_SIZES", "default_size",
-           "engine_ready", "export_for_engine", "longer_side_shape", "preset_grid", "preset_names", "preset_shape",
+           "engine_ready", "export_file_for_engine", "export_for_engine", "longer_side_shape", "preset_grid", "preset_names", "preset_shape",
            "refuse_existing",
            "unity_heights_m", "unreal_heights_m"]

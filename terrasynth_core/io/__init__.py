@@ -74,6 +74,7 @@ __all__ = [
     "WRITE_EXTENSIONS",
     "format_name",
     "load_dem",
+    "open_raster_windows",
     "remove_unfinished",
     "save_dem",
     "save_mesh",
@@ -242,6 +243,26 @@ def load_dem(
                 return _RAW_READERS[name](path, size=size)
             return _READERS[name](path)
         return gdal.read_gdal(path, band=band, fmt=name)
+
+
+def open_raster_windows(path: str | PathLike, *, band: int | None = None) -> gdal.RasterWindows | None:
+    """The file ``path`` as :class:`~terrasynth_core.io.gdal.RasterWindows`
+    (read window by window, converted as :func:`load_dem` converts it),
+    when its format is read through GDAL; ``None`` for the formats read
+    whole (PNG, raw, NumPy, ASCII grids...) and for a path that is not a
+    file (:func:`load_dem` says what is wrong with it).
+
+    Raises
+    ------
+    DEMFormatError
+        A GDAL raster that cannot be read, as :func:`load_dem` would.
+    """
+    path = Path(path)
+    name = format_name(path)
+    if name in _READERS or name in _RAW_READERS or not path.is_file():
+        return None
+    with wrap_errors(path, "read"):
+        return gdal.RasterWindows(path, band=band, fmt=name)
 
 
 def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False,

@@ -219,10 +219,15 @@ def read_field(path: Path, fmt: str, heights: np.ndarray, *, cell_size=None, geo
     A georeference with an EPSG code but no WKT gets the code's WKT, so
     every field with a known CRS carries it as WKT too.
     """
-    if georef is not None and georef.epsg is not None and not georef.crs_wkt:
-        georef = replace(georef, crs_wkt=CRS.from_epsg(georef.epsg).to_wkt())
-    return HeightField(heights, cell_size=cell_size, georef=georef, source=str(path), format=fmt,
+    return HeightField(heights, cell_size=cell_size, georef=with_crs_wkt(georef), source=str(path), format=fmt,
                        metadata=metadata or {})
+
+
+def with_crs_wkt(georef: GeoReference | None) -> GeoReference | None:
+    """``georef``, with its EPSG code's WKT when it has a code but no WKT."""
+    if georef is not None and georef.epsg is not None and not georef.crs_wkt:
+        return replace(georef, crs_wkt=CRS.from_epsg(georef.epsg).to_wkt())
+    return georef
 
 
 # -- sidecar -------------------------------------------------------------
@@ -428,12 +433,18 @@ def encode_levels(field: HeightField, *, level_range: tuple[float, float] | None
     first = 1 if has_nodata else 0
     span = 65535 - first
     if hi > lo:
-        filled = np.where(nodata, lo, heights).astype(np.float64)
-        levels = first + np.rint((filled - lo) * (span / (hi - lo)))
+        # In place: one float64 grid at a time (an 8129-sample tile's is 0.5 GB).
+        levels = np.where(nodata, lo, heights).astype(np.float64)
+        levels -= lo
+        levels *= span / (hi - lo)
+        np.rint(levels, out=levels)
+        levels += first
     else:
         # A flat field has no range: every valid cell takes the top level.
         levels = np.full(heights.shape, 65535.0)
-    levels = np.where(nodata, 0, levels).astype(np.uint16)
+    if has_nodata:
+        levels[nodata] = 0
+    levels = levels.astype(np.uint16)
     sidecar = make_sidecar(field, nodata_value=0 if has_nodata else None)
     sidecar["min"], sidecar["max"] = lo, hi
     return levels, sidecar

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import re
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -21,10 +22,11 @@ from rasterio.errors import CRSError, NotGeoreferencedWarning, RasterioIOError
 from rasterio.io import MemoryFile
 from rasterio.shutil import copy as gdal_copy
 from rasterio.transform import Affine
+from rasterio.windows import Window
 
 from ..errors import DEMFormatError
 from ..heightfield import GeoReference, HeightField
-from ._common import fill_value_nodata, geographic_cell, looks_geographic, read_field
+from ._common import fill_value_nodata, geographic_cell, looks_geographic, read_field, with_crs_wkt, wrap_errors
 
 #: Metres per height unit, by normalised unit name (see :func:`metres_per_unit`).
 _UNITS_M = {
@@ -89,60 +91,137 @@ def read_gdal(path: Path, *, band: int | None = None, fmt: str = "gdal") -> Heig
         non-numeric samples, a rotated or sheared grid, or anything GDAL
         cannot read.
     """
+    raster = RasterWindows(path, band=band, fmt=fmt)
+    heights, fill = raster.read_with_fill()
+    metadata = dict(raster.metadata)
+    if fill is not None:
+        # The file does not say what nodata is: a conventional fill value is.
+        metadata["nodata_value"] = fill
+    return read_field(path, fmt, heights, cell_size=raster.cell_size, georef=raster.georef, metadata=metadata)
+
+
+class RasterWindows:
+    """One band of a raster GDAL reads, read whole or window by window.
+
+    Every read converts as :func:`read_gdal` does (mask to NaN, scale and
+    offset, height unit to metres, south-up flipped), so a window is the
+    same float32 heights as that part of the whole field.  For grids larger
+    than memory (a world-size terrain's GeoTIFF): a window reads only the
+    file's blocks under it.
+
+    Parameters
+    ----------
+    path : Path
+    band : int, optional
+        As in :func:`read_gdal`.
+    fmt : str, default ``"gdal"``
+
+    Attributes
+    ----------
+    shape : (rows, cols)
+        Of the north-up grid.
+    cell_size : (dy, dx) metres or None
+    georef : GeoReference or None
+    metadata : dict
+        As :func:`read_gdal` gives it, without a conventional fill value's
+        ``nodata_value`` (known only once every cell is read).
+
+    Raises
+    ------
+    DEMFormatError
+        As :func:`read_gdal`.
+    """
+
+    def __init__(self, path: Path, *, band: int | None = None, fmt: str = "gdal"):
+        self.path = Path(path)
+        with _opened(self.path) as ds:
+            self._describe(ds, band, fmt)
+
+    def _describe(self, ds, band: int | None, fmt: str) -> None:
+        path = self.path
+        if ds.count == 0 and ds.subdatasets:
+            names = ", ".join(sub.rsplit(":", 1)[-1] for sub in ds.subdatasets)
+            raise DEMFormatError(
+                f"{path}: holds {len(ds.subdatasets)} grids ({names}), not one; extract the elevation "
+                f"grid into a GeoTIFF first (gdal_translate {ds.subdatasets[0]} dem.tif)"
+            )
+        index = _band_index(path, ds.count, band)
+        dtype = np.dtype(ds.dtypes[index - 1])
+        if dtype.kind not in "iuf":
+            raise DEMFormatError(f"{path}: band {index} holds {dtype} samples; expected integer or float heights")
+        if ds.driver in _RAW_DRIVERS:
+            _check_raw_size(path, ds, dtype)
+        self._index = index
+        self._scale, self._offset = ds.scales[index - 1], ds.offsets[index - 1]
+        self._declared_nodata = ds.nodata is not None
+        metadata = {"driver": ds.driver, "dtype": str(dtype), "band": index, "bands": ds.count}
+        if ds.nodata is not None:
+            metadata["nodata_value"] = float(ds.nodata)
+        if self._scaled:
+            metadata["scale"], metadata["offset"] = float(self._scale), float(self._offset)
+        crs = ds.crs
+        crs_wkt = crs.to_wkt() if crs is not None else None
+        unit = ds.units[index - 1] or ""
+        if not unit and crs_wkt:
+            match = _VERT_UNIT.search(crs_wkt)
+            if match:
+                unit = match.group(1)
+        self._factor = metres_per_unit(unit)
+        if unit:
+            metadata["height_unit"], metadata["height_unit_metres"] = unit, self._factor
+        self.shape = (ds.height, ds.width)
+        georef, self.cell_size, self._flip = _placement(path, ds.transform, crs, self.shape, ds.tags())
+        self.georef = with_crs_wkt(georef)
+        self.metadata = metadata
+
+    @property
+    def _scaled(self) -> bool:
+        return self._scale != 1 or self._offset != 0
+
+    def read(self, r0: int = 0, r1: int | None = None, c0: int = 0, c1: int | None = None) -> np.ndarray:
+        """Heights of rows ``r0:r1`` and columns ``c0:c1`` of the north-up grid.
+
+        Returns
+        -------
+        ndarray of float32, shape (r1 - r0, c1 - c0)
+            Metres, NaN nodata.
+        """
+        return self.read_with_fill(r0, r1, c0, c1)[0]
+
+    def read_with_fill(self, r0: int = 0, r1: int | None = None, c0: int = 0,
+                       c1: int | None = None) -> tuple[np.ndarray, float | None]:
+        """:meth:`read`, and the conventional fill value found in the window
+        (``None`` when the file declares its nodata or none was found)."""
+        rows, cols = self.shape
+        r1, c1 = rows if r1 is None else r1, cols if c1 is None else c1
+        if not (0 <= r0 < r1 <= rows and 0 <= c0 < c1 <= cols):
+            raise ValueError(f"window rows {r0}:{r1}, cols {c0}:{c1} outside the {rows} x {cols} grid")
+        # A south-up file holds the north-up rows r0:r1 reversed at the far end.
+        f0, f1 = (rows - r1, rows - r0) if self._flip else (r0, r1)
+        # Opened for each read: closing drops the blocks GDAL cached (up to 5 %
+        # of the machine's memory), which a window read once never needs again.
+        with wrap_errors(self.path, "read"), _opened(self.path) as ds:
+            data = ds.read(self._index, window=Window(c0, f0, c1 - c0, f1 - f0), masked=True)
+        # float64 only when scale and offset need it: a large DEM takes half the memory.
+        heights = data.astype(np.float64 if self._scaled else np.float32).filled(np.nan)
+        fill = None if self._declared_nodata else fill_value_nodata(np.ma.getdata(data), heights)
+        if self._scaled:
+            heights = heights * self._scale + self._offset
+        if self._factor is not None and self._factor != 1.0:
+            heights = heights * self._factor
+        if self._flip:
+            heights = heights[::-1]
+        return heights.astype(np.float32, copy=False), fill
+
+
+@contextmanager
+def _opened(path: Path):
+    """The dataset at ``path``, open for the block (a raster without
+    georeference is fine: its georef is None)."""
     with warnings.catch_warnings():
-        # A raster without georeference is fine: we return georef=None.
         warnings.simplefilter("ignore", NotGeoreferencedWarning)
         with _open(path) as ds:
-            if ds.count == 0 and ds.subdatasets:
-                names = ", ".join(sub.rsplit(":", 1)[-1] for sub in ds.subdatasets)
-                raise DEMFormatError(
-                    f"{path}: holds {len(ds.subdatasets)} grids ({names}), not one; extract the elevation "
-                    f"grid into a GeoTIFF first (gdal_translate {ds.subdatasets[0]} dem.tif)"
-                )
-            index = _band_index(path, ds.count, band)
-            dtype = np.dtype(ds.dtypes[index - 1])
-            if dtype.kind not in "iuf":
-                raise DEMFormatError(f"{path}: band {index} holds {dtype} samples; expected integer or float heights")
-            if ds.driver in _RAW_DRIVERS:
-                _check_raw_size(path, ds, dtype)
-            data = ds.read(index, masked=True)
-            scale, offset = ds.scales[index - 1], ds.offsets[index - 1]
-            unit = ds.units[index - 1] or ""
-            nodata = ds.nodata
-            transform, crs, tags = ds.transform, ds.crs, ds.tags()
-            driver, count = ds.driver, ds.count
-
-    scaled = scale != 1 or offset != 0
-    # float64 only when scale and offset need it: a large DEM takes half the memory.
-    heights = data.astype(np.float64 if scaled else np.float32).filled(np.nan)
-    metadata = {"driver": driver, "dtype": str(dtype), "band": index, "bands": count}
-    if nodata is not None:
-        metadata["nodata_value"] = float(nodata)
-    else:
-        # The file does not say what nodata is: a conventional fill value is.
-        fill = fill_value_nodata(np.ma.getdata(data), heights)
-        if fill is not None:
-            metadata["nodata_value"] = fill
-    if scaled:
-        heights = heights * scale + offset
-        metadata["scale"], metadata["offset"] = float(scale), float(offset)
-
-    crs_wkt = crs.to_wkt() if crs is not None else None
-    if not unit and crs_wkt:
-        match = _VERT_UNIT.search(crs_wkt)
-        if match:
-            unit = match.group(1)
-    factor = metres_per_unit(unit)
-    if unit:
-        metadata["height_unit"], metadata["height_unit_metres"] = unit, factor
-    if factor is not None and factor != 1.0:
-        heights = heights * factor
-
-    georef, cell_size, flip = _placement(path, transform, crs, heights.shape, tags)
-    if flip:
-        heights = heights[::-1]
-    return read_field(path, fmt, heights.astype(np.float32, copy=False), cell_size=cell_size, georef=georef,
-                      metadata=metadata)
+            yield ds
 
 
 #: GDAL drivers of headerless binary grids beside a text header.

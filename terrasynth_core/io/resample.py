@@ -364,18 +364,38 @@ def resample_nodes(field: HeightField, shape: tuple[int, int]) -> HeightField:
     rows, cols = field.shape
     if (new_rows, new_cols) == (rows, cols):
         return field
-    wy, wx = _node_weights(rows, new_rows), _node_weights(cols, new_cols)
     nodata = field.nodata
     heights = field.heights
     if nodata.any():
         # Filters need every sample: nodata takes its nearest valid height,
         # and comes back where the nearest old cell was nodata.
         heights = field.fill_nodata().heights
-    out = (wx @ (wy @ heights.astype(np.float64)).T).T.astype(np.float32)
+    out = NodeGrid(field.shape, shape).window(lambda r0, r1, c0, c1: heights[r0:r1, c0:c1], 0, new_rows, 0, new_cols)
     if nodata.any():
         near_r = np.rint(np.arange(new_rows) * (rows - 1) / (new_rows - 1)).astype(np.int64)
         near_c = np.rint(np.arange(new_cols) * (cols - 1) / (new_cols - 1)).astype(np.int64)
         out[nodata[np.ix_(near_r, near_c)]] = np.nan
+    cell_size, geo = node_grid_placement(field, shape)
+    return replace(field, heights=out, cell_size=cell_size, georef=geo,
+                   metadata={**field.metadata, "resampled_from_shape": (rows, cols)})
+
+
+def node_grid_placement(field, shape: tuple[int, int]) -> tuple:
+    """Cell size and georeference of ``field`` resampled to ``shape`` by
+    :func:`resample_nodes`: the first cell's centre stays put.
+
+    Parameters
+    ----------
+    field : HeightField or RasterWindows
+        Anything with ``shape``, ``cell_size`` and ``georef``.
+    shape : (rows, cols)
+
+    Returns
+    -------
+    cell_size : (dy, dx) metres or None
+    georef : GeoReference or None
+    """
+    (rows, cols), (new_rows, new_cols) = field.shape, shape
     sy, sx = (rows - 1) / (new_rows - 1), (cols - 1) / (new_cols - 1)
     cell_size = None if field.cell_size is None else (field.cell_size[0] * sy, field.cell_size[1] * sx)
     geo = field.georef
@@ -384,5 +404,67 @@ def resample_nodes(field: HeightField, shape: tuple[int, int]) -> HeightField:
         geo = replace(geo, x_origin=geo.x_origin + geo.x_step * (1 - sx) / 2,
                       y_origin=geo.y_origin - geo.y_step * (1 - sy) / 2, x_step=geo.x_step * sx,
                       y_step=geo.y_step * sy)
-    return replace(field, heights=out, cell_size=cell_size, georef=geo,
-                   metadata={**field.metadata, "resampled_from_shape": (rows, cols)})
+    return cell_size, geo
+
+
+class NodeGrid:
+    """:func:`resample_nodes`' filters from a grid of ``source`` shape to
+    one of ``shape``, applied window by window.
+
+    A window of the new grid reads only the old cells its filters reach, and
+    holds the same values as that window of the whole resampled grid (each
+    new sample sums the same weights in the same order), so a grid larger
+    than memory is resampled in pieces.
+
+    Parameters
+    ----------
+    source, shape : (rows, cols)
+        Old and new grid shapes, sides at least 2.
+    """
+
+    def __init__(self, source: tuple[int, int], shape: tuple[int, int]):
+        self.source, self.shape = tuple(source), tuple(shape)
+        self._wy = _node_weights(self.source[0], self.shape[0])
+        self._wx = _node_weights(self.source[1], self.shape[1])
+
+    def reach(self, r0: int, r1: int, c0: int, c1: int) -> tuple[int, int, int, int]:
+        """The old grid's window ``(i0, i1, j0, j1)`` that new rows ``r0:r1``
+        and columns ``c0:c1`` read."""
+        return (*_span(self._wy, r0, r1), *_span(self._wx, c0, c1))
+
+    def window(self, read, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        """Rows ``r0:r1`` and columns ``c0:c1`` of the resampled grid.
+
+        Parameters
+        ----------
+        read : callable
+            ``read(i0, i1, j0, j1)`` gives the old grid's heights there,
+            shape (i1 - i0, j1 - j0), without NaN.
+
+        Returns
+        -------
+        ndarray of float32, shape (r1 - r0, c1 - c0)
+        """
+        if self.shape == self.source:
+            return np.array(read(r0, r1, c0, c1), dtype=np.float32)
+        wy, i0, i1 = _rows(self._wy, r0, r1)
+        wx, j0, j1 = _rows(self._wx, c0, c1)
+        block = np.asarray(read(i0, i1, j0, j1)).astype(np.float64)
+        return (wx @ (wy @ block).T).T.astype(np.float32)
+
+
+def _span(weights: sparse.csr_matrix, r0: int, r1: int) -> tuple[int, int]:
+    """First and past-last old sample that rows ``r0:r1`` of ``weights`` read."""
+    cols = weights.indices[weights.indptr[r0]:weights.indptr[r1]]
+    return int(cols.min()), int(cols.max()) + 1
+
+
+def _rows(weights: sparse.csr_matrix, r0: int, r1: int) -> tuple[sparse.csr_matrix, int, int]:
+    """Rows ``r0:r1`` of ``weights`` on the old samples they read, and where
+    those start and end.  The rows' entries keep their order, so products
+    sum them as the whole matrix does."""
+    i0, i1 = _span(weights, r0, r1)
+    a, b = weights.indptr[r0], weights.indptr[r1]
+    part = sparse.csr_matrix((weights.data[a:b], weights.indices[a:b] - i0, weights.indptr[r0:r1 + 1] - a),
+                             shape=(r1 - r0, i1 - i0))
+    return part, i0, i1

@@ -153,3 +153,74 @@ def test_bad_options_are_refused_by_name(tmp_path, preset, options, message):
     with pytest.raises(ParamsError, match=message):
         export_for_engine(_terrain(33), preset, tmp_path, **options)
     assert not any(tmp_path.iterdir())
+
+
+def _files_equal(a, b) -> bool:
+    return [p.name for p in a.files] == [p.name for p in b.files] and all(
+        x.read_bytes() == y.read_bytes() for x, y in zip(a.files, b.files))
+
+
+@pytest.mark.parametrize("preset, options", [("unreal", {"size": 127, "tiles": 3}), ("unreal", {"size": 505, "tiles": 2}),
+                                             ("unity", {"size": 129, "tiles": 2}), ("godot", {"size": 200})])
+def test_a_geotiff_read_window_by_window_gives_the_same_files(tmp_path, preset, options):
+    """export_file_for_engine never holds the terrain whole, yet writes the
+    very files that exporting it from memory writes (shrunk and grown)."""
+    from terrasynth_core.export.engines import export_file_for_engine
+    from terrasynth_core.heightfield import GeoReference
+    from terrasynth_core.io import save_dem
+
+    field = _terrain(401)
+    field = HeightField(field.heights, cell_size=(30.0, 30.0),
+                        georef=GeoReference(400000.0, 4000000.0, 30.0, 30.0, 32619, None))
+    save_dem(field, tmp_path / "world.tif")
+    whole = export_for_engine(load_dem(tmp_path / "world.tif"), preset, tmp_path / "whole", **options)
+    windows = export_file_for_engine(tmp_path / "world.tif", preset, tmp_path / "windows", **options)
+    assert _files_equal(whole, windows)
+    assert windows.settings == whole.settings and windows.notes == whole.notes
+
+
+def test_a_geotiff_with_nodata_is_exported_whole(tmp_path):
+    """Nodata needs the whole grid to be filled: such a file is read whole,
+    with the same files and notes as from memory."""
+    from terrasynth_core.export.engines import export_file_for_engine
+    from terrasynth_core.io import save_dem
+
+    heights = _terrain(200).heights.copy()
+    heights[150:160, 20:90] = np.nan
+    save_dem(HeightField(heights, cell_size=(30.0, 30.0)), tmp_path / "holes.tif")
+    whole = export_for_engine(load_dem(tmp_path / "holes.tif"), "unreal", tmp_path / "whole", size=127, tiles=2)
+    windows = export_file_for_engine(tmp_path / "holes.tif", "unreal", tmp_path / "windows", size=127, tiles=2)
+    assert _files_equal(whole, windows)
+    assert any("nodata" in note for note in windows.notes)
+
+
+def test_tiles_of_a_large_geotiff_never_hold_it_whole(tmp_path, monkeypatch):
+    """Memory follows the tile: cutting a 2100 x 2100 GeoTIFF into 4 x 4
+    Unity tiles reads it in windows of at most a band of rows or a tile and
+    its filters' reach, and allocates less than one float64 copy of it (the
+    whole-grid path made three)."""
+    import tracemalloc
+
+    from terrasynth_core.export.engines import export_file_for_engine
+    from terrasynth_core.io import save_dem
+    from terrasynth_core.io.gdal import RasterWindows
+
+    side = 2100
+    save_dem(_terrain(side, cell=10.0), tmp_path / "world.tif")
+    windows = []
+    read = RasterWindows.read_with_fill
+
+    def spy(self, r0=0, r1=None, c0=0, c1=None):
+        windows.append((r1 - r0) * (c1 - c0))
+        return read(self, r0, r1, c0, c1)
+
+    monkeypatch.setattr(RasterWindows, "read_with_fill", spy)
+    tracemalloc.start()
+    try:
+        done = export_file_for_engine(tmp_path / "world.tif", "unity", tmp_path / "tiles", size=513, tiles=4)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert len(done.settings["files"]) == 16
+    assert max(windows) < 0.2 * side * side
+    assert peak < side * side * 8, f"peak {peak / 1e6:.1f} MB"

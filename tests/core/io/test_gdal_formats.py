@@ -399,3 +399,24 @@ def test_a_raster_without_a_nodata_tag_reads_srtm_voids_as_nodata(tmp_path, crop
     assert dem.min == float(data[data != -32768].min())
     plain = np.asarray(crop, dtype=np.int16)
     assert load_dem(_write(tmp_path / "plain.tif", plain)).nodata_count == 0
+
+
+def test_windows_are_the_whole_reads_cells(tmp_path, crop, crop_float):
+    """A window read converts as the whole read does: south-up flipped, scale
+    and offset, feet to metres, declared and conventional nodata."""
+    from terrasynth_core.io.gdal import RasterWindows
+
+    south_left = Affine(30.0, 0.0, 400000.0, 0.0, 30.0, 4000000.0 - ROWS * 30.0)
+    scaled = _write(tmp_path / "scaled_south.tif", crop[::-1], crs="EPSG:32619", transform=south_left)
+    with rasterio.open(scaled, "r+") as ds:
+        ds.scales, ds.offsets, ds.units = (0.5,), (100.0,), ("ft",)
+    declared = _write(tmp_path / "declared.tif", crop_float, nodata=NODATA)
+    conventional = _write(tmp_path / "conventional.tif", crop_float)  # -9999 not declared
+    for path in (scaled, declared, conventional):
+        whole = load_dem(path)
+        raster = RasterWindows(path)
+        assert raster.shape == whole.shape and raster.cell_size == whole.cell_size and raster.georef == whole.georef
+        for r0, r1, c0, c1 in ((0, ROWS, 0, COLS), (3, 17, 11, 50), (40, ROWS, 0, 9)):
+            np.testing.assert_array_equal(raster.read(r0, r1, c0, c1), whole.heights[r0:r1, c0:c1])
+    with pytest.raises(ValueError, match="outside"):
+        RasterWindows(scaled).read(0, ROWS + 1, 0, COLS)

@@ -126,3 +126,27 @@ def test_bad_cell_size(bad):
 def test_ground_cell_size_is_the_smaller_side():
     assert ground_cell_size(HeightField(np.ones((2, 2), np.float32), cell_size=(92.6, 66.1))) == 66.1
     assert ground_cell_size(HeightField(np.ones((2, 2), np.float32))) is None
+
+
+@pytest.mark.parametrize("shape", [(40, 57), (300, 260), (121, 400)])
+def test_node_grid_windows_are_the_whole_resampled_grids_cells(shape):
+    """Any window of the new grid, made from only the old cells it reaches,
+    holds the same float32 values as that window of the whole grid."""
+    from terrasynth_core.io.resample import NodeGrid, resample_nodes
+
+    rng = np.random.default_rng(3)
+    heights = (rng.normal(size=(151, 131)).cumsum(0).cumsum(1) + 700).astype(np.float32)
+    whole = resample_nodes(HeightField(heights, cell_size=(5.0, 5.0)), shape).heights
+    grid = NodeGrid(heights.shape, shape)
+    reads = []
+
+    def read(i0, i1, j0, j1):
+        reads.append((i1 - i0) * (j1 - j0))
+        return heights[i0:i1, j0:j1]
+
+    for r0 in range(0, shape[0], 37):
+        for c0 in range(0, shape[1], 53):
+            r1, c1 = min(r0 + 37, shape[0]), min(c0 + 53, shape[1])
+            np.testing.assert_array_equal(grid.window(read, r0, r1, c0, c1), whole[r0:r1, c0:c1])
+    # The windows read parts of the old grid, not all of it.
+    assert min(reads) < heights.size / 4
