@@ -68,9 +68,10 @@ def _synthesize(dem, sketch, search_class):
     made, asked = [], []
 
     class Recording(search_class):
-        def __init__(self, example, window, *, feature_mask=None, coarse_factor=2, overlap=None):
+        def __init__(self, example, window, *, feature_mask=None, coarse_factor=2, overlap=None, void_mask=None):
             kw = {"overlap": overlap} if issubclass(search_class, FillSearch) else {}
-            super().__init__(example, window, feature_mask=feature_mask, coarse_factor=coarse_factor, **kw)
+            super().__init__(example, window, feature_mask=feature_mask, coarse_factor=coarse_factor,
+                             void_mask=void_mask, **kw)
             made.append((self, example, window, feature_mask, coarse_factor, overlap))
 
         def best(self, target, filled, count, rng):
@@ -80,7 +81,9 @@ def _synthesize(dem, sketch, search_class):
     saved = fill_patches.FillSearch
     fill_patches.FillSearch = Recording
     try:
-        result = Session([dem], sketch, shape=(1000, 1000), params=SynthesisParams(seed=0)).run()
+        # One process: the recording class is local (it cannot go to a worker
+        # process), and every query is asked here, where it is recorded.
+        result = Session([dem], sketch, shape=(1000, 1000), params=SynthesisParams(seed=0, workers=1)).run()
     finally:
         fill_patches.FillSearch = saved
     return result, made, asked
@@ -289,9 +292,9 @@ def _FftWithOverlap(base):
     """The FFT search with the engine's thread count, as it ran before the index."""
 
     class Fft(base):
-        def __init__(self, example, window, *, feature_mask=None, coarse_factor=2):
+        def __init__(self, example, window, *, feature_mask=None, coarse_factor=2, void_mask=None):
             super().__init__(example, window, feature_mask=feature_mask, coarse_factor=coarse_factor,
-                             workers=os.cpu_count() or 1)
+                             workers=os.cpu_count() or 1, void_mask=void_mask)
 
     return Fft
 

@@ -51,8 +51,38 @@ import numpy as np
 from .costs import ROUGHNESS_WEIGHT
 
 #: Bump when descriptors, index parameters or their storage change, so
-#: stored indexes are rebuilt (2: the faiss index in a file of its own, mapped).
-INDEX_VERSION = 2
+#: stored indexes are rebuilt (2: the faiss index in a file of its own,
+#: mapped; 3: built with faiss's portable kernels, :func:`faiss_module`).
+INDEX_VERSION = 3
+
+_faiss_lock = threading.Lock()
+_faiss_pinned = False
+
+
+def faiss_module():
+    """faiss, its distance kernels pinned to the portable ones (once per process).
+
+    faiss chooses its SIMD kernels at run time by the CPU (AVX2, AVX-512...),
+    and kernels of different widths add a distance's terms in different
+    orders: the k-means that builds an index, and the distances a query
+    ranks by, then differ in their last bits, enough to change a
+    shortlist's ties and so the terrain.  On this machine 3 of the 11 cases
+    of ``scripts/digests.py`` gave other bytes with faiss on AVX2 than on
+    AVX-512.  The portable kernels give every x86-64 machine the same
+    numbers (a cluster of mixed machines, a user repeating a seed), at no
+    cost to the queries (4.9-5.1 ms against 5.8-5.9 ms,
+    ``benchmarks/bench_fill_search.py``; an index takes 1.2x as long to
+    build, once per example).
+    """
+    global _faiss_pinned
+    import faiss
+
+    if not _faiss_pinned:
+        with _faiss_lock:
+            if not _faiss_pinned:
+                faiss.SIMDConfig.set_level(faiss.SIMDLevel_NONE)
+                _faiss_pinned = True
+    return faiss
 #: PCA dimensions of a zone's direction (Liang et al. keep a few dozen).
 PCA_DIMS = 24
 #: Coarse cells across a window side in the descriptor.
@@ -229,7 +259,7 @@ class ZoneIndex:
         """Everything needed to restore the index: plain arrays, and the
         faiss index serialised as ``bytes`` (the disk cache keeps those as
         a file of their own, which :meth:`from_arrays` maps)."""
-        import faiss
+        faiss = faiss_module()
 
         return {"cells": self.cells, "step": np.array(self.step), "floor": np.array(self.floor),
                 "pca_mean": self.pca_mean, "pca_axes": self.pca_axes, "positions": self.positions,
@@ -245,7 +275,7 @@ class ZoneIndex:
         (``faiss.IO_FLAG_MMAP_IFC``), its vectors read from the page cache
         as the queries visit their lists, never copied into this process.
         """
-        import faiss
+        faiss = faiss_module()
 
         stored = z["index"]
         if isinstance(stored, (str, os.PathLike)):
@@ -266,9 +296,7 @@ class ZoneIndex:
 def _single_thread() -> None:
     """One faiss thread: results must not depend on scheduling (and the
     synthesis keeps the machine's other core busy)."""
-    import faiss
-
-    faiss.omp_set_num_threads(1)
+    faiss_module().omp_set_num_threads(1)
 
 
 def build_zone_index(example: np.ndarray, window: tuple[int, int], overlap: int, zone: int,
@@ -382,7 +410,7 @@ def ivf_index(vectors: np.ndarray):
     """A faiss inverted-file index of ``vectors`` (n, d) float32: about
     sqrt(n) k-means cells (fixed seed, one thread), :data:`NPROBE` visited
     per query."""
-    import faiss
+    faiss = faiss_module()
 
     _single_thread()
     n, d = vectors.shape

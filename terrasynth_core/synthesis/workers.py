@@ -91,10 +91,11 @@ def import_engine() -> None:
     A GUI calls this before its first run: importing faiss holds the GIL
     for 35-100 ms in one piece, which would stall its event loop if a run's
     thread did it."""
-    import faiss  # noqa: F401  (the fill indexes load with it)
-
+    from ..matching.window_index import faiss_module
     from ..placing import graph_cut  # noqa: F401
     from . import feature_patches  # noqa: F401
+
+    faiss_module()  # (its kernels pinned before any index is read)
 
 
 def _warm(shape: tuple[int, int]) -> int:

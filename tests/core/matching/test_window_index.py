@@ -172,3 +172,39 @@ def test_lazy_indexes_share_the_coarse_grid_and_build_the_same_index():
         assert np.array_equal(faiss.serialize_index(shared._index), faiss.serialize_index(alone._index))
         assert np.array_equal(shared.pca_axes, alone.pca_axes)
     assert lazy._blocks is not None
+
+
+_SIMD_PROBE = """
+import hashlib, sys
+import numpy as np
+import faiss
+from terrasynth_core.matching.window_index import ivf_index
+faiss.SIMDConfig.set_level(getattr(faiss, "SIMDLevel_" + sys.argv[1]))  # as the CPU would choose
+rng = np.random.default_rng(5)
+vectors = rng.normal(size=(20000, 24)).astype(np.float32)
+index = ivf_index(vectors)
+d, i = index.search(vectors[:500] + 0.01, 20)
+print(faiss.SIMDConfig.get_level_name(), hashlib.sha256(
+    faiss.serialize_index(index).tobytes() + d.tobytes() + i.tobytes()).hexdigest())
+"""
+
+
+def test_indexes_and_searches_do_not_depend_on_the_cpus_simd_kernels():
+    """faiss picks AVX2 or AVX-512 kernels by the CPU, and they give other
+    k-means cells and distances (on these vectors raw faiss gives three
+    different digests at NONE, AVX2 and AVX-512): pinned to the portable
+    kernels, an index and its answers are the same bytes whatever the CPU
+    would have chosen."""
+    import subprocess
+    import sys
+
+    import faiss
+
+    levels = [name for name in ("NONE", "AVX2", "AVX512", "ARM_NEON")
+              if faiss.SIMDConfig.is_simd_level_available(getattr(faiss, "SIMDLevel_" + name))]
+    if len(levels) < 2:
+        pytest.skip(f"this CPU offers faiss only {levels}")
+    outs = {tuple(subprocess.run([sys.executable, "-c", _SIMD_PROBE, name], capture_output=True, text=True,
+                                 check=True).stdout.split()) for name in levels}
+    assert len(outs) == 1
+    assert next(iter(outs))[0] == "NONE"
