@@ -100,6 +100,11 @@ class GeoReference:
     def __hash__(self):
         return hash((self.x_origin, self.y_origin, self.x_step, self.y_step, self._crs_key()))
 
+    def at(self, row: int, col: int) -> "GeoReference":
+        """The georeference of a window of the grid whose first cell is
+        ``(row, col)``: the origin moves with it."""
+        return replace(self, x_origin=self.x_origin + col * self.x_step, y_origin=self.y_origin - row * self.y_step)
+
 
 def geographic_cell_size(lat_deg: float, step_deg: float) -> tuple[float, float]:
     """Ground size ``(dy, dx)`` in metres of a geographic cell.
@@ -235,13 +240,7 @@ class HeightField:
     def window(self, r0: int, r1: int, c0: int, c1: int) -> "HeightField":
         """Rows ``r0:r1`` and columns ``c0:c1`` (a copy); the georeference
         origin moves with them."""
-        geo = self.georef
-        if geo is not None:
-            geo = replace(
-                geo,
-                x_origin=geo.x_origin + c0 * geo.x_step,
-                y_origin=geo.y_origin - r0 * geo.y_step,
-            )
+        geo = None if self.georef is None else self.georef.at(r0, c0)
         return replace(self, heights=self.heights[r0:r1, c0:c1].copy(), georef=geo)
 
     def fill_nodata(self) -> "HeightField":

@@ -16,13 +16,14 @@ from typing import TYPE_CHECKING
 from .._lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from .engines import PRESETS, EngineExport, EnginePreset, export_for_engine, preset_names
+    from .engines import PRESETS, EngineExport, EnginePreset, export_file_for_engine, export_for_engine, preset_names
     from .mask_files import MASK_FORMATS, write_masks
     from .masks import MASK_NAMES, TerrainMasks, terrain_masks
 
 # Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
-    ".engines": ("PRESETS", "EngineExport", "EnginePreset", "export_for_engine", "preset_names"),
+    ".engines": ("PRESETS", "EngineExport", "EnginePreset", "export_file_for_engine", "export_for_engine",
+                 "preset_names"),
     ".mask_files": ("MASK_FORMATS", "write_masks"),
     ".masks": ("MASK_NAMES", "TerrainMasks", "terrain_masks"),
 })

@@ -33,13 +33,13 @@ the export would write exists, the export refuses before writing anything.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import DEMFormatError, ParamsError
-from ..heightfield import HeightField
+from ..heightfield import LEAST_SIDE, HeightField
 from ..io import load_dem, open_raster_windows, save_dem
 from ..io._common import atomic_outputs, open_new, sidecar_path, wrap_errors
 from ..io.resample import NodeGrid, already_square, node_grid_placement, resample_nodes, to_square_cells
@@ -54,8 +54,8 @@ MAX_EXR_SIDE = 16384
 MAX_TILES = 32
 #: Most samples a side of a whole grid of tiles (16 x 16 Unreal tiles of
 #: 2017 samples hold 32257, 4 x 4 of 8129 32513: what the app's export
-#: dialog offered and a machine can hold; the grid is made in memory, 4 GB
-#: at this side).
+#: dialog offers).  The export makes one tile at a time; the terrain it reads
+#: from memory (the app's, a DEM read whole) is the caller's.
 MAX_TILED_SIDE = 32769
 
 
@@ -425,17 +425,19 @@ def export_file_for_engine(path, preset: str, out_dir, *, size: int | None = Non
     chosen = _check_options(preset, size, tiles)
     path = Path(path)
     raster = open_raster_windows(path, band=band)
-    if raster is not None and raster.cell_size is not None and already_square(raster, min(raster.cell_size)):
+    if (raster is not None and min(raster.shape) >= LEAST_SIDE and raster.cell_size is not None
+            and already_square(raster, min(raster.cell_size))):
         try:
             return _export(raster, chosen, Path(out_dir), size, tiles, stem, [])
-        except _HasNodata:
-            pass  # found before anything was written: filled below, as a whole
+        except _NeedsWhole:
+            pass  # found before anything was written: read whole below
     field = load_dem(path, size=input_size, band=band)
     return export_for_engine(field, preset, out_dir, size=size, tiles=tiles, stem=stem)
 
 
-class _HasNodata(Exception):
-    """A windowed source holds nodata, which only a whole grid can fill."""
+class _NeedsWhole(Exception):
+    """A windowed source holds nodata, which only the whole grid can fill
+    (or an infinite height, which the whole read refuses by name)."""
 
 
 class _FieldWindows:
@@ -464,7 +466,7 @@ def _export(source, preset: EnginePreset, out_dir: Path, size: int | None, tiles
 
     Raises
     ------
-    _HasNodata
+    _NeedsWhole
         Before anything is written.
     """
     size, shape = _plan(preset, source, size, tiles, notes)
@@ -478,8 +480,8 @@ def _export(source, preset: EnginePreset, out_dir: Path, size: int | None, tiles
 
     def read(i0, i1, j0, j1):
         block = source.read(i0, i1, j0, j1)
-        if np.isnan(block).any():
-            raise _HasNodata
+        if not np.isfinite(block).all():
+            raise _NeedsWhole  # (nodata to fill, or an infinity to refuse, naming the file)
         return block
 
     def block(r0, r1, c0, c1):
@@ -504,10 +506,8 @@ def _export(source, preset: EnginePreset, out_dir: Path, size: int | None, tiles
         for i, j, path in tile_paths:
             r0, c0 = (j * (side - 1), i * (side - 1)) if side else (0, 0)
             r1, c1 = (r0 + side, c0 + side) if side else shape
-            geo = georef
-            if geo is not None:
-                geo = replace(geo, x_origin=geo.x_origin + c0 * geo.x_step, y_origin=geo.y_origin - r0 * geo.y_step)
-            tile = HeightField(block(r0, r1, c0, c1), cell_size=cell_size, georef=geo)
+            tile = HeightField(block(r0, r1, c0, c1), cell_size=cell_size,
+                               georef=None if georef is None else georef.at(r0, c0))
             save_dem(tile, path, level_range=level_range)
             written.append(path)
             if preset.extension != ".exr":
@@ -577,6 +577,5 @@ def unity_heights_m(levels, settings: dict):
 
 
 __all__ = ["EngineExport", "EnginePreset", "PRESETS", "UNITY_SIZES", "UNREAL_SIZES", "default_size",
-           "engine_ready", "export_file_for_engine", "export_for_engine", "longer_side_shape", "preset_grid", "preset_names", "preset_shape",
-           "refuse_existing",
-           "unity_heights_m", "unreal_heights_m"]
+           "engine_ready", "export_file_for_engine", "export_for_engine", "longer_side_shape", "preset_grid",
+           "preset_names", "preset_shape", "refuse_existing", "unity_heights_m", "unreal_heights_m"]

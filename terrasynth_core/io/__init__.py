@@ -262,7 +262,7 @@ def open_raster_windows(path: str | PathLike, *, band: int | None = None) -> gda
     if name in _READERS or name in _RAW_READERS or not path.is_file():
         return None
     with wrap_errors(path, "read"):
-        return gdal.RasterWindows(path, band=band, fmt=name)
+        return gdal.RasterWindows(path, band=band)
 
 
 def save_dem(field: HeightField, path: str | PathLike, *, cog: bool = False,

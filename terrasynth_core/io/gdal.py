@@ -91,7 +91,7 @@ def read_gdal(path: Path, *, band: int | None = None, fmt: str = "gdal") -> Heig
         non-numeric samples, a rotated or sheared grid, or anything GDAL
         cannot read.
     """
-    raster = RasterWindows(path, band=band, fmt=fmt)
+    raster = RasterWindows(path, band=band)
     heights, fill = raster.read_with_fill()
     metadata = dict(raster.metadata)
     if fill is not None:
@@ -114,7 +114,6 @@ class RasterWindows:
     path : Path
     band : int, optional
         As in :func:`read_gdal`.
-    fmt : str, default ``"gdal"``
 
     Attributes
     ----------
@@ -132,12 +131,12 @@ class RasterWindows:
         As :func:`read_gdal`.
     """
 
-    def __init__(self, path: Path, *, band: int | None = None, fmt: str = "gdal"):
+    def __init__(self, path: Path, *, band: int | None = None):
         self.path = Path(path)
         with _opened(self.path) as ds:
-            self._describe(ds, band, fmt)
+            self._describe(ds, band)
 
-    def _describe(self, ds, band: int | None, fmt: str) -> None:
+    def _describe(self, ds, band: int | None) -> None:
         path = self.path
         if ds.count == 0 and ds.subdatasets:
             names = ", ".join(sub.rsplit(":", 1)[-1] for sub in ds.subdatasets)

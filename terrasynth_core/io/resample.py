@@ -427,11 +427,6 @@ class NodeGrid:
         self._wy = _node_weights(self.source[0], self.shape[0])
         self._wx = _node_weights(self.source[1], self.shape[1])
 
-    def reach(self, r0: int, r1: int, c0: int, c1: int) -> tuple[int, int, int, int]:
-        """The old grid's window ``(i0, i1, j0, j1)`` that new rows ``r0:r1``
-        and columns ``c0:c1`` read."""
-        return (*_span(self._wy, r0, r1), *_span(self._wx, c0, c1))
-
     def window(self, read, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         """Rows ``r0:r1`` and columns ``c0:c1`` of the resampled grid.
 

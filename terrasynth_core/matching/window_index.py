@@ -83,6 +83,8 @@ def faiss_module():
                 faiss.SIMDConfig.set_level(faiss.SIMDLevel_NONE)
                 _faiss_pinned = True
     return faiss
+
+
 #: PCA dimensions of a zone's direction (Liang et al. keep a few dozen).
 PCA_DIMS = 24
 #: Coarse cells across a window side in the descriptor.

@@ -224,3 +224,25 @@ def test_tiles_of_a_large_geotiff_never_hold_it_whole(tmp_path, monkeypatch):
     assert len(done.settings["files"]) == 16
     assert max(windows) < 0.2 * side * side
     assert peak < side * side * 8, f"peak {peak / 1e6:.1f} MB"
+
+
+@pytest.mark.parametrize("heights, message", [
+    (np.where(np.arange(60 * 70).reshape(60, 70) == 777, np.inf, 500.0), "infinite"),
+    (np.full((1, 50), 500.0), "at least 2x2"),
+])
+def test_a_file_the_whole_read_refuses_is_refused_by_name_before_any_folder_is_made(tmp_path, heights, message):
+    """An infinite height or a grid one cell thin is refused as reading the
+    file whole refuses it (naming the file), and no output folder is left."""
+    import rasterio
+    from rasterio.transform import Affine
+
+    from terrasynth_core.export.engines import export_file_for_engine
+
+    path = tmp_path / "odd.tif"
+    with rasterio.open(path, "w", driver="GTiff", width=heights.shape[1], height=heights.shape[0], count=1,
+                       dtype="float32", crs="EPSG:32633", transform=Affine(10.0, 0, 500000.0, 0, -10.0, 4e6)) as ds:
+        ds.write(heights.astype(np.float32)[None])
+    with pytest.raises(DEMFormatError, match=message) as caught:
+        export_file_for_engine(path, "unreal", tmp_path / "out", size=127)
+    assert str(path) in str(caught.value)
+    assert not (tmp_path / "out").exists()
