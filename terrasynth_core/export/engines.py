@@ -33,6 +33,9 @@ the export would write exists, the export refuses before writing anything.
 from __future__ import annotations
 
 import json
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -278,6 +281,8 @@ def check_folder(out_dir: Path) -> None:
         raise DEMFormatError(f"{out_dir} is a file; the output must be a folder (it is created if missing)")
     parent = out_dir.absolute().parent
     if not out_dir.exists() and not parent.is_dir():
+        if parent.exists():
+            raise DEMFormatError(f"{parent} is a file; the output folder {out_dir.name} must be in a folder")
         raise DEMFormatError(f"folder {parent} does not exist: the export creates only its own folder "
                              f"{out_dir.name}, in a folder that exists")
 
@@ -291,9 +296,31 @@ def refuse_existing(paths) -> None:
         Naming the first existing file.
     """
     for path in paths:
-        if Path(path).exists():
+        if os.path.lexists(path):  # (a dangling link too: writing would replace it)
             raise DEMFormatError(f"{path} exists; an export never replaces files: choose an empty folder "
                                  "or another --name")
+
+
+@contextmanager
+def writing_into(out_dir: Path) -> Iterator[list[Path]]:
+    """Make ``out_dir`` if missing, for a block that writes new files into
+    it and appends each to the list yielded.  If the block fails, those
+    files are removed, and the folder too when this call made it and
+    nothing else was put there: a failed export leaves no trace."""
+    written: list[Path] = []
+    created = not out_dir.exists()
+    try:
+        out_dir.mkdir(exist_ok=True)
+        yield written
+    except BaseException:
+        for path in written:  # only what the block created
+            path.unlink(missing_ok=True)
+        if created:
+            try:
+                out_dir.rmdir()
+            except OSError:
+                pass  # something else is in it now
+        raise
 
 
 def preset_grid(field: HeightField, preset: str, *, size: int | None = None,
@@ -500,9 +527,7 @@ def _export(source, preset: EnginePreset, out_dir: Path, size: int | None, tiles
     settings = _settings(preset, shape, cell_size, (lo, hi), size, tiles, tile_paths)
     level_range = (lo, hi if hi > lo else lo + 1.0) if preset.extension != ".exr" else None
     side = size if tiles > 1 else None
-    written: list[Path] = []
-    try:
-        out_dir.mkdir(exist_ok=True)
+    with writing_into(out_dir) as written:
         for i, j, path in tile_paths:
             r0, c0 = (j * (side - 1), i * (side - 1)) if side else (0, 0)
             r1, c1 = (r0 + side, c0 + side) if side else shape
@@ -516,10 +541,6 @@ def _export(source, preset: EnginePreset, out_dir: Path, size: int | None, tiles
         with wrap_errors(settings_path, "write"), atomic_outputs(settings_path) as (temp,), open_new(temp) as fh:
             fh.write((json.dumps(settings, indent=2) + "\n").encode("utf-8"))
         written.append(settings_path)
-    except BaseException:
-        for path in written:  # only what this call created
-            path.unlink(missing_ok=True)
-        raise
     return EngineExport(preset.name, tuple(written), settings, notes)
 
 

@@ -20,7 +20,7 @@ from PIL import Image
 
 from ..errors import ParamsError
 from ..io._common import atomic_outputs, open_new, wrap_errors
-from .engines import check_folder, check_stem, refuse_existing
+from .engines import check_folder, check_stem, refuse_existing, writing_into
 from .masks import TerrainMasks
 
 #: ``--format`` values.
@@ -111,9 +111,7 @@ def write_masks(masks: TerrainMasks, out_dir, *, fmt: str = "png8", stem: str = 
     paths = mask_paths(masks.masks, out_dir, stem, fmt)
     key_path = out_dir / f"{stem}_masks.json"
     refuse_existing([*paths.values(), key_path])
-    written: list[Path] = []
-    try:
-        out_dir.mkdir(exist_ok=True)
+    with writing_into(out_dir) as written:
         for name, path in paths.items():
             with wrap_errors(path, "write"), atomic_outputs(path) as (temp,):
                 values = masks.masks[name]
@@ -135,8 +133,4 @@ def write_masks(masks: TerrainMasks, out_dir, *, fmt: str = "png8", stem: str = 
         with wrap_errors(key_path, "write"), atomic_outputs(key_path) as (temp,), open_new(temp) as fh:
             fh.write((json.dumps(key, indent=2) + "\n").encode("utf-8"))
         written.append(key_path)
-    except BaseException:
-        for path in written:
-            path.unlink(missing_ok=True)
-        raise
     return written

@@ -246,3 +246,41 @@ def test_a_file_the_whole_read_refuses_is_refused_by_name_before_any_folder_is_m
         export_file_for_engine(path, "unreal", tmp_path / "out", size=127)
     assert str(path) in str(caught.value)
     assert not (tmp_path / "out").exists()
+
+
+def test_a_failed_export_leaves_no_folder_it_made_and_no_file(tmp_path, monkeypatch):
+    """A write failing after the first tile removes the tiles written and
+    the folder the export made; a folder that was there stays."""
+    from terrasynth_core.export import engines
+
+    calls = []
+    real = engines.save_dem
+
+    def failing(field, path, **kw):
+        calls.append(path)
+        if len(calls) == 2:
+            raise DEMFormatError(f"cannot write {path}: disk full")
+        real(field, path, **kw)
+
+    monkeypatch.setattr(engines, "save_dem", failing)
+    with pytest.raises(DEMFormatError, match="disk full"):
+        export_for_engine(_terrain(253), "unreal", tmp_path / "new", size=127, tiles=2)
+    assert not (tmp_path / "new").exists()
+    (tmp_path / "mine").mkdir()
+    calls.clear()
+    with pytest.raises(DEMFormatError, match="disk full"):
+        export_for_engine(_terrain(253), "unreal", tmp_path / "mine", size=127, tiles=2)
+    assert (tmp_path / "mine").is_dir() and not any((tmp_path / "mine").iterdir())
+
+
+def test_a_dangling_link_named_like_an_output_is_not_replaced(tmp_path):
+    (tmp_path / "terrain.png").symlink_to(tmp_path / "nowhere.png")
+    with pytest.raises(DEMFormatError, match="exists"):
+        export_for_engine(_terrain(127), "unreal", tmp_path)
+    assert (tmp_path / "terrain.png").is_symlink()
+
+
+def test_an_output_folder_inside_a_file_is_refused_as_such(tmp_path):
+    (tmp_path / "afile").write_text("mine")
+    with pytest.raises(DEMFormatError, match="afile is a file"):
+        export_for_engine(_terrain(127), "unreal", tmp_path / "afile" / "sub")
