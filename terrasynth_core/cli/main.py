@@ -259,13 +259,18 @@ def cmd_export(args: argparse.Namespace) -> int:
     else:
         field = resolve_dem(args.input, size=args.input_size, band=args.band)
         done = export_for_engine(field, args.preset, args.out, size=args.size, tiles=args.tiles, stem=args.name)
+    _said_export(done)
+    return EXIT_OK
+
+
+def _said_export(done) -> None:
+    """An engine export's notes, files and the numbers to type into the engine."""
     for note in done.notes:
         print(f"terrasynth-cli: note: {note}", file=sys.stderr)
     heightmaps = [f for f in done.files if f.name in done.settings["files"]]
     settings = done.files[-1]
     print(f"wrote {len(heightmaps)} heightmap{'s' * (len(heightmaps) > 1)} and {settings}", file=sys.stderr)
     print(done.summary())
-    return EXIT_OK
 
 
 def cmd_masks(args: argparse.Namespace) -> int:
@@ -348,6 +353,9 @@ def cmd_features(args: argparse.Namespace) -> int:
 def cmd_synth(args: argparse.Namespace) -> int:
     if args.tile is not None or args.scheduler is not None:
         return _synth_tiled(args)
+    if args.engine is not None:
+        raise TerraSynthError("--engine writes a tiled run's terrain for an engine; for a whole-map run, export "
+                              "its output: 'terrasynth-cli export OUT --preset PRESET --out DIR'")
     if args.keep_tiles:
         raise TerraSynthError("--keep-tiles keeps a tiled synthesis's tiles: give the tile size too (--tile 1024)")
     if args.project:
@@ -441,8 +449,9 @@ def _synth_tiled(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise TerraSynthError(f"--workers must be at least 1, got {args.workers}" + _SYNTH_HELP)
     out = check_tiled_output(Path(args.out))
+    engine_dir = _engine_folder(args, out)
     if args.project:
-        spec = _project_spec(args, "--out, --size, --seed, --tile, --workers, --scheduler, --keep-tiles")
+        spec = _project_spec(args, "--out, --size, --seed, --tile, --workers, --scheduler, --keep-tiles, --engine")
         examples, sketch, params, controls = tiled_project_inputs(spec)
         size = spec.shape
     else:
@@ -470,7 +479,27 @@ def _synth_tiled(args: argparse.Namespace) -> int:
     kept = f", {result.reused} reused from an earlier run of the same inputs" if result.reused else ""
     print(f"wrote {out}: {rows}x{cols} in {grid} tiles of {tile} on {result.workers} worker(s) in "
           f"{result.seconds:.1f} s{kept}; heights {result.lowest:.1f} .. {result.highest:.1f} m", file=sys.stderr)
+    if engine_dir is not None:
+        from ..export.engines import export_file_for_engine
+
+        _said_export(export_file_for_engine(out, args.engine, engine_dir, size=args.engine_size,
+                                            tiles=args.engine_tiles or 1, stem=out.stem))
     return EXIT_OK
+
+
+def _engine_folder(args: argparse.Namespace, out: Path) -> Path | None:
+    """Where ``synth --tile ... --engine PRESET`` writes the engine's files
+    (``OUTSTEM_PRESET`` beside the output), checked before the run: a long
+    run never ends on a refused option or folder."""
+    if args.engine is None:
+        if args.engine_tiles is not None or args.engine_size is not None:
+            raise TerraSynthError("--engine-tiles and --engine-size go with --engine PRESET" + _SYNTH_HELP)
+        return None
+    from ..export.engines import check_export
+
+    folder = out.with_name(f"{out.stem}_{args.engine}")
+    check_export(args.engine, folder, size=args.engine_size, tiles=args.engine_tiles or 1, stem=out.stem)
+    return folder
 
 
 def _tiled_run_options(args: argparse.Namespace):
@@ -900,6 +929,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --tile: run on the Dask cluster of this scheduler (tcp://host:8786) instead of "
                         "local worker processes")
     p.add_argument("--keep-tiles", action="store_true", help="with --tile: keep OUT.tiles after the output is written")
+    p.add_argument("--engine", choices=PRESET_NAMES, metavar="PRESET",
+                   help="with --tile: also write the terrain for this engine or tool (" + ", ".join(PRESET_NAMES)
+                        + ") into OUTSTEM_PRESET/, as 'export' does, read from the GeoTIFF window by window")
+    p.add_argument("--engine-tiles", type=positive_count, metavar="K",
+                   help="with --engine: a K x K grid of engine tiles named _x{i}_y{j} (unreal, unity; default 1)")
+    p.add_argument("--engine-size", type=positive_count, metavar="N",
+                   help="with --engine: samples a side per engine tile (default: the smallest that keeps every "
+                        "sample)")
     add_control_arguments(p)
     p.set_defaults(func=cmd_synth)
 

@@ -254,6 +254,32 @@ def _tile_paths(out_dir: Path, stem: str, ext: str, tiles: int) -> list[tuple[in
     return [(i, j, out_dir / f"{stem}_x{i}_y{j}{ext}") for j in range(tiles) for i in range(tiles)]
 
 
+def _checked_paths(preset: EnginePreset, out_dir: Path, stem: str, tiles: int) -> tuple[list, Path]:
+    """The heightmaps' ``(i, j, path)`` and the settings' path of an export
+    into ``out_dir``, after refusing a folder that cannot take them or any
+    of its files (sidecars included) that exists."""
+    check_folder(out_dir)
+    tile_paths = _tile_paths(out_dir, stem, preset.extension, tiles)
+    settings_path = out_dir / f"{stem}.{preset.name}.json"
+    heightmaps = [p for _, _, p in tile_paths]
+    sidecars = [sidecar_path(p) for p in heightmaps] if preset.extension in (".png", ".r16") else []
+    refuse_existing([*heightmaps, *sidecars, settings_path])
+    return tile_paths, settings_path
+
+
+def check_export(preset: str, out_dir, *, size: int | None = None, tiles: int = 1, stem: str = "terrain") -> None:
+    """Refuse (one line) what :func:`export_for_engine` would refuse before
+    reading the terrain: the options, the name, the folder, a file it would
+    replace.  For a caller that exports at the end of a long run.
+
+    Raises
+    ------
+    ParamsError, DEMFormatError
+    """
+    check_stem(stem)
+    _checked_paths(_check_options(preset, size, tiles), Path(out_dir), stem, tiles)
+
+
 def check_stem(stem: str) -> None:
     """Refuse a start of file names that is empty or names a folder
     (``/``, ``\\``, ``..``, a Windows drive's ``:``): every file an export
@@ -497,12 +523,7 @@ def _export(source, preset: EnginePreset, out_dir: Path, size: int | None, tiles
         Before anything is written.
     """
     size, shape = _plan(preset, source, size, tiles, notes)
-    check_folder(out_dir)
-    tile_paths = _tile_paths(out_dir, stem, preset.extension, tiles)
-    settings_path = out_dir / f"{stem}.{preset.name}.json"
-    heightmaps = [p for _, _, p in tile_paths]
-    sidecars = [sidecar_path(p) for p in heightmaps] if preset.extension in (".png", ".r16") else []
-    refuse_existing([*heightmaps, *sidecars, settings_path])
+    tile_paths, settings_path = _checked_paths(preset, out_dir, stem, tiles)
     grid = NodeGrid(source.shape, shape)
 
     def read(i0, i1, j0, j1):
@@ -598,5 +619,5 @@ def unity_heights_m(levels, settings: dict):
 
 
 __all__ = ["EngineExport", "EnginePreset", "PRESETS", "UNITY_SIZES", "UNREAL_SIZES", "default_size",
-           "engine_ready", "export_file_for_engine", "export_for_engine", "longer_side_shape", "preset_grid",
+           "check_export", "engine_ready", "export_file_for_engine", "export_for_engine", "longer_side_shape", "preset_grid",
            "preset_names", "preset_shape", "refuse_existing", "unity_heights_m", "unreal_heights_m"]

@@ -496,3 +496,46 @@ def test_a_tiled_runs_bank_is_checked_against_the_output_not_the_painted_mask(wh
                 run_tiled([white_mountains], None, shape=(256, 256), tile=128, out=tmp_path / "o.tif", params=P,
                           client=one_worker, controls=controls)
     assert not (tmp_path / "o.tif").exists()
+
+
+def test_cli_tiled_run_writes_engine_tiles_as_export_does(one_worker, tmp_path, capsys, dems_dir, monkeypatch):
+    """``synth --tile ... --engine unreal --engine-tiles 2`` writes the
+    GeoTIFF, then Unreal's _x{i}_y{j} tiles beside it, the same files as
+    ``export`` makes from that GeoTIFF afterwards."""
+    import terrasynth_core.tiled as tiled
+
+    real = tiled.run_tiled
+    monkeypatch.setattr(tiled, "run_tiled", lambda *a, **kw: real(*a, **{**kw, "client": one_worker}))
+    out = tmp_path / "world.tif"
+    code = cli_main(["synth", "--example", str(dems_dir / "N44W072.hgt"), "--size", "256x256", "--patch-size", "32",
+                     "--tile", "128", "--out", str(out), "--engine", "unreal", "--engine-tiles", "2",
+                     "--engine-size", "127"])
+    assert code == 0, capsys.readouterr().err
+    made = tmp_path / "world_unreal"
+    assert sorted(p.name for p in made.iterdir()) == sorted(
+        [f"world_x{i}_y{j}{ext}" for i in range(2) for j in range(2) for ext in (".png", ".json")]
+        + ["world.unreal.json"])
+    assert "Unreal: Scale X" in capsys.readouterr().out
+    assert cli_main(["export", str(out), "--preset", "unreal", "--tiles", "2", "--size", "127", "--name", "world",
+                     "--out", str(tmp_path / "again")]) == 0
+    for path in made.iterdir():
+        assert path.read_bytes() == (tmp_path / "again" / path.name).read_bytes(), path.name
+
+
+def test_cli_engine_folder_is_checked_before_the_run(tmp_path, capsys, dems_dir, monkeypatch):
+    """A file the engine export would replace is refused before any tile is
+    made (a long run never ends on it); --engine needs --tile."""
+    import terrasynth_core.tiled as tiled
+
+    monkeypatch.setattr(tiled, "run_tiled", lambda *a, **kw: pytest.fail("the run started"))
+    (tmp_path / "w_unity").mkdir()
+    (tmp_path / "w_unity" / "w.r16").write_bytes(b"mine")
+    base = ["synth", "--example", str(dems_dir / "N44W072.hgt"), "--size", "256x256", "--patch-size", "32",
+            "--out", str(tmp_path / "w.tif")]
+    assert cli_main([*base, "--tile", "128", "--engine", "unity"]) == EXIT_BAD_INPUT
+    assert "w.r16 exists" in capsys.readouterr().err
+    assert (tmp_path / "w_unity" / "w.r16").read_bytes() == b"mine"
+    assert cli_main([*base, "--engine", "unity"]) == EXIT_BAD_INPUT
+    assert "for a whole-map run, export its output" in capsys.readouterr().err
+    assert cli_main([*base, "--tile", "128", "--engine-tiles", "2"]) == EXIT_BAD_INPUT
+    assert "go with --engine PRESET" in capsys.readouterr().err
