@@ -22,7 +22,8 @@ class LargeRenderController(_RunController):
     tile_finished(int, int)
         Tiles finished (kept ones included) and tiles in all.
     finished(object)
-        The core's ``TiledResult``: the GeoTIFF is written.
+        A ``LargeRendered``: the GeoTIFF is written (and the engine's files
+        when asked for).
     failed(str)
         One-line message.
     cancelled()
@@ -43,23 +44,28 @@ class LargeRenderController(_RunController):
         # Cancelling closes the Dask cluster: its worker processes take a moment.
         super().__init__(document, parent, wait_ms=60_000)
 
-    def render(self, size: tuple[int, int], tile: int, workers: int, out) -> None:
-        """Start rendering the document at ``size`` in tiles of ``tile`` cells to ``out``."""
+    def render(self, size: tuple[int, int], tile: int, workers: int, out, *, engine: str | None = None,
+               engine_tiles: int = 1) -> None:
+        """Start rendering the document at ``size`` in tiles of ``tile`` cells
+        to ``out`` (and for ``engine`` in ``engine_tiles`` x ``engine_tiles``
+        tiles beside it)."""
         try:
             request = self.document.synthesis_request()
         except TerraSynthError as exc:
             self.failed.emit(str(exc))
             return
         self.started.emit()
-        self.runner.start(large_render_events(request, LargeRender(tuple(size), int(tile), int(workers), out)))
+        render = LargeRender(tuple(size), int(tile), int(workers), out, engine, int(engine_tiles))
+        self.runner.start(large_render_events(request, render))
         self.status.emit(f"Rendering {size[0]}x{size[1]} in tiles of {tile}…", 0)
 
     def _event(self, event) -> None:
         if isinstance(event, TileFinished):
             self.tile_finished.emit(event.done, event.total)
 
-    def _returned(self, result) -> None:
-        self.finished.emit(result)
+    def _returned(self, rendered) -> None:
+        self.finished.emit(rendered)
+        result = rendered.result
         self.status.emit(f"Wrote {result.path} ({result.shape[0]}x{result.shape[1]})", 10_000)
 
     def _failed(self, message: str) -> None:

@@ -6,8 +6,11 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QFileDialog, QFormLayout, QHBoxLayout, QLabel, QLineEdit,
-                               QProgressBar, QPushButton, QSpinBox, QVBoxLayout, QWidget)
+from PySide6.QtWidgets import (QComboBox, QDialog, QDialogButtonBox, QFileDialog, QFormLayout, QHBoxLayout, QLabel,
+                               QLineEdit, QProgressBar, QPushButton, QSpinBox, QVBoxLayout, QWidget)
+
+from terrasynth_core.export import PRESETS
+from terrasynth_core.export.engines import MAX_TILES
 
 from ..controllers import LargeRenderController
 
@@ -16,7 +19,8 @@ MAX_SIDE = 65_536
 
 
 class LargeRenderDialog(QDialog):
-    """Size, tile, workers and output file of a tiled render, and its progress.
+    """Size, tile, workers and output file of a tiled render (and an
+    engine's files beside it), and its progress.
 
     Parameters
     ----------
@@ -39,12 +43,27 @@ class LargeRenderDialog(QDialog):
         where = QHBoxLayout()
         where.addWidget(self.out)
         where.addWidget(browse)
+        # Also for an engine: its files beside the GeoTIFF, read from it
+        # window by window (as 'synth --tile --engine' writes them).
+        self.engine = QComboBox(toolTip="Also write the terrain for an engine or tool, into a folder beside the "
+                                        "GeoTIFF (OUTNAME_PRESET), once the GeoTIFF is written")
+        self.engine.addItem("GeoTIFF only", None)
+        for preset in PRESETS.values():
+            self.engine.addItem(preset.title, preset.name)
+        self.engine_tiles = QSpinBox(minimum=1, maximum=MAX_TILES, value=1, enabled=False,
+                                     toolTip="K x K engine tiles named _x{i}_y{j} (Unreal, Unity)")
+        self.engine.currentIndexChanged.connect(self._engine_chosen)
+        engine_row = QHBoxLayout()
+        engine_row.addWidget(self.engine)
+        engine_row.addWidget(QLabel("tiles a side"))
+        engine_row.addWidget(self.engine_tiles)
         form = QFormLayout()
         form.addRow("Rows", self.rows)
         form.addRow("Columns", self.cols)
         form.addRow("Tile", self.tile)
         form.addRow("Workers", self.workers)
         form.addRow("GeoTIFF", where)
+        form.addRow("Also for", engine_row)
         self.progress = QProgressBar()
         self.progress.setRange(0, 1)
         self.progress.setValue(0)
@@ -78,10 +97,17 @@ class LargeRenderDialog(QDialog):
         if path:
             self.out.setText(path)
 
+    def _engine_chosen(self) -> None:
+        name = self.engine.currentData()
+        self.engine_tiles.setEnabled(name is not None and PRESETS[name].tiles)
+        if not self.engine_tiles.isEnabled():
+            self.engine_tiles.setValue(1)
+
     def start(self) -> None:
         """Start the render with the values shown."""
         self.controller.render((self.rows.value(), self.cols.value()), self.tile.value(), self.workers.value(),
-                               Path(self.out.text()))
+                               Path(self.out.text()), engine=self.engine.currentData(),
+                               engine_tiles=self.engine_tiles.value())
 
     # -- the controller's signals -----------------------------------------------------------
     def _started(self) -> None:
@@ -93,10 +119,14 @@ class LargeRenderDialog(QDialog):
         self.progress.setValue(done)
         self.status.setText(f"{done} of {total} tiles")
 
-    def _finished(self, result) -> None:
+    def _finished(self, rendered) -> None:
         self.progress.setRange(0, 1)
         self.progress.setValue(1)
-        self.status.setText(f"Wrote {result.path}: {result.shape[0]}x{result.shape[1]} in {result.seconds:.0f} s")
+        result = rendered.result
+        text = f"Wrote {result.path}: {result.shape[0]}x{result.shape[1]} in {result.seconds:.0f} s"
+        if rendered.engine is not None:
+            text += f"; for {PRESETS[rendered.engine.preset].title}: {rendered.engine.summary()}"
+        self.status.setText(text)
 
     def _failed(self, message: str) -> None:
         self.progress.setRange(0, 1)
@@ -110,8 +140,12 @@ class LargeRenderDialog(QDialog):
     def _running(self, running: bool) -> None:
         self.render_button.setEnabled(not running)
         self.cancel_button.setEnabled(running)
-        for widget in (self.rows, self.cols, self.tile, self.workers, self.out):
+        for widget in (self.rows, self.cols, self.tile, self.workers, self.out, self.engine):
             widget.setEnabled(not running)
+        if not running:
+            self._engine_chosen()
+        else:
+            self.engine_tiles.setEnabled(False)
 
     def reject(self) -> None:
         """Closing the dialog cancels a running render."""

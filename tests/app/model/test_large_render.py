@@ -26,10 +26,26 @@ def test_a_pinned_document_renders_large_with_the_pin_at_its_place(tmp_path):
     with pytest.raises(StopIteration) as done:
         while True:
             next(events)
-    assert done.value.value.shape == (192, 192)
+    assert done.value.value.result.shape == (192, 192) and done.value.value.engine is None
     with rasterio.open(render.out) as ds:
         heights = ds.read(1)
     (pin,) = resize_pins(request.pins, (96, 96), (192, 192))
     assert (pin.row, pin.col) != (30, 70)  # it followed the sketch
     assert heights[pin.row, pin.col] == pytest.approx(1400.0, abs=1e-3)
     assert np.isfinite(heights).all()
+
+
+def test_an_engine_folder_holding_a_file_is_refused_before_any_work(tmp_path):
+    """A name the engine export would take is refused when the render
+    starts, not after the tiles: nothing is made and the file is kept."""
+    from terrasynth_core.errors import DEMFormatError
+
+    doc = Document(Sketch.blank((96, 96)), [ExampleRef(builtin="white-mountains", crop=(400, 700, 400, 700))],
+                   params=SynthesisParams(patch_size=32, k=2, seed=4))
+    render = LargeRender(size=(192, 192), tile=96, workers=1, out=tmp_path / "large.tif", engine="godot")
+    render.engine_folder().mkdir()
+    (render.engine_folder() / "large.exr").write_bytes(b"mine")
+    with pytest.raises(DEMFormatError, match="large.exr exists"):
+        next(large_render_events(doc.synthesis_request(), render))
+    assert (render.engine_folder() / "large.exr").read_bytes() == b"mine"
+    assert not render.out.exists()

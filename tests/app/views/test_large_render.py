@@ -32,12 +32,18 @@ def test_render_large_cancels_then_continues_to_the_geotiff(window, qtbot, tmp_p
     assert "Cancelled" in dialog.status.text()
     controller.tile_finished.disconnect()
     controller.tile_finished.connect(dialog._tile_finished)
+    # The second render also writes Unity's 2 x 2 tiles beside the GeoTIFF.
+    dialog.engine.setCurrentIndex(dialog.engine.findData("unity"))
+    assert dialog.engine_tiles.isEnabled()
+    dialog.engine_tiles.setValue(2)
     with qtbot.waitSignal(controller.finished, timeout=180_000) as finished:
         dialog.render_button.click()
-    result = finished.args[0]
+    result = finished.args[0].result
     assert result.reused >= 1 and result.shape == (288, 288)
     assert dialog.progress.value() == dialog.progress.maximum() == 1
-    assert "Wrote" in dialog.status.text()
+    assert "Wrote" in dialog.status.text() and "Unity: resolution" in dialog.status.text()
+    assert sorted(p.name for p in (tmp_path / "large_unity").glob("*.r16")) == [
+        f"large_x{i}_y{j}.r16" for i in range(2) for j in range(2)]
     with rasterio.open(out) as ds:
         heights = ds.read(1)
     assert heights.shape == (288, 288) and np.isfinite(heights).all() and heights.std() > 1
