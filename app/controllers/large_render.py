@@ -9,7 +9,7 @@ from terrasynth_core.errors import TerraSynthError
 from terrasynth_core.tiled import TileFinished
 
 from ..model import Document
-from ..model.large_render import LargeRender, large_render_events
+from ..model.large_render import EngineExportStarted, LargeRender, large_render_events
 from .synthesis import _RunController
 
 
@@ -21,6 +21,8 @@ class LargeRenderController(_RunController):
     started()
     tile_finished(int, int)
         Tiles finished (kept ones included) and tiles in all.
+    engine_started(str)
+        The GeoTIFF is written; the engine's files (this preset's) are being made.
     finished(object)
         A ``LargeRendered``: the GeoTIFF is written (and the engine's files
         when asked for).
@@ -36,6 +38,7 @@ class LargeRenderController(_RunController):
 
     started = Signal()
     tile_finished = Signal(int, int)
+    engine_started = Signal(str)
     finished = Signal(object)
     failed = Signal(str)
     cancelled = Signal()
@@ -62,6 +65,8 @@ class LargeRenderController(_RunController):
     def _event(self, event) -> None:
         if isinstance(event, TileFinished):
             self.tile_finished.emit(event.done, event.total)
+        elif isinstance(event, EngineExportStarted):
+            self.engine_started.emit(event.engine)
 
     def _returned(self, rendered) -> None:
         self.finished.emit(rendered)

@@ -16,10 +16,11 @@ from typing import Iterator
 from terrasynth_core.errors import TerraSynthError
 from terrasynth_core.export.engines import check_export, export_file_for_engine
 from terrasynth_core.tiled import TileFinished, TiledResult, run_tiled, tiled_project_inputs
+from terrasynth_core.tiled.run import check_tiled_output
 
 from .run_request import SynthesisRequest, reported_events
 
-__all__ = ["LargeRender", "LargeRendered", "large_render_events"]
+__all__ = ["EngineExportStarted", "LargeRender", "LargeRendered", "large_render_events"]
 
 
 @dataclass(frozen=True)
@@ -66,9 +67,9 @@ class LargeRendered:
 
 
 def large_render_events(request: SynthesisRequest, render: LargeRender, *,
-                        poll_seconds: float = 0.1) -> Iterator[TileFinished | None]:
-    """Render ``request`` tiled: a ``TileFinished`` per tile, then the
-    engine's files when ``render`` asks for them.
+                        poll_seconds: float = 0.1) -> Iterator[TileFinished | EngineExportStarted | None]:
+    """Render ``request`` tiled: a ``TileFinished`` per tile, then, when
+    ``render`` asks for them, an ``EngineExportStarted`` and the engine's files.
 
     The run reports by callback, so it runs on a helper thread; while
     waiting this yields None every ``poll_seconds`` (a cancel checkpoint
@@ -90,8 +91,12 @@ def large_render_events(request: SynthesisRequest, render: LargeRender, *,
     # Pins and stamps follow the sketch to the render's size.
     examples, sketch, params, controls = tiled_project_inputs(request.at_size(render.size))
     if render.engine is not None:
-        # Checked now: a long render never ends on a name already taken.
-        check_export(render.engine, render.engine_folder(), tiles=render.engine_tiles, stem=render.out.stem)
+        # Checked now: a long render never ends on a name already taken or
+        # a grid too large.
+        check_tiled_output(render.out)
+        check_export(render.engine, render.engine_folder(), shape=render.size, tiles=render.engine_tiles,
+                     stem=render.out.stem, hint="remove it, or choose another GeoTIFF name (the folder is named "
+                                                "after it)")
     result: TiledResult = yield from reported_events(
         lambda report, cancel: run_tiled(examples, sketch, shape=render.size, tile=render.tile, out=render.out,
                                          params=params, workers=render.workers, progress=report, cancel=cancel,
@@ -99,9 +104,22 @@ def large_render_events(request: SynthesisRequest, render: LargeRender, *,
         name="render-large", poll_seconds=poll_seconds)
     engine = None
     if render.engine is not None:
+        # On a helper thread too, so that Cancel stops it between tiles
+        # (and removes what it wrote); the GeoTIFF stays.
+        yield EngineExportStarted(render.engine)
         try:
-            engine = export_file_for_engine(render.out, render.engine, render.engine_folder(),
-                                            tiles=render.engine_tiles, stem=render.out.stem)
+            engine = yield from reported_events(
+                lambda report, cancel: export_file_for_engine(render.out, render.engine, render.engine_folder(),
+                                                              tiles=render.engine_tiles, stem=render.out.stem,
+                                                              cancel=cancel),
+                name="render-large-engine", poll_seconds=poll_seconds)
         except TerraSynthError as exc:
-            raise type(exc)(f"wrote {render.out}, but not the {render.engine} files: {exc}") from exc
+            raise type(exc)(f"the GeoTIFF {render.out} is written; the {render.engine} files are not: {exc}") from exc
     return LargeRendered(result, engine)
+
+
+@dataclass(frozen=True)
+class EngineExportStarted:
+    """The tiles are done and the GeoTIFF written; the engine's files are being made."""
+
+    engine: str

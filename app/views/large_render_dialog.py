@@ -82,7 +82,9 @@ class LargeRenderDialog(QDialog):
         layout.addWidget(self.progress)
         layout.addWidget(self.status)
         layout.addWidget(self.buttons)
+        self._engine_phase = False
         for signal, slot in ((controller.started, self._started), (controller.tile_finished, self._tile_finished),
+                             (controller.engine_started, self._engine_started),
                              (controller.finished, self._finished), (controller.failed, self._failed),
                              (controller.cancelled, self._cancelled), (controller.running_changed, self._running)):
             signal.connect(slot)
@@ -111,8 +113,14 @@ class LargeRenderDialog(QDialog):
 
     # -- the controller's signals -----------------------------------------------------------
     def _started(self) -> None:
+        self._engine_phase = False
         self.progress.setRange(0, 0)  # busy until the first tile (the landform pass runs first)
         self.status.setText("Shaping the landforms over the whole map…")
+
+    def _engine_started(self, preset: str) -> None:
+        self._engine_phase = True
+        self.progress.setRange(0, 0)
+        self.status.setText(f"GeoTIFF written; writing the {PRESETS[preset].title} files…")
 
     def _tile_finished(self, done: int, total: int) -> None:
         self.progress.setRange(0, total)
@@ -131,11 +139,14 @@ class LargeRenderDialog(QDialog):
     def _failed(self, message: str) -> None:
         self.progress.setRange(0, 1)
         self.progress.setValue(0)
-        self.status.setText(f"Not rendered: {message}")
+        self.status.setText(f"Stopped: {message}")
 
     def _cancelled(self) -> None:
         self.progress.setRange(0, 1)
-        self.status.setText("Cancelled; the finished tiles are kept, and the same render continues from them")
+        if self._engine_phase:
+            self.status.setText("Cancelled: the GeoTIFF is written; the engine's files were not kept")
+        else:
+            self.status.setText("Cancelled; the finished tiles are kept, and the same render continues from them")
 
     def _running(self, running: bool) -> None:
         self.render_button.setEnabled(not running)

@@ -353,9 +353,10 @@ def cmd_features(args: argparse.Namespace) -> int:
 def cmd_synth(args: argparse.Namespace) -> int:
     if args.tile is not None or args.scheduler is not None:
         return _synth_tiled(args)
-    if args.engine is not None:
-        raise TerraSynthError("--engine writes a tiled run's terrain for an engine; for a whole-map run, export "
-                              "its output: 'terrasynth-cli export OUT --preset PRESET --out DIR'")
+    given = [o for o in ("engine", "engine_tiles", "engine_size") if getattr(args, o) is not None]
+    if given:
+        raise TerraSynthError(f"--{given[0].replace('_', '-')} is for a tiled run's terrain (--tile); for a "
+                              "whole-map run, export its output: 'terrasynth-cli export OUT --preset PRESET --out DIR'")
     if args.keep_tiles:
         raise TerraSynthError("--keep-tiles keeps a tiled synthesis's tiles: give the tile size too (--tile 1024)")
     if args.project:
@@ -449,7 +450,6 @@ def _synth_tiled(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise TerraSynthError(f"--workers must be at least 1, got {args.workers}" + _SYNTH_HELP)
     out = check_tiled_output(Path(args.out))
-    engine_dir = _engine_folder(args, out)
     if args.project:
         spec = _project_spec(args, "--out, --size, --seed, --tile, --workers, --scheduler, --keep-tiles, --engine")
         examples, sketch, params, controls = tiled_project_inputs(spec)
@@ -457,6 +457,7 @@ def _synth_tiled(args: argparse.Namespace) -> int:
     else:
         examples, sketch, params, size, controls = _tiled_run_options(args)
     _refuse_replacing(args, [out], _sources(examples, controls))
+    engine_dir = _engine_folder(args, out, size)
     bar = tqdm(total=0, desc="tiles", unit="tile", file=sys.stderr, disable=None, leave=False)
 
     def progress(event) -> None:
@@ -482,15 +483,22 @@ def _synth_tiled(args: argparse.Namespace) -> int:
     if engine_dir is not None:
         from ..export.engines import export_file_for_engine
 
-        _said_export(export_file_for_engine(out, args.engine, engine_dir, size=args.engine_size,
-                                            tiles=args.engine_tiles or 1, stem=out.stem))
+        tiles = args.engine_tiles or 1
+        try:
+            done = export_file_for_engine(out, args.engine, engine_dir, size=args.engine_size, tiles=tiles,
+                                          stem=out.stem)
+        except TerraSynthError as exc:
+            again = (f"terrasynth-cli export {out} --preset {args.engine} --tiles {tiles} --name {out.stem} "
+                     f"--out {engine_dir}" + (f" --size {args.engine_size}" if args.engine_size else ""))
+            raise type(exc)(f"{exc} ({out} is written: make the {args.engine} files with '{again}')") from exc
+        _said_export(done)
     return EXIT_OK
 
 
-def _engine_folder(args: argparse.Namespace, out: Path) -> Path | None:
+def _engine_folder(args: argparse.Namespace, out: Path, size: tuple[int, int]) -> Path | None:
     """Where ``synth --tile ... --engine PRESET`` writes the engine's files
     (``OUTSTEM_PRESET`` beside the output), checked before the run: a long
-    run never ends on a refused option or folder."""
+    run never ends on a refused option, grid size or folder."""
     if args.engine is None:
         if args.engine_tiles is not None or args.engine_size is not None:
             raise TerraSynthError("--engine-tiles and --engine-size go with --engine PRESET" + _SYNTH_HELP)
@@ -498,7 +506,8 @@ def _engine_folder(args: argparse.Namespace, out: Path) -> Path | None:
     from ..export.engines import check_export
 
     folder = out.with_name(f"{out.stem}_{args.engine}")
-    check_export(args.engine, folder, size=args.engine_size, tiles=args.engine_tiles or 1, stem=out.stem)
+    check_export(args.engine, folder, shape=size, size=args.engine_size, tiles=args.engine_tiles or 1,
+                 stem=out.stem, hint="remove it, or choose another --out (the folder is named after it)")
     return folder
 
 
@@ -931,12 +940,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--keep-tiles", action="store_true", help="with --tile: keep OUT.tiles after the output is written")
     p.add_argument("--engine", choices=PRESET_NAMES, metavar="PRESET",
                    help="with --tile: also write the terrain for this engine or tool (" + ", ".join(PRESET_NAMES)
-                        + ") into OUTSTEM_PRESET/, as 'export' does, read from the GeoTIFF window by window")
+                        + ") into OUTSTEM_PRESET/, as 'export' does: tiles cut from the GeoTIFF window by window "
+                          "(an EXR is one whole grid)")
     p.add_argument("--engine-tiles", type=positive_count, metavar="K",
                    help="with --engine: a K x K grid of engine tiles named _x{i}_y{j} (unreal, unity; default 1)")
     p.add_argument("--engine-size", type=positive_count, metavar="N",
-                   help="with --engine: samples a side per engine tile (default: the smallest that keeps every "
-                        "sample)")
+                   help="with --engine: samples a side per engine tile (unreal, unity; default: the smallest that "
+                        "keeps every sample), or on the longer side (EXR presets, up to 16384; default: the "
+                        "output's)")
     add_control_arguments(p)
     p.set_defaults(func=cmd_synth)
 

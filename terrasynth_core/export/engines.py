@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DEMFormatError, ParamsError
+from ..errors import DEMFormatError, ParamsError, SynthesisCancelled
 from ..heightfield import LEAST_SIDE, HeightField
 from ..io import load_dem, open_raster_windows, save_dem
 from ..io._common import atomic_outputs, open_new, sidecar_path, wrap_errors
@@ -238,7 +238,7 @@ def _check_options(preset_name: str, size: int | None, tiles: int) -> EnginePres
     if not (isinstance(tiles, int) and 1 <= tiles <= MAX_TILES):
         raise ParamsError(f"tiles must be a whole number from 1 to {MAX_TILES}, got {tiles!r}")
     if tiles > 1 and not preset.tiles:
-        raise ParamsError(f"the {preset_name} preset writes one heightfield; --tiles is for unreal and unity")
+        raise ParamsError(f"the {preset_name} preset writes one heightfield; tiles are for unreal and unity")
     if size is not None:
         if preset.sizes is not None and size not in preset.sizes:
             raise ParamsError(f"size {size} is not one of the {preset_name} heightmap sizes: "
@@ -254,30 +254,48 @@ def _tile_paths(out_dir: Path, stem: str, ext: str, tiles: int) -> list[tuple[in
     return [(i, j, out_dir / f"{stem}_x{i}_y{j}{ext}") for j in range(tiles) for i in range(tiles)]
 
 
-def _checked_paths(preset: EnginePreset, out_dir: Path, stem: str, tiles: int) -> tuple[list, Path]:
+def _checked_paths(preset: EnginePreset, out_dir: Path, stem: str, tiles: int, **hint) -> tuple[list, Path]:
     """The heightmaps' ``(i, j, path)`` and the settings' path of an export
     into ``out_dir``, after refusing a folder that cannot take them or any
-    of its files (sidecars included) that exists."""
+    of its files (sidecars included) that exists (``hint``: as in
+    :func:`refuse_existing`)."""
     check_folder(out_dir)
     tile_paths = _tile_paths(out_dir, stem, preset.extension, tiles)
     settings_path = out_dir / f"{stem}.{preset.name}.json"
     heightmaps = [p for _, _, p in tile_paths]
     sidecars = [sidecar_path(p) for p in heightmaps] if preset.extension in (".png", ".r16") else []
-    refuse_existing([*heightmaps, *sidecars, settings_path])
+    refuse_existing([*heightmaps, *sidecars, settings_path], **hint)
     return tile_paths, settings_path
 
 
-def check_export(preset: str, out_dir, *, size: int | None = None, tiles: int = 1, stem: str = "terrain") -> None:
-    """Refuse (one line) what :func:`export_for_engine` would refuse before
-    reading the terrain: the options, the name, the folder, a file it would
-    replace.  For a caller that exports at the end of a long run.
+class _Grid:
+    """A grid's shape and square cells, for planning an export before it exists."""
+
+    def __init__(self, shape: tuple[int, int]):
+        self.shape, self.cell_size = tuple(shape), (1.0, 1.0)
+
+
+def check_export(preset: str, out_dir, *, shape: tuple[int, int], size: int | None = None, tiles: int = 1,
+                 stem: str = "terrain", hint: str = "choose an empty folder or another --name") -> None:
+    """Refuse (one line) what exporting a terrain of ``shape`` square cells
+    would refuse, before the terrain exists: the options, the grid's size,
+    the name, the folder, a file it would replace (``hint`` ends that
+    message).  For a caller that exports at the end of a long run.
+
+    An EXR preset at the terrain's own size is one whole grid, refused past
+    :data:`MAX_EXR_SIDE` (give ``size``).
 
     Raises
     ------
     ParamsError, DEMFormatError
     """
     check_stem(stem)
-    _checked_paths(_check_options(preset, size, tiles), Path(out_dir), stem, tiles)
+    chosen = _check_options(preset, size, tiles)
+    _, grid = _plan(chosen, _Grid(shape), size, tiles, [])
+    if chosen.sizes is None and max(grid) > MAX_EXR_SIDE:
+        raise ParamsError(f"a {preset} EXR of {grid[0]} x {grid[1]} samples is one whole grid in memory: give its "
+                          f"size, the longer side, up to {MAX_EXR_SIDE}")
+    _checked_paths(chosen, Path(out_dir), stem, tiles, hint=hint)
 
 
 def check_stem(stem: str) -> None:
@@ -313,8 +331,14 @@ def check_folder(out_dir: Path) -> None:
                              f"{out_dir.name}, in a folder that exists")
 
 
-def refuse_existing(paths) -> None:
+def refuse_existing(paths, hint: str = "choose an empty folder or another --name") -> None:
     """Refuse (one line) when any of ``paths`` exists: an export never replaces a file.
+
+    Parameters
+    ----------
+    paths : iterable of path-like
+    hint : str
+        What the user can do instead, ending the message.
 
     Raises
     ------
@@ -323,8 +347,7 @@ def refuse_existing(paths) -> None:
     """
     for path in paths:
         if os.path.lexists(path):  # (a dangling link too: writing would replace it)
-            raise DEMFormatError(f"{path} exists; an export never replaces files: choose an empty folder "
-                                 "or another --name")
+            raise DEMFormatError(f"{path} exists; an export never replaces files: {hint}")
 
 
 @contextmanager
@@ -400,7 +423,7 @@ def _plan(preset: EnginePreset, ready, size: int | None, tiles: int, notes: list
 
 
 def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | None = None, tiles: int = 1,
-                      stem: str = "terrain") -> EngineExport:
+                      stem: str = "terrain", cancel=None) -> EngineExport:
     """Write ``field`` as ``preset`` heightmaps (and settings) into ``out_dir``.
 
     Parameters
@@ -420,6 +443,8 @@ def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | N
         ``K`` for a ``K x K`` grid of tiles (unreal, unity).
     stem : str, default "terrain"
         Start of every file name.
+    cancel : callable, optional
+        ``cancel()`` True stops the export between bands and tiles.
 
     Returns
     -------
@@ -434,16 +459,18 @@ def export_for_engine(field: HeightField, preset: str, out_dir, *, size: int | N
     DEMFormatError
         A file the export would write exists, or writing failed (the files
         this call wrote are removed).
+    SynthesisCancelled
+        ``cancel()`` turned True (the files this call wrote are removed).
     """
     check_stem(stem)
     chosen = _check_options(preset, size, tiles)
     ready, notes = engine_ready(field)
-    return _export(_FieldWindows(ready), chosen, Path(out_dir), size, tiles, stem, notes)
+    return _export(_FieldWindows(ready), chosen, Path(out_dir), size, tiles, stem, notes, cancel)
 
 
 def export_file_for_engine(path, preset: str, out_dir, *, size: int | None = None, tiles: int = 1,
                            stem: str = "terrain", band: int | None = None,
-                           input_size: tuple[int, int] | None = None) -> EngineExport:
+                           input_size: tuple[int, int] | None = None, cancel=None) -> EngineExport:
     """:func:`export_for_engine` of a DEM file, read window by window.
 
     A raster GDAL reads (a world-size terrain's GeoTIFF) with square cells
@@ -462,7 +489,7 @@ def export_file_for_engine(path, preset: str, out_dir, *, size: int | None = Non
     input_size : (rows, cols), optional
         Of a headerless ``.r16``/``.r32`` file (``size`` of
         :func:`~terrasynth_core.io.load_dem`).
-    preset, out_dir, size, tiles, stem
+    preset, out_dir, size, tiles, stem, cancel
         As in :func:`export_for_engine`.
 
     Returns
@@ -481,11 +508,11 @@ def export_file_for_engine(path, preset: str, out_dir, *, size: int | None = Non
     if (raster is not None and min(raster.shape) >= LEAST_SIDE and raster.cell_size is not None
             and already_square(raster, min(raster.cell_size))):
         try:
-            return _export(raster, chosen, Path(out_dir), size, tiles, stem, [])
+            return _export(raster, chosen, Path(out_dir), size, tiles, stem, [], cancel)
         except _NeedsWhole:
             pass  # found before anything was written: read whole below
     field = load_dem(path, size=input_size, band=band)
-    return export_for_engine(field, preset, out_dir, size=size, tiles=tiles, stem=stem)
+    return export_for_engine(field, preset, out_dir, size=size, tiles=tiles, stem=stem, cancel=cancel)
 
 
 class _NeedsWhole(Exception):
@@ -509,7 +536,7 @@ _BAND_ROWS = 256
 
 
 def _export(source, preset: EnginePreset, out_dir: Path, size: int | None, tiles: int, stem: str,
-            notes: list) -> EngineExport:
+            notes: list, cancel=None) -> EngineExport:
     """Write the heightmaps of an engine-ready windowed ``source`` (``shape``,
     ``cell_size``, ``georef`` and ``read(r0, r1, c0, c1)``), one tile at a time.
 
@@ -527,6 +554,8 @@ def _export(source, preset: EnginePreset, out_dir: Path, size: int | None, tiles
     grid = NodeGrid(source.shape, shape)
 
     def read(i0, i1, j0, j1):
+        if cancel is not None and cancel():
+            raise SynthesisCancelled("export cancelled")
         block = source.read(i0, i1, j0, j1)
         if not np.isfinite(block).all():
             raise _NeedsWhole  # (nodata to fill, or an infinity to refuse, naming the file)

@@ -49,3 +49,21 @@ def test_an_engine_folder_holding_a_file_is_refused_before_any_work(tmp_path):
         next(large_render_events(doc.synthesis_request(), render))
     assert (render.engine_folder() / "large.exr").read_bytes() == b"mine"
     assert not render.out.exists()
+
+
+def test_a_render_cancelled_while_writing_the_engine_files_keeps_the_geotiff_only(tmp_path):
+    """The engine's files come after the GeoTIFF, announced; stopping the
+    render then keeps the GeoTIFF and no engine file."""
+    from terrasynth_app.model.large_render import EngineExportStarted
+
+    doc = Document(Sketch.blank((96, 96)), [ExampleRef(builtin="white-mountains", crop=(400, 700, 400, 700))],
+                   params=SynthesisParams(patch_size=32, k=2, seed=4))
+    render = LargeRender(size=(192, 192), tile=96, workers=1, out=tmp_path / "large.tif", engine="unity",
+                         engine_tiles=2)
+    events = large_render_events(doc.synthesis_request(), render)
+    for event in events:
+        if isinstance(event, EngineExportStarted):
+            break
+    assert event.engine == "unity" and render.out.exists()
+    events.close()
+    assert not render.engine_folder().exists()

@@ -55,4 +55,4 @@ def test_render_large_says_why_it_cannot(window, qtbot, tmp_path):
     _set_up(dialog, tmp_path / "small.tif", side=96, tile=200)
     with qtbot.waitSignal(window.large_render.failed, timeout=60_000) as failed:
         dialog.render_button.click()
-    assert "tile size 200" in failed.args[0] and "Not rendered: tile size 200" in dialog.status.text()
+    assert "tile size 200" in failed.args[0] and "Stopped: tile size 200" in dialog.status.text()

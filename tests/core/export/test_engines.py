@@ -146,7 +146,7 @@ def test_existing_files_are_never_replaced(tmp_path):
 @pytest.mark.parametrize("preset, options, message", [
     ("unreal", {"size": 128}, "not one of the unreal heightmap sizes"),
     ("unity", {"size": 100}, "not one of the unity heightmap sizes"),
-    ("godot", {"tiles": 2}, "--tiles is for unreal and unity"),
+    ("godot", {"tiles": 2}, "tiles are for unreal and unity"),
     ("cryengine", {}, "unknown preset"),
 ])
 def test_bad_options_are_refused_by_name(tmp_path, preset, options, message):
@@ -284,3 +284,33 @@ def test_an_output_folder_inside_a_file_is_refused_as_such(tmp_path):
     (tmp_path / "afile").write_text("mine")
     with pytest.raises(DEMFormatError, match="afile is a file"):
         export_for_engine(_terrain(127), "unreal", tmp_path / "afile" / "sub")
+
+
+def test_an_export_planned_before_its_terrain_exists_is_refused_early(tmp_path):
+    """check_export, for a run that exports at its end: a grid past the
+    largest, or an EXR of a world-size terrain, is refused before it."""
+    from terrasynth_core.export.engines import check_export
+
+    with pytest.raises(ParamsError, match="at most 32769"):
+        check_export("unreal", tmp_path / "u", shape=(256, 256), size=8129, tiles=5)
+    with pytest.raises(ParamsError, match="give its size, the longer side, up to 16384"):
+        check_export("godot", tmp_path / "g", shape=(20000, 20000))
+    check_export("godot", tmp_path / "g", shape=(20000, 20000), size=8192)
+    check_export("unreal", tmp_path / "u", shape=(30000, 30000), tiles=4)  # 4 x 4 of 8129: 32513
+    with pytest.raises(ParamsError, match="at most 32769"):
+        check_export("unreal", tmp_path / "u", shape=(40000, 40000), tiles=5)
+    assert not any(tmp_path.iterdir())
+
+
+def test_a_cancelled_export_leaves_nothing(tmp_path):
+    from terrasynth_core.errors import SynthesisCancelled
+
+    asked = []
+
+    def cancel():
+        asked.append(True)
+        return len(asked) > 3  # after the first pass has begun
+
+    with pytest.raises(SynthesisCancelled):
+        export_for_engine(_terrain(253), "unreal", tmp_path / "c", size=127, tiles=2, cancel=cancel)
+    assert not (tmp_path / "c").exists()

@@ -533,9 +533,14 @@ def test_cli_engine_folder_is_checked_before_the_run(tmp_path, capsys, dems_dir,
     base = ["synth", "--example", str(dems_dir / "N44W072.hgt"), "--size", "256x256", "--patch-size", "32",
             "--out", str(tmp_path / "w.tif")]
     assert cli_main([*base, "--tile", "128", "--engine", "unity"]) == EXIT_BAD_INPUT
-    assert "w.r16 exists" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "w.r16 exists" in err and "remove it, or choose another --out" in err
     assert (tmp_path / "w_unity" / "w.r16").read_bytes() == b"mine"
-    assert cli_main([*base, "--engine", "unity"]) == EXIT_BAD_INPUT
-    assert "for a whole-map run, export its output" in capsys.readouterr().err
+    for extra in (["--engine", "unity"], ["--engine-tiles", "2"]):
+        assert cli_main([*base, *extra]) == EXIT_BAD_INPUT
+        assert "for a whole-map run, export its output" in capsys.readouterr().err
     assert cli_main([*base, "--tile", "128", "--engine-tiles", "2"]) == EXIT_BAD_INPUT
     assert "go with --engine PRESET" in capsys.readouterr().err
+    assert cli_main([*base, "--tile", "128", "--engine", "unreal", "--engine-tiles", "5", "--engine-size",
+                     "8129"]) == EXIT_BAD_INPUT
+    assert "at most 32769" in capsys.readouterr().err
