@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Iterator
 
 from terrasynth_core.errors import TerraSynthError
-from terrasynth_core.export.engines import check_export, export_file_for_engine
+from terrasynth_core.export.engines import check_export, export_file_for_engine, folder_beside
 from terrasynth_core.tiled import TileFinished, TiledResult, run_tiled, tiled_project_inputs
 from terrasynth_core.tiled.run import check_tiled_output
 
@@ -54,7 +54,7 @@ class LargeRender:
 
     def engine_folder(self) -> Path:
         """``OUTSTEM_PRESET`` beside the GeoTIFF, as ``synth --engine`` writes it."""
-        return self.out.with_name(f"{self.out.stem}_{self.engine}")
+        return folder_beside(self.out, self.engine)
 
 
 @dataclass(frozen=True)

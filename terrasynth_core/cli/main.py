@@ -503,9 +503,9 @@ def _engine_folder(args: argparse.Namespace, out: Path, size: tuple[int, int]) -
         if args.engine_tiles is not None or args.engine_size is not None:
             raise TerraSynthError("--engine-tiles and --engine-size go with --engine PRESET" + _SYNTH_HELP)
         return None
-    from ..export.engines import check_export
+    from ..export.engines import check_export, folder_beside
 
-    folder = out.with_name(f"{out.stem}_{args.engine}")
+    folder = folder_beside(out, args.engine)
     check_export(args.engine, folder, shape=size, size=args.engine_size, tiles=args.engine_tiles or 1,
                  stem=out.stem, hint="remove it, or choose another --out (the folder is named after it)")
     return folder

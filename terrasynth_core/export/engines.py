@@ -268,6 +268,14 @@ def _checked_paths(preset: EnginePreset, out_dir: Path, stem: str, tiles: int, *
     return tile_paths, settings_path
 
 
+def folder_beside(out: Path, preset: str) -> Path:
+    """The folder a terrain file ``out``'s export for ``preset`` goes into
+    beside it, ``OUTSTEM_PRESET`` (``world.tif`` -> ``world_unreal``), as a
+    tiled run's ``--engine`` and the app's *Render large* write it."""
+    out = Path(out)
+    return out.with_name(f"{out.stem}_{preset}")
+
+
 class _Grid:
     """A grid's shape and square cells, for planning an export before it exists."""
 
@@ -540,9 +548,9 @@ def _export(source, preset: EnginePreset, out_dir: Path, size: int | None, tiles
     """Write the heightmaps of an engine-ready windowed ``source`` (``shape``,
     ``cell_size``, ``georef`` and ``read(r0, r1, c0, c1)``), one tile at a time.
 
-    The grid is resampled twice window by window, never held whole: once in
-    bands of rows for the height range every tile shares, then tile by tile
-    to write.
+    The grid is resampled in bands of rows for the height range every tile
+    shares, then again tile by tile to write, never held whole (one tile,
+    the whole grid, keeps its bands).
 
     Raises
     ------
@@ -569,10 +577,15 @@ def _export(source, preset: EnginePreset, out_dir: Path, size: int | None, tiles
             out[b0 - r0:b1 - r0] = grid.window(read, b0, b1, c0, c1)
         return out
 
+    # One tile is the whole grid: the range's bands are kept as it, not
+    # made again.  Several are made again tile by tile (never held whole).
+    whole = np.empty(shape, np.float32) if tiles == 1 else None
     lo, hi = np.inf, -np.inf
     for r0 in range(0, shape[0], _BAND_ROWS):
         band = grid.window(read, r0, min(r0 + _BAND_ROWS, shape[0]), 0, shape[1])
         lo, hi = min(lo, float(band.min())), max(hi, float(band.max()))
+        if whole is not None:
+            whole[r0:r0 + len(band)] = band
     cell_size, georef = node_grid_placement(source, shape)
     settings = _settings(preset, shape, cell_size, (lo, hi), size, tiles, tile_paths)
     level_range = (lo, hi if hi > lo else lo + 1.0) if preset.extension != ".exr" else None
@@ -581,7 +594,7 @@ def _export(source, preset: EnginePreset, out_dir: Path, size: int | None, tiles
         for i, j, path in tile_paths:
             r0, c0 = (j * (side - 1), i * (side - 1)) if side else (0, 0)
             r1, c1 = (r0 + side, c0 + side) if side else shape
-            tile = HeightField(block(r0, r1, c0, c1), cell_size=cell_size,
+            tile = HeightField(whole if whole is not None else block(r0, r1, c0, c1), cell_size=cell_size,
                                georef=None if georef is None else georef.at(r0, c0))
             save_dem(tile, path, level_range=level_range)
             written.append(path)
@@ -648,5 +661,6 @@ def unity_heights_m(levels, settings: dict):
 
 
 __all__ = ["EngineExport", "EnginePreset", "PRESETS", "UNITY_SIZES", "UNREAL_SIZES", "default_size",
-           "check_export", "engine_ready", "export_file_for_engine", "export_for_engine", "longer_side_shape", "preset_grid",
+           "check_export", "engine_ready", "export_file_for_engine", "export_for_engine", "folder_beside",
+           "longer_side_shape", "preset_grid",
            "preset_names", "preset_shape", "refuse_existing", "unity_heights_m", "unreal_heights_m"]

@@ -448,18 +448,12 @@ class NodeGrid:
         return (wx @ (wy @ block).T).T.astype(np.float32)
 
 
-def _span(weights: sparse.csr_matrix, r0: int, r1: int) -> tuple[int, int]:
-    """First and past-last old sample that rows ``r0:r1`` of ``weights`` read."""
-    cols = weights.indices[weights.indptr[r0]:weights.indptr[r1]]
-    return int(cols.min()), int(cols.max()) + 1
-
-
 def _rows(weights: sparse.csr_matrix, r0: int, r1: int) -> tuple[sparse.csr_matrix, int, int]:
     """Rows ``r0:r1`` of ``weights`` on the old samples they read, and where
     those start and end.  The rows' entries keep their order, so products
     sum them as the whole matrix does."""
-    i0, i1 = _span(weights, r0, r1)
     a, b = weights.indptr[r0], weights.indptr[r1]
+    i0, i1 = int(weights.indices[a:b].min()), int(weights.indices[a:b].max()) + 1
     part = sparse.csr_matrix((weights.data[a:b], weights.indices[a:b] - i0, weights.indptr[r0:r1 + 1] - a),
                              shape=(r1 - r0, i1 - i0))
     return part, i0, i1
