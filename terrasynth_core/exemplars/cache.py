@@ -351,12 +351,9 @@ def _graph_from(z, kind: str, shape) -> FeatureGraph:
 
 
 def _sample_arrays(kind: str, samples: list[FeatureSample]) -> dict:
-    return {
-        f"{kind}_s_centers": np.array([s.center for s in samples], dtype=float).reshape(-1, 2),
-        f"{kind}_s_degree": np.array([s.degree for s in samples], dtype=np.int64),
-        f"{kind}_s_crossings": (np.concatenate([s.crossings for s in samples]) if samples
-                                else np.zeros((0, 2))),
-    }
+    table = SampleTable.of(samples, kind)
+    return {f"{kind}_s_centers": table.centers, f"{kind}_s_degree": table.degrees,
+            f"{kind}_s_crossings": table.crossings}
 
 
 def _samples_from(z, kind: str) -> SampleTable:

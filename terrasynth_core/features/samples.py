@@ -81,6 +81,29 @@ class SampleTable(Sequence):
         self.crossings = np.asarray(crossings)
         self.offsets = np.concatenate([[0], np.cumsum(degrees, dtype=np.int64)])
 
+    @classmethod
+    def of(cls, samples: Sequence[FeatureSample], kind: str) -> SampleTable:
+        """The table of ``samples`` (itself if it is one)."""
+        if isinstance(samples, SampleTable):
+            return samples
+        centers = np.array([s.center for s in samples], dtype=float).reshape(-1, 2)
+        degrees = np.array([s.degree for s in samples], dtype=np.int64)
+        crossings = np.concatenate([s.crossings for s in samples]) if samples else np.zeros((0, 2))
+        return cls(kind, centers, degrees, crossings)
+
+    def of_degree(self, degree: int) -> tuple[np.ndarray, np.ndarray]:
+        """The samples with ``degree`` crossings, in order, as arrays.
+
+        Returns
+        -------
+        centers : ndarray of float, shape (m, 2)
+        crossings : ndarray of float, shape (m, degree, 2)
+        """
+        which = np.flatnonzero(np.asarray(self.degrees) == degree)
+        at = self.offsets[which][:, None] + np.arange(degree)
+        return (np.asarray(self.centers, dtype=float)[which].reshape(-1, 2),
+                np.asarray(self.crossings, dtype=float)[at].reshape(-1, degree, 2))
+
     def __len__(self) -> int:
         return len(self.degrees)
 

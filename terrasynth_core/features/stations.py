@@ -45,11 +45,12 @@ class LineStations:
         The patch's inscribed radius, cells.
     """
 
-    def __init__(self, graph: FeatureGraph, radius: float):
+    def __init__(self, graph: FeatureGraph, radius: float, *, keep=None):
         self._graph = graph
         self._walker = NetworkSampler(graph, radius, station_radius=STATION_SHARE * float(radius))
+        self._keep = keep
         self._at: tuple[np.ndarray, np.ndarray] | None = None
-        self._nodes: dict[int, int] = {}
+        self._nodes: tuple[np.ndarray, np.ndarray] | None = None
         # Routes by centre: a sample's candidates share their sketch
         # centre, and an example centre comes back in many rankings.
         self._routes: dict[int, list] = {}
@@ -60,23 +61,29 @@ class LineStations:
         the node)."""
         if self._at is None:
             self._index()
-        if key in self._nodes:
-            return -1, self._nodes[key]
-        keys, order = self._at
-        at = int(np.searchsorted(keys, key))
-        if at < len(keys) and keys[at] == key:
-            return self._walker.locate(int(order[at]))
-        return None
+        node = _find(*self._nodes, key, last=True)
+        if node is not None:
+            return -1, node
+        at = _find(*self._at, key)
+        return None if at is None else self._walker.locate(at)
 
     def _index(self) -> None:
-        """Every path point's key, sorted, with where it is among the
-        network's points (its path and index follow from that)."""
-        keys = _keys(self._walker.flat_points())
-        order = np.argsort(keys, kind="stable")
-        self._nodes = {int(k): n for n, k in enumerate(_keys(self._graph.node_positions()))}
+        """Every node's and path point's key, sorted, with which node or
+        where among the network's points it is (its path and index follow
+        from that).  The points' index is as large as the network, and an
+        example's is kept between sessions: made by ``keep(name, make,
+        dtype)`` when given (the example cache's mapped arrays)."""
+        n = len(self._walker.flat_points())
+        dtype = np.int32 if n < 2**31 else np.int64
+        keep = self._keep or (lambda name, make, dtype: make())
+        order = keep("order", lambda: np.argsort(_keys(self._walker.flat_points()), kind="stable").astype(dtype), dtype)
+        keys = keep("keys", lambda: _keys(self._walker.flat_points())[order], np.int64)
+        node_keys = _keys(self._graph.node_positions())
+        nodes = np.argsort(node_keys, kind="stable")
+        self._nodes = node_keys[nodes], nodes
         # Last: an example's stations are shared between sessions, and
         # another thread takes a set ``_at`` for a finished index.
-        self._at = keys[order], order.astype(np.int32 if len(order) < 2**31 else np.int64)
+        self._at = keys, order
 
     def routes(self, centre: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Every way out of the patch's disc from a sample centre: where it
@@ -144,6 +151,13 @@ class LineStations:
             if abs(math.remainder(turn, math.tau)) <= math.radians(MAX_TURN):
                 found[j] = station
         return found
+
+
+def _find(keys: np.ndarray, values: np.ndarray, key: int, *, last: bool = False) -> int | None:
+    """The value of ``key`` in the sorted ``keys`` (the last of equal keys
+    with ``last``, else the first), or None."""
+    at = int(np.searchsorted(keys, key, side="right" if last else "left")) - int(last)
+    return int(values[at]) if 0 <= at < len(keys) and keys[at] == key else None
 
 
 def _keys(points: np.ndarray) -> np.ndarray:

@@ -32,7 +32,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..features.samples import FeatureSample
+from ..features.samples import FeatureSample, SampleTable
 from ..warping.frame import framed_bending_energies
 
 #: Ranking cost of the pool's least prominent sample over its most
@@ -115,10 +115,11 @@ class FeaturePool:
         else:
             ranks = np.split(prominence_ranks(np.concatenate([np.asarray(p, float) for p in prominence] or [[]])),
                              np.cumsum([len(lst) for _, lst in samples])[:-1])
-        by_degree: dict[int, list[tuple[int, FeatureSample, float]]] = {}
-        for (ex, lst), rk in zip(samples, ranks):
-            for s, r in zip(lst, rk):
-                by_degree.setdefault(s.degree, []).append((ex, s, float(r)))
+        # Grouped by degree from the samples' arrays (no object per sample:
+        # a library's hundreds of thousands would be made for each pool,
+        # and leave the process's small-object memory fragmented).
+        tables = [(ex, SampleTable.of(lst, "")) for ex, lst in samples]
+        degrees = sorted({int(d) for _, t in tables for d in np.unique(np.asarray(t.degrees))})
         self._groups = {}
         # Per degree: examples, centres, the crossings relative to their
         # centres in radii, prominence ranks; and, made on first use, all
@@ -126,14 +127,16 @@ class FeaturePool:
         # ranking of a sample of that degree starts from (a pool serves
         # every sample of a run, and runs after it).
         self._aligned: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-        for d, items in by_degree.items():
-            centers = np.array([s.center for _, s, _ in items], dtype=float)
-            crossings = np.array([s.crossings for _, s, _ in items], dtype=float)  # (N, d, 2)
+        for d in degrees:
+            parts = [(ex, *t.of_degree(d), np.asarray(rk, float)[np.asarray(t.degrees) == d])
+                     for (ex, t), rk in zip(tables, ranks)]
+            parts = [p for p in parts if len(p[1])]
+            centers = np.concatenate([p[1] for p in parts])
             self._groups[d] = (
-                np.array([ex for ex, _, _ in items], dtype=np.int32),
+                np.concatenate([np.full(len(p[1]), p[0], dtype=np.int32) for p in parts]),
                 centers,
-                (crossings - centers[:, None, :]) / self.radius,
-                np.array([r for _, _, r in items], dtype=float),
+                (np.concatenate([p[2] for p in parts]) - centers[:, None, :]) / self.radius,
+                np.concatenate([p[3] for p in parts]),
             )
 
     @property

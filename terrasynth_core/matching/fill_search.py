@@ -111,9 +111,9 @@ class _WindowSearch:
         # The example is hashed once for both grids' keys.
         digest = hashlib.sha1(np.ascontiguousarray(example, dtype=np.float32).tobytes()).hexdigest()
         self._centred_key = f"centred-{_grid_key(digest, example.shape)}"
-        self.prior = cache.kept_array(f"prior-{_grid_key(digest, example.shape, window, allowed, f)}",
-                                      lambda: roughness_prior(example, window, allowed, f), name="prior",
-                                      dtype=np.float64)
+        self._windows_key = _grid_key(digest, example.shape, window, allowed, f)
+        self.prior = cache.kept_array(f"prior-{self._windows_key}", lambda: roughness_prior(example, window, allowed, f),
+                                      name="prior", dtype=np.float64)
 
     def best(self, target: np.ndarray, filled: np.ndarray, count: int, rng: np.random.Generator
              ) -> list[tuple[tuple[int, int], float, float]]:
@@ -365,13 +365,17 @@ class FillSearch(_WindowSearch):
                          void_mask=void_mask)
         self.overlap = int(overlap) if overlap else max(2, min(window) // 3)
         self.shortlist = int(shortlist)
-        grid = np.argwhere(self.allowed) * self.f
-        self.positions = grid.astype(np.int32)
+        # The windows on offer and their priors, stored and mapped as the
+        # prior's grid (a library's worth would otherwise be a worker's own).
+        self.positions = cache.kept_array(f"positions-{self._windows_key}",
+                                          lambda: np.argwhere(self.allowed) * self.f, name="positions", dtype=np.int32)
         self.indexes = None
         if self.positions.shape[0] >= self.EXHAUSTIVE_BELOW:
             load, save = (_load_index, _save_index) if use_cache else (None, None)
-            self.indexes = LazyIndexes(example, window, self.overlap, self.positions,
-                                       self.prior[self.positions[:, 0], self.positions[:, 1]], load=load, save=save)
+            prior = cache.kept_array(f"prior-at-{self._windows_key}",
+                                     lambda: self.prior[self.positions[:, 0], self.positions[:, 1]],
+                                     name="prior", dtype=np.float64)
+            self.indexes = LazyIndexes(example, window, self.overlap, self.positions, prior, load=load, save=save)
 
     def candidates(self, target: np.ndarray, filled: np.ndarray) -> np.ndarray:
         """The windows scored exactly for this output window.

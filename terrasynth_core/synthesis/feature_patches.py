@@ -9,10 +9,13 @@ helper thread: :mod:`.feature_ahead`) while this one is placed.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy import ndimage
 
 from ..controls.layout import StyleLayout
+from ..exemplars import cache
 from ..features.graph import FeatureMaps
 from ..features.samples import FeatureSample
 from ..features.stations import LineStations
@@ -190,6 +193,14 @@ def pool_key(pools: dict, layout: StyleLayout, sample: FeatureSample, warnings: 
 
 #: Example networks' stations kept between sessions (:meth:`Stations._of`).
 _EXAMPLE_STATIONS = Memo(8)
+#: Version of the stations' stored point index: raised when its keys change.
+STATIONS_VERSION = 1
+
+
+def _kept(stored: str, name: str, make, dtype) -> np.ndarray:
+    """An example's station index array, stored under ``stored`` and
+    mapped (:func:`~terrasynth_core.exemplars.cache.kept_array`)."""
+    return cache.kept_array(f"{stored}-{name}", make, name=name, dtype=dtype)
 
 
 class Stations:
@@ -226,8 +237,10 @@ class Stations:
             else:
                 # An example's network comes from its analysis: its stations
                 # are kept for later sessions, by the analysis's content key.
+                keep = functools.partial(_kept, f"stations-v{STATIONS_VERSION}-{self._keys[key[0]]}-{key[1]}")
                 self._made[key] = _EXAMPLE_STATIONS.get(
-                    (self._keys[key[0]], key[1], float(self._radius)), lambda: LineStations(graph, self._radius))
+                    (self._keys[key[0]], key[1], float(self._radius)), lambda: LineStations(graph, self._radius,
+                                                                                            keep=keep))
         return self._made[key]
 
     def pairs(self, sample: FeatureSample, cand: Candidate) -> tuple[np.ndarray, np.ndarray] | None:
