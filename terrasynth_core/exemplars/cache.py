@@ -56,8 +56,14 @@ from ..features.samples import FeatureSample, SampleTable
 CACHE_VERSION = 1
 _KINDS = ("ridge", "valley")
 
-#: Arrays of at least this many bytes are kept beside the ``.npz`` and mapped.
-SIDE_BYTES = 256 * 1024
+#: Arrays of at least this many bytes (a page) are kept beside the ``.npz``
+#: and mapped: a library's many small arrays too, which read into each
+#: worker's memory would grow it with the library.
+SIDE_BYTES = 4096
+#: Entries written before side files held arrays this large inside; one
+#: holding any such array is made again (an earlier version's entries with
+#: arrays of 4-256 kB inside are read as they are).
+_INSIDE_BEFORE_SIDES = 256 * 1024
 
 #: Side files checked in this process: (path, size, mtime, digest) of each.
 _CHECKED: set = set()
@@ -154,10 +160,10 @@ def _read(key: str, read):
 
 
 def _large_inside(z) -> bool:
-    """Whether the archive ``z`` holds an array of :data:`SIDE_BYTES` or
-    more itself (an entry from before side files), which would be read
-    into memory rather than mapped."""
-    return any(info.file_size >= SIDE_BYTES for info in z.zip.infolist())
+    """Whether the archive ``z`` holds a large array itself (an entry
+    from before side files), which would be read into memory rather than
+    mapped."""
+    return any(info.file_size >= _INSIDE_BEFORE_SIDES for info in z.zip.infolist())
 
 
 class _Entry:

@@ -104,12 +104,20 @@ class FeaturePool:
         Per entry of ``samples``, each sample's prominence (how far it
         stands above its surroundings for ridges, below for valleys; any
         unit); ranked over the whole pool.  None: every sample counts as most prominent.
+    keep : callable, optional
+        ``keep(name, make, dtype)`` gives the pool's array ``name``:
+        ``make()``'s, or the same stored earlier (the example cache's
+        mapped arrays, :func:`~terrasynth_core.exemplars.cache.kept_array`).
     """
 
     def __init__(self, samples: list[tuple[int, list[FeatureSample]]], radius: float, *, mirror: bool,
-                 prominence: list[np.ndarray] | None = None):
+                 prominence: list[np.ndarray] | None = None, keep=None):
         self.radius = float(radius)
         self.mirror = mirror
+        # The pool's arrays are as large as the library's samples: with
+        # ``keep(name, make, dtype)`` (the example cache's mapped arrays)
+        # a process holds them as file pages the system can drop.
+        self._keep = keep or _made
         if prominence is None:
             ranks = [np.ones(len(lst)) for _, lst in samples]
         else:
@@ -132,12 +140,14 @@ class FeaturePool:
                      for (ex, t), rk in zip(tables, ranks)]
             parts = [p for p in parts if len(p[1])]
             centers = np.concatenate([p[1] for p in parts])
-            self._groups[d] = (
+            group = (
                 np.concatenate([np.full(len(p[1]), p[0], dtype=np.int32) for p in parts]),
                 centers,
                 (np.concatenate([p[2] for p in parts]) - centers[:, None, :]) / self.radius,
                 np.concatenate([p[3] for p in parts]),
             )
+            self._groups[d] = tuple(self._keep(f"d{d}-{name}", lambda a=a: a, a.dtype.type)
+                                    for name, a in zip(("examples", "centers", "crossings", "prominence"), group))
 
     @property
     def degrees(self) -> list[int]:
@@ -188,7 +198,12 @@ class FeaturePool:
         src = (sample.crossings - sample.center) / self.radius  # (d_s, 2)
         if degree == sample.degree:
             if degree not in self._aligned:
-                self._aligned[degree] = self._alignments(rel)
+                made = []  # made once, for the first of the three asked for
+                aligned = lambda i: (made or made.extend(self._alignments(rel)) or made)[i]  # noqa: E731
+                self._aligned[degree] = tuple(self._keep(f"d{degree}-{name}", lambda i=i: aligned(i), dtype)
+                                              for i, (name, dtype) in enumerate((("flat", np.float64),
+                                                                                 ("mirrored", np.bool_),
+                                                                                 ("centred", np.float64))))
             flat, mflat, centred = self._aligned[degree]
         else:
             src, rel = _match_counts(src, rel)
@@ -252,6 +267,11 @@ class FeaturePool:
         for a in (flat, mirrored, centred):
             a.flags.writeable = False  # shared by every ranking
         return flat, mirrored.reshape(-1), centred
+
+
+def _made(name: str, make: Callable[[], np.ndarray], dtype) -> np.ndarray:
+    """A pool's array kept as made (no store)."""
+    return make()
 
 
 def prominence_ranks(prominence: np.ndarray) -> np.ndarray:

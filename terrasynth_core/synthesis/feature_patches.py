@@ -10,6 +10,7 @@ helper thread: :mod:`.feature_ahead`) while this one is placed.
 from __future__ import annotations
 
 import functools
+import hashlib
 
 import numpy as np
 from scipy import ndimage
@@ -38,7 +39,7 @@ MIN_VALID_SHARE = 0.98
 MAX_STRETCH = 2.0
 
 
-def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
+def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool, stored: str | None = None) -> dict:
     """Feature pools per (kind, style group), and per (kind, None) over all
     examples.
 
@@ -49,6 +50,9 @@ def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
         Inscribed-circle radius in cells (half the patch).
     mirror : bool
         Also offer mirror images.
+    stored : str, optional
+        The example cache's key for the pools' arrays (stored and mapped);
+        None keeps them in memory.
     """
     pools = {}
     everyone = list(range(len(layout.examples)))
@@ -68,13 +72,16 @@ def feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
     for kind in ("ridge", "valley"):
         for g, members in enumerate(layout.members + [everyone]):
             key = (kind, g if g < len(layout.members) else None)
+            keep = None if stored is None else functools.partial(_kept, f"{stored}-{kind}-{key[1]}")
             pools[key] = FeaturePool([(i, layout.examples[i].samples[kind]) for i in members], radius,
-                                     mirror=mirror, prominence=[standing[kind][i] for i in members])
+                                     mirror=mirror, prominence=[standing[kind][i] for i in members], keep=keep)
     return pools
 
 
 #: Feature pools kept between sessions (:func:`memo_feature_pools`).
 _POOLS = Memo(4, once=True)
+#: Version of the pools' stored arrays: raised when what they hold changes.
+POOLS_VERSION = 1
 
 
 def memo_feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> dict:
@@ -93,7 +100,8 @@ def memo_feature_pools(layout: StyleLayout, radius: float, *, mirror: bool) -> d
     """
     key = (tuple(ex.key for ex in layout.examples), array_key(*layout.detail),
            tuple(tuple(int(i) for i in m) for m in layout.members), float(radius), bool(mirror))
-    return _POOLS.get(key, lambda: feature_pools(layout, radius, mirror=mirror))
+    stored = f"pools-v{POOLS_VERSION}-{hashlib.sha1(repr(key).encode()).hexdigest()}"
+    return _POOLS.get(key, lambda: feature_pools(layout, radius, mirror=mirror, stored=stored))
 
 
 def standing_map(heights: np.ndarray, size: float) -> np.ndarray:

@@ -180,3 +180,32 @@ def test_a_pool_ranks_every_sample_as_a_fresh_pool_does(mirror):
             assert (a.example, a.mirrored, a.deformation, a.prominence) == (b.example, b.mirrored, b.deformation,
                                                                           b.prominence)
             assert a.control.tobytes() == b.control.tobytes() and a.target.tobytes() == b.target.tobytes()
+
+
+def test_a_pool_kept_in_the_example_cache_ranks_as_one_in_memory_and_maps_its_arrays():
+    """A library's pool is stored and mapped (a worker then holds file pages
+    the system can drop, not its own copy): made again from the store it
+    ranks every sample exactly as a pool kept in memory."""
+    from terrasynth_core.exemplars import cache
+    from terrasynth_core.features.samples import SampleTable
+
+    rng = np.random.default_rng(3)
+    n = 20_000  # large enough for the arrays to be files of their own
+    centers = rng.uniform(0, 1000, (n, 2))
+    angles = np.sort(rng.uniform(0, 2 * math.pi, (n, 3)), axis=1)
+    crossings = (centers[:, None, :] + RADIUS * np.stack([-np.sin(angles), np.cos(angles)], axis=-1)).reshape(-1, 2)
+    table = SampleTable("ridge", centers, np.full(n, 3), crossings)
+    prominence = [rng.random(n)]
+
+    def keep(name, make, dtype):
+        return cache.kept_array(f"test-pool-{name}", make, name=name, dtype=dtype)
+
+    plain = FeaturePool([(0, table)], RADIUS, mirror=True, prominence=prominence)
+    stored, again = (FeaturePool([(0, table)], RADIUS, mirror=True, prominence=prominence, keep=keep)
+                     for _ in range(2))
+    for s in (table[5], table[n // 2], _sample((10.0, 10.0), [0, 100, 230])):
+        ranked = [p.rank(s, 12, _rng()) for p in (plain, stored, again)]
+        assert [(c.example, c.center.tolist(), c.deformation, c.mirrored) for c in ranked[0]] == \
+               [(c.example, c.center.tolist(), c.deformation, c.mirrored) for c in ranked[1]] == \
+               [(c.example, c.center.tolist(), c.deformation, c.mirrored) for c in ranked[2]]
+    assert isinstance(again._groups[3][2], np.memmap) and isinstance(again._aligned[3][2], np.memmap)

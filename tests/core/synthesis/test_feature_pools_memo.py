@@ -21,9 +21,9 @@ def test_feature_pools_are_kept_for_the_same_examples_and_made_again_for_others(
     made = []
     make = feature_patches.feature_pools
 
-    def counted(layout, radius, *, mirror):
+    def counted(layout, radius, *, mirror, stored=None):
         made.append((radius, mirror))
-        return make(layout, radius, mirror=mirror)
+        return make(layout, radius, mirror=mirror, stored=stored)
 
     monkeypatch.setattr(feature_patches, "feature_pools", counted)
     monkeypatch.setattr(feature_patches, "_POOLS", Memo(4))
@@ -81,9 +81,9 @@ def test_an_analysis_read_again_from_disk_finds_its_pools_and_stations(white_mou
     made = []
     make = feature_patches.feature_pools
 
-    def counted(layout, radius, *, mirror):
+    def counted(layout, radius, *, mirror, stored=None):
         made.append(radius)
-        return make(layout, radius, mirror=mirror)
+        return make(layout, radius, mirror=mirror, stored=stored)
 
     monkeypatch.setattr(feature_patches, "feature_pools", counted)
     monkeypatch.setattr(feature_patches, "_POOLS", Memo(4))
