@@ -82,3 +82,28 @@ def test_a_centre_off_the_network_has_no_stations():
     graph = _graph([_line((100.0, 20.0), (100.0, 180.0))])
     got = LineStations(graph, RADIUS).inner(np.array([50.0, 50.0]), np.array([[30.0, 50.0], [70.0, 50.0]]))
     assert np.isnan(got).all()
+
+
+def test_stations_on_a_stored_point_index_answer_as_those_made_in_memory():
+    """An example's point index is stored and mapped (``keep``): read back
+    by a later process, it finds every centre, node or path point, as one
+    made in memory does."""
+    from terrasynth_core.exemplars import cache
+
+    trunk = _line((100.0, 20.0), (100.0, 180.0), 4001)  # enough points for a file of its own
+    branch = _line((100.0, 100.0), (20.0, 100.0), 2000)
+    graph = _graph([trunk[:2001], trunk[2000:], branch])
+
+    def keep(name, make, dtype):
+        return cache.kept_array(f"test-stations-{name}", make, name=name, dtype=dtype)
+
+    plain, first, again = LineStations(graph, RADIUS), LineStations(graph, RADIUS, keep=keep), \
+        LineStations(graph, RADIUS, keep=keep)
+    for centre in (np.array([100.0, 100.0]), trunk[500], branch[1200], np.array([50.0, 50.0])):
+        routes = [s.routes(centre) for s in (plain, first, again)]
+        assert len(routes[0]) == len(routes[1]) == len(routes[2])
+        for (c0, s0), (c1, s1), (c2, s2) in zip(*routes):
+            np.testing.assert_array_equal(c0, c1), np.testing.assert_array_equal(c0, c2)
+            np.testing.assert_array_equal(s0, s2)
+    assert len(plain.routes(np.array([100.0, 100.0]))) == 3 and len(plain.routes(trunk[500])) == 2
+    assert isinstance(again._at[0], np.memmap)
