@@ -198,22 +198,23 @@ class FeaturePool:
         src = (sample.crossings - sample.center) / self.radius  # (d_s, 2)
         if degree == sample.degree:
             if degree not in self._aligned:
-                made = []  # made once, for the first of the three asked for
-                aligned = lambda i: (made or made.extend(self._alignments(rel)) or made)[i]  # noqa: E731
+                made: list = []
+
+                def aligned(i: int) -> np.ndarray:
+                    if not made:  # made once, for the first of the three asked for
+                        made.extend(self._alignments(rel))
+                    return made[i]
+
+                names = (("flat", np.float64), ("mirrored", np.bool_), ("centred", np.float64))
                 self._aligned[degree] = tuple(self._keep(f"d{degree}-{name}", lambda i=i: aligned(i), dtype)
-                                              for i, (name, dtype) in enumerate((("flat", np.float64),
-                                                                                 ("mirrored", np.bool_),
-                                                                                 ("centred", np.float64))))
+                                              for i, (name, dtype) in enumerate(names))
             flat, mflat, centred = self._aligned[degree]
         else:
             src, rel = _match_counts(src, rel)
             flat, mflat, centred = self._alignments(rel)
         d = src.shape[0]
         n_align = len(flat) // len(centers)
-        cost = _rotation_residual(src, flat, mflat) / (d + 1)
-        # The framed spline through the centre (0, 0) and the crossings: it
-        # bends as much as the two features' shapes differ.
-        cost = cost + framed_bending_energies(np.vstack([[0.0, 0.0], src]), centred, mflat)
+        cost = _deformations(src, flat, mflat, centred)
         cost = cost + rng.random(cost.shape) * 1e-6  # random tie-break, seeded
         # Prominence reorders only candidates that fit nearly as well as
         # the best: a prominent feature warped far from its shape would be
@@ -308,6 +309,29 @@ def _match_counts(src: np.ndarray, rel: np.ndarray) -> tuple[np.ndarray, np.ndar
     if de > d:
         rel = rel[:, np.linspace(0, de, d, endpoint=False).astype(int)]
     return src, rel
+
+
+#: Alignments costed at a time: the temporaries of a ranking stay a few
+#: megabytes however large the library's pool (each alignment's cost is
+#: its own, so the result does not depend on it).
+RANK_CHUNK = 1 << 14
+
+
+def _deformations(src: np.ndarray, flat: np.ndarray, mirrored: np.ndarray, centred: np.ndarray) -> np.ndarray:
+    """The deformation cost of carrying ``src`` onto each alignment.
+
+    src : (d, 2); flat : (M, d, 2); mirrored : (M,); centred : (M, d + 1, 2) -> (M,)
+    """
+    d = src.shape[0]
+    framed_src = np.vstack([[0.0, 0.0], src])
+    out = np.empty(len(flat))
+    for a in range(0, len(flat), RANK_CHUNK):
+        part = slice(a, a + RANK_CHUNK)
+        cost = _rotation_residual(src, flat[part], mirrored[part]) / (d + 1)
+        # The framed spline through the centre (0, 0) and the crossings: it
+        # bends as much as the two features' shapes differ.
+        out[part] = cost + framed_bending_energies(framed_src, centred[part], mirrored[part])
+    return out
 
 
 def _rotation_residual(src: np.ndarray, dst: np.ndarray, mirrored: np.ndarray) -> np.ndarray:

@@ -482,7 +482,14 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
     detail_sigma = (sigma if detail_sigma is None else detail_sigma) / f
     sigma = sigma / f
     groups, cover = np.unique(layout.group_map, return_counts=True)
-    values, details, weights, landforms = [], [], [], []
+    # A library's cells are read one in ``step`` (evenly), so the fit's
+    # arrays stay bounded however many examples there are.
+    shapes = [(d.shape[0] // f, d.shape[1] // f) for d in layout.detail]
+    total = sum(s[0] * s[1] if ex.valid is None else int(_valid_blocks(ex.valid, f, s).sum())
+                for ex, s in zip(layout.examples, shapes))
+    step = max(1, -(-total // FIT_EXAMPLE_CELLS))
+    values, details, weights = [], [], []
+    lowest, highest = np.inf, -np.inf  # the examples' landforms
     for g, n in zip(groups, cover):
         base = float(np.median(layout.level[layout.group_map == g]))
         members = layout.members[int(g)]
@@ -491,10 +498,11 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
             # (Only the example's valid blocks: its filled voids are no landform.)
             valid = _valid_blocks(layout.examples[i].valid, f, coarse.shape)
             valid = np.ones(coarse.size, bool) if valid is None else valid.ravel()
-            values.append((coarse + base).ravel()[valid])
-            landforms.append((landform_lowpass(coarse, sigma) + base).ravel()[valid])
-            details.append((coarse - ndimage.gaussian_filter(coarse, detail_sigma, mode="reflect")).ravel()[valid])
-            weights.append(np.full(int(valid.sum()), n / (len(members) * int(valid.sum()))))
+            values.append((coarse + base).ravel()[valid][::step])
+            landform = (landform_lowpass(coarse, sigma) + base).ravel()[valid]
+            lowest, highest = min(lowest, float(landform.min())), max(highest, float(landform.max()))
+            details.append((coarse - ndimage.gaussian_filter(coarse, detail_sigma, mode="reflect")).ravel()[valid][::step])
+            weights.append(np.full(len(values[-1]), n / (len(members) * len(values[-1]))))
     values, details, weights = np.concatenate(values), np.concatenate(details), np.concatenate(weights)
     target = _weighted_quantiles(values, weights, FIT_QUANTILES)
     # The quantiles are read on at most FIT_SAMPLES cells, evenly spread
@@ -525,8 +533,7 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
     # range, where the finish's knee flattened a 40-70 m deep valley to a
     # plain at sea level.
     low = landform_lowpass(h, sigma).astype(np.float64)
-    landforms = np.concatenate(landforms)
-    h = h + (within_examples_range(low, float(landforms.min()), float(landforms.max())) - low)
+    h = h + (within_examples_range(low, lowest, highest) - low)
     return h.astype(np.float32)
 
 
@@ -733,6 +740,13 @@ FIT_STEP = 0.5
 
 #: Most cells the fit reads its quantiles on.
 FIT_SAMPLES = 1 << 18
+
+#: Most of the examples' coarse cells the fit reads (about 55 bytes each
+#: at its peak): a library of 20 DEMs of 1200 x 850 cells holds 2.5
+#: million at the usual coarse factor of 4, which took the landform pass's
+#: worker 137 MB above its resting memory.  A single such example holds
+#: 125,000, all read.
+FIT_EXAMPLE_CELLS = 1 << 20
 
 #: Quantiles at which heights are fitted: dense in the tails, where relief
 #: is decided.
