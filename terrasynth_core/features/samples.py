@@ -101,8 +101,8 @@ class SampleTable(Sequence):
         """
         which = np.flatnonzero(np.asarray(self.degrees) == degree)
         at = self.offsets[which][:, None] + np.arange(degree)
-        return (np.asarray(self.centers, dtype=float)[which].reshape(-1, 2),
-                np.asarray(self.crossings, dtype=float)[at].reshape(-1, degree, 2))
+        return (np.asarray(self.centers)[which].astype(float, copy=False).reshape(-1, 2),
+                np.asarray(self.crossings)[at].astype(float, copy=False).reshape(-1, degree, 2))
 
     def __len__(self) -> int:
         return len(self.degrees)
