@@ -46,6 +46,7 @@ from .library import library_examples
 from .output import write_geotiff_from_tiles
 from .plan import Tile, TilePlan, plan_tiles
 from .store import TileStore, compose, run_digest, store_path
+from .task import run_task
 from .tile import TileJob, synthesize_tile, tile_params
 
 __all__ = ["TileFinished", "TiledResult", "check_scheduler", "run_tiled", "tiled_project_inputs"]
@@ -306,8 +307,10 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, mapped: MapControls,
         # each task (the scheduler warns of, and slows on, large tasks); each
         # worker stores them on its disk and maps them (:mod:`.library`).
         # Keys unique to this run (hash=False): a finished run's data being
-        # released on a shared client never takes this run's with it.
-        shared = client.scatter(library_examples(examples), broadcast=True, hash=False)
+        # released on a shared client never takes this run's with it.  One
+        # example at a time: a worker holds the bytes of the one it is
+        # storing, not the whole library's at once (one message each).
+        shared = [client.scatter(example, broadcast=True, hash=False) for example in library_examples(examples)]
         t = time.perf_counter()
         coarse, coarse_notes = _landform(client, store, shared[:mapped.n_plain], sketch, plan.shape, params)
         notes.extend(coarse_notes)
@@ -421,7 +424,8 @@ def _landform(client, store: TileStore, examples, sketch, shape, params) -> tupl
     (a resumed run does not make it again).  ``examples``: their futures."""
     kept = store.load_coarse()
     if kept is None:
-        coarse, notes = client.submit(coarse_level, examples, sketch, shape, params, pure=False).result()
+        coarse, notes = client.submit(run_task, coarse_level, examples, sketch, shape, params,
+                                      key=f"coarse_level-{secrets.token_hex(8)}", pure=False).result()
         info = dict(notes=notes)
         if coarse is not None:
             info.update(sigma=coarse.sigma, factor=coarse.factor, split=coarse.detail_split)
@@ -468,7 +472,7 @@ def _run_tiles(client, store: TileStore, plan: TilePlan, shared, sketch, coarse,
                 waiting.remove(t)
                 # The job (its border strips: megabytes) is sent as data too.
                 job = client.scatter(_job(t, plan, store, sketch, coarse, params, *controls_of(t)), hash=False)
-                future = client.submit(synthesize_tile, job, shared, key=f"tile-{t.row}-{t.col}-{run_id}",
+                future = client.submit(run_task, synthesize_tile, job, shared, key=f"tile-{t.row}-{t.col}-{run_id}",
                                        retries=1, pure=False)
                 pending[future.key] = (future, t, job)  # the job's data lives while the task does
 
