@@ -194,6 +194,23 @@ def test_two_worker_processes_give_the_same_bytes_and_no_seams(reference, white_
     assert border_ratio(heights, result.plan) <= 1.15
 
 
+def _malloc_trim_threshold():
+    return os.environ.get("MALLOC_TRIM_THRESHOLD_")
+
+
+def test_local_cluster_workers_keep_glibcs_own_malloc_thresholds(monkeypatch):
+    # Dask's 64 kB for its workers made a tile's session 1.8-2x as long.
+    from terrasynth_core.tiled.run import _client, _close
+
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+    client, own = _client(1, None)
+    try:
+        seen = client.run(_malloc_trim_threshold)
+    finally:
+        _close(client, own)
+    assert list(seen.values()) == [None]
+
+
 def test_resume_reuses_tiles_and_changed_params_do_not(reference, one_worker, white_mountains, sketch, tmp_path):
     _, heights = reference
     out = tmp_path / "resumed.tif"
