@@ -46,7 +46,7 @@ from .library import library_examples
 from .output import write_geotiff_from_tiles
 from .plan import Tile, TilePlan, plan_tiles
 from .store import TileStore, compose, run_digest, store_path
-from .task import run_task
+from .task import malloc_trim_threshold, run_task
 from .tile import TileJob, synthesize_tile, tile_params
 
 __all__ = ["TileFinished", "TiledResult", "check_scheduler", "run_tiled", "tiled_project_inputs"]
@@ -303,6 +303,8 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, mapped: MapControls,
         client, own = _client(workers, scheduler)
     try:
         n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
+        if own is None or own[1] is None:  # not a cluster of ours: its workers were started elsewhere
+            notes.extend(_allocator_notes(client))
         # The examples go to every worker once, as data rather than inside
         # each task (the scheduler warns of, and slows on, large tasks); each
         # worker stores them on its disk and maps them (:mod:`.library`).
@@ -353,6 +355,16 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, mapped: MapControls,
         notes.append(flooded_note(flooded, water.level))
     timings["write"] = time.perf_counter() - t
     return timings, n_workers, written
+
+
+def _allocator_notes(client) -> list[str]:
+    """A note when workers of the user's cluster run with Dask's
+    ``MALLOC_TRIM_THRESHOLD_`` (see :func:`.task.malloc_trim_threshold`)."""
+    values = [v for v in client.run(malloc_trim_threshold).values() if v is not None]
+    if not values:
+        return []
+    return [f"{len(values)} of the cluster's workers run with MALLOC_TRIM_THRESHOLD_={values[0]}, which made "
+            "the engine 1.8-2x slower in our measurements: start them without it (README: World-size terrains)"]
 
 
 def _quiet(params: SynthesisParams) -> SynthesisParams:

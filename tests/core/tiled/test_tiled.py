@@ -28,6 +28,7 @@ from terrasynth_core.tiled.controls import map_controls
 from terrasynth_core.tiled.inputs import CoarseLevel, sketch_window
 from terrasynth_core.tiled.measure import border_ratio
 from terrasynth_core.tiled.store import run_digest, store_path
+from terrasynth_core.tiled.task import malloc_trim_threshold
 
 P = SynthesisParams(patch_size=32, k=2, seed=7)
 SHAPE = (384, 384)
@@ -194,10 +195,6 @@ def test_two_worker_processes_give_the_same_bytes_and_no_seams(reference, white_
     assert border_ratio(heights, result.plan) <= 1.15
 
 
-def _malloc_trim_threshold():
-    return os.environ.get("MALLOC_TRIM_THRESHOLD_")
-
-
 def test_local_cluster_workers_keep_glibcs_own_malloc_thresholds(monkeypatch):
     # Dask's 64 kB for its workers made a tile's session 1.8-2x as long.
     from terrasynth_core.tiled.run import _client, _close
@@ -205,10 +202,20 @@ def test_local_cluster_workers_keep_glibcs_own_malloc_thresholds(monkeypatch):
     monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
     client, own = _client(1, None)
     try:
-        seen = client.run(_malloc_trim_threshold)
+        seen = client.run(malloc_trim_threshold)
     finally:
         _close(client, own)
     assert list(seen.values()) == [None]
+
+
+def test_a_users_cluster_with_dasks_malloc_setting_gets_a_note(one_worker, monkeypatch):
+    from terrasynth_core.tiled.run import _allocator_notes
+
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+    assert _allocator_notes(one_worker) == []  # an in-process worker: this process's environment
+    monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")
+    (note,) = _allocator_notes(one_worker)
+    assert "1 of the cluster's workers run with MALLOC_TRIM_THRESHOLD_=65536" in note and "README" in note
 
 
 def test_resume_reuses_tiles_and_changed_params_do_not(reference, one_worker, white_mountains, sketch, tmp_path):
