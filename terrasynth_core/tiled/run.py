@@ -303,8 +303,7 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, mapped: MapControls,
         client, own = _client(workers, scheduler)
     try:
         n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
-        if own is None or own[1] is None:  # not a cluster of ours: its workers were started elsewhere
-            notes.extend(_allocator_notes(client))
+        notes.extend(_allocator_notes(client))
         # The examples go to every worker once, as data rather than inside
         # each task (the scheduler warns of, and slows on, large tasks); each
         # worker stores them on its disk and maps them (:mod:`.library`).
@@ -358,8 +357,10 @@ def _run_stored(store: TileStore, plan: TilePlan, examples, mapped: MapControls,
 
 
 def _allocator_notes(client) -> list[str]:
-    """A note when workers of the user's cluster run with Dask's
-    ``MALLOC_TRIM_THRESHOLD_`` (see :func:`.task.malloc_trim_threshold`)."""
+    """A note when the cluster's workers run with Dask's
+    ``MALLOC_TRIM_THRESHOLD_`` (see :func:`.task.malloc_trim_threshold`):
+    a user's cluster started as Dask does by default (a local one of ours
+    starts without it)."""
     values = [v for v in client.run(malloc_trim_threshold).values() if v is not None]
     if not values:
         return []
@@ -398,11 +399,9 @@ def _client(workers: int | None, scheduler: str | None):
     # One thread per worker: a worker is one core (the engine runs in one
     # process there).  The scheduler's web server (the dashboard when bokeh
     # is installed) on a free port: a fixed one may be taken.  Without the
-    # MALLOC_TRIM_THRESHOLD_ Dask sets for its workers (64 kB): setting it
-    # also fixes glibc's mmap threshold at 128 kB, so every array from there
-    # up is mapped afresh and faulted in page by page, and freed memory is
-    # handed back at nearly every free; a session took 1.8-2x as long.
-    # Each task trims once at its end instead (:mod:`.task`).
+    # MALLOC_TRIM_THRESHOLD_ Dask sets for its workers, which slows the
+    # engine (:func:`.task.malloc_trim_threshold`); each task trims once at
+    # its end instead (:func:`.task.run_task`).
     with _ctrl_c_ignored(), dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                                silence_logs=logging.ERROR)

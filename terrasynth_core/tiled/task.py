@@ -14,7 +14,6 @@ World-size section).
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import functools
 import os
 
@@ -39,10 +38,11 @@ def release_freed_memory() -> None:
 
 @functools.cache
 def _malloc_trim():
-    name = ctypes.util.find_library("c")
+    # The C library the process already has (no search for it: that runs
+    # ldconfig in a subprocess, from a worker's threads).
     try:
-        return ctypes.CDLL(name).malloc_trim if name else None
-    except (OSError, AttributeError):  # not glibc (macOS, musl): nothing to trim
+        return ctypes.CDLL(None).malloc_trim
+    except (OSError, AttributeError, TypeError):  # not glibc (macOS, musl, Windows): nothing to trim
         return None
 
 
