@@ -144,6 +144,57 @@ def test_a_damaged_index_file_is_rebuilt(white_mountains, monkeypatch, tmp_path)
     assert cache.load_arrays(next(iter(tmp_path.glob("*.npz"))).stem.split("-", 2)[2]) is not None
 
 
+def test_stored_indexes_past_the_open_limit_are_closed_and_opened_again(white_mountains, monkeypatch, tmp_path):
+    """A process keeps few stored indexes open (each holds its centroids in
+    memory, so a library's worth grew with its size): one closed is opened
+    again when asked and answers as before."""
+    from terrasynth_core.memo import Memo
+
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    example = white_mountains.heights[:200, :200]
+    windows = _windows_from(example, np.random.default_rng(4), 4, (32, 32), noise=3.0, zones=((0,), (2,)))
+    want = [FillSearch(example, (32, 32), coarse_factor=1).candidates(t, m) for t, m in windows]
+    opened = []
+
+    def counted(path):
+        opened.append(path)
+        return open_stored(path)
+
+    open_stored = window_index._open_stored
+    monkeypatch.setattr(window_index, "_open_stored", counted)
+    monkeypatch.setattr(window_index, "_OPEN", Memo(1))
+    search = FillSearch(example, (32, 32), coarse_factor=1)
+    for _ in range(2):
+        for (t, m), w in zip(windows, want):  # zones top, left, top, left: one open at a time
+            np.testing.assert_array_equal(search.candidates(t, m), w)
+    assert len(opened) == 8 and len(set(opened)) == 2
+    assert len(window_index._OPEN._values) == 1
+
+
+def test_a_stored_index_replaced_while_closed_is_made_again(white_mountains, monkeypatch, tmp_path):
+    """The cache cleared during a run: an index closed since is built
+    again, the same, instead of mapping whatever file now has its name."""
+    from terrasynth_core.memo import Memo
+
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(window_index, "_OPEN", Memo(1))
+    example = white_mountains.heights[:200, :200]
+    (t1, m1), (t2, m2) = _windows_from(example, np.random.default_rng(5), 2, (32, 32), noise=3.0,
+                                       zones=((0,), (2,)))
+    search = FillSearch(example, (32, 32), coarse_factor=1)
+    want = search.candidates(t1, m1)
+    search.candidates(t2, m2)  # closes the first zone's index
+    # Each zone's file now holds the other's index (new files, as a cache
+    # written again would be): valid indexes, but not this one.
+    files = sorted(tmp_path.glob("*.bin"))
+    assert len(files) == 2
+    swapped = [f.read_bytes() for f in reversed(files)]
+    for f, data in zip(files, swapped):
+        f.unlink()
+        f.write_bytes(data)
+    np.testing.assert_array_equal(search.candidates(t1, m1), want)
+
+
 def test_builds_are_deterministic(white_mountains):
     """Two builds from scratch give the same index, byte for byte, so a
     seed gives the same terrain whether or not the cache is warm."""
