@@ -174,7 +174,8 @@ class FeaturePool:
         return min(self._groups, key=lambda d: (abs(d - degree), -d))
 
     def rank(self, sample: FeatureSample, count: int, rng: np.random.Generator, *,
-             exclude: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> list[Candidate]:
+             exclude: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+             crowding: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> list[Candidate]:
         """The ``count`` candidates of least deformation (plus plainness,
         see the module docstring) for ``sample``.
 
@@ -189,7 +190,9 @@ class FeaturePool:
         many are excluded the next-least-deformed allowed ones are ranked
         in their place; excluded ones follow by penalty (least used first),
         so there is always something to place.  Candidates deformed beyond
-        :data:`FIT_LIMIT` come after all of them.
+        :data:`FIT_LIMIT` come after all of them.  ``crowding(examples,
+        centres)`` adds a ranking cost per example sample
+        (:meth:`~terrasynth_core.matching.usage.UsageRegistry.crowding`).
         """
         degree = self.nearest_degree(sample.degree)
         if degree is None:
@@ -225,6 +228,8 @@ class FeaturePool:
         fits = cost <= cost[penalty == penalty.min()].min() + PROMINENCE_SLACK
         standing = np.where(fits, np.repeat(prominence, n_align), 0.0)
         ranked = cost + PROMINENCE_WEIGHT * (1.0 - standing)
+        if crowding is not None:
+            ranked = ranked + np.repeat(np.asarray(crowding(ex_idx, centers), dtype=float), n_align)
         take = np.lexsort((ranked, penalty, cost > FIT_LIMIT))[:count]
         target = np.vstack([[0.0, 0.0], src]) * self.radius + sample.center
         out = []

@@ -301,7 +301,8 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
     usage : UsageRegistry
         A snapshot of the windows used so far (taken when this preparation
         was asked for, so the result does not depend on thread timing):
-        windows over ``cap`` or used by a neighbour are ranked last.
+        windows over ``cap`` or used by a neighbour are ranked last, those
+        used a little further along pay a ranking cost.
     cap : int
         Most feature patches one example window may supply.
     stations : Stations, optional
@@ -329,7 +330,8 @@ def prepare_feature(sample: FeatureSample, pool: FeaturePool, detail: list[np.nd
     # terms), and the spline systems are kept by those points.
     window = WarpWindow((r0, c0), (r1 - r0, c1 - c0))
     warped, distorted = [], []
-    for cand in pool.rank(sample, count, rng, exclude=exclude):
+    crowding = usage.crowding_of(bbox, sample.center)
+    for cand in pool.rank(sample, count, rng, exclude=exclude, crowding=crowding):
         for src, dst in _fits(sample, cand, stations):
             tps = ThinPlateSpline.fit(src, dst, regularization=1e-3)
             if window.distortion(tps) <= MAX_STRETCH:
@@ -381,8 +383,9 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
     usage : UsageRegistry
         Every feature patch placed so far: prepared candidates whose window
         is over ``cap`` or used by a neighbour are dropped (all but the
-        least used when every one is).  The placed patch is not recorded
-        here; the caller does that.
+        least used when every one is), those used a little further along
+        pay its crowding cost.  The placed patch is not recorded here; the
+        caller does that.
     cap : int
         Most feature patches one example window may supply.
     rng : numpy.random.Generator
@@ -397,16 +400,19 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
     if not warped:
         return None
     warped = allowed(warped, usage, bbox, sample.center, cap)
+    crowding = usage.crowding(np.array([c.example for c, _ in warped]),
+                              np.array([c.center for c, _ in warped], dtype=float), bbox, sample.center)
     r0, r1, c0, c1 = bbox
     filled = canvas.filled[r0:r1, c0:c1]
     level = layout.level[r0:r1, c0:c1]
     existing = canvas.heights[r0:r1, c0:c1] - level
     relief = float(layout.relief[warped[0][0].example])
     evaluated = []
-    for cand, patch in warped:
+    for (cand, patch), crowded in zip(warped, crowding):
         weight = float(layout.anchor[cand.example])
         ssd, offset = settle(*overlap_ssd(existing, patch, filled), weight=weight)
-        score = match_cost(ssd, offset, relief, weight) + feature_weight * cand.deformation + cand.plainness
+        score = (match_cost(ssd, offset, relief, weight) + feature_weight * cand.deformation + cand.plainness
+                 + crowded)
         evaluated.append((score, ssd, offset, patch, cand))
     evaluated.sort(key=lambda t: t[0])
     rr, cc = np.ogrid[r0:r1, c0:c1]
@@ -429,11 +435,22 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
 def allowed(warped: list, usage: UsageRegistry, bbox, centre, cap: int) -> list:
     """The prepared candidates the full registry allows (order kept); when
     it allows none, those of the least penalty (least used)."""
-    examples = np.array([c.example for c, _ in warped])
-    sources = np.array([c.center for c, _ in warped], dtype=float)
-    penalty = usage.penalties(examples, sources, bbox, centre, cap)
+    penalty = _penalties(warped, usage, bbox, centre, cap)
     least = penalty.min()
     return [w for w, p in zip(warped, penalty) if p == least]
+
+
+def all_excluded(prepared, usage: UsageRegistry, centre, cap: int) -> bool:
+    """Whether the full registry excludes every candidate of a preparation
+    (:func:`prepare_feature`'s result; False without candidates)."""
+    bbox, warped, _ = prepared
+    return bool(warped) and bool(_penalties(warped, usage, bbox, centre, cap).min() >= 1)
+
+
+def _penalties(warped: list, usage: UsageRegistry, bbox, centre, cap: int) -> np.ndarray:
+    examples = np.array([c.example for c, _ in warped])
+    sources = np.array([c.center for c, _ in warped], dtype=float)
+    return usage.penalties(examples, sources, bbox, centre, cap)
 
 
 def place_stamp(canvas: Canvas, stamp, level: np.ndarray, *, index: int, stamp_index: int) -> PatchRecord:

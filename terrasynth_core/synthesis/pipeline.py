@@ -27,8 +27,9 @@ from ..order.bfs import feature_order
 from ..placing.canvas import Canvas
 from ..placing.windows import WindowQueue, estimate_fill_count, fill_windows, region_seeds
 from .events import LandformProgress, PatchPlaced, StageFinished, StageStarted, SynthesisFinished
-from .feature_ahead import FeatureKit, PrepareAhead
-from .feature_patches import Stations, memo_feature_pools, place_feature, place_stamp, pool_key
+from .feature_ahead import FeatureKit, PrepareAhead, prepare_with
+from .feature_patches import (Stations, all_excluded, memo_feature_pools, place_feature, place_stamp,
+                              pool_key)
 from .fill_patches import choose_fill, fill_searches, search_fill, window_examples
 from .fill_workers import MIN_PARALLEL_WINDOWS, WAVE, FillKit, FillWorkers, window_task
 from .finish import finish_heights
@@ -257,16 +258,23 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
             key = pool_key(pools, lay, samples[i], state.warnings, patch_size=p.patch_size)
             cap = window_cap(len(samples), n_kind[samples[i].kind], pools[key].size())
             rng = np.random.default_rng([p.seed, 0, i])
-            return pools[key], cap, ahead.submit(samples[i], key, 3 * p.k, rng, usage.snapshot(), cap)
+            return key, cap, ahead.submit(samples[i], key, 3 * p.k, rng, usage.snapshot(), cap)
 
         pending = prepare(0) if samples else None
         for i, sample in enumerate(samples):
-            pool, cap, future = pending
-            got = pool.nearest_degree(sample.degree)
+            key, cap, future = pending
+            got = pools[key].nearest_degree(sample.degree)
             if got != sample.degree:
-                key = (sample.kind, sample.degree, got)
-                fallbacks[key] = fallbacks.get(key, 0) + 1
+                fallbacks[sample.kind, sample.degree, got] = fallbacks.get((sample.kind, sample.degree, got), 0) + 1
             prepared = future.result()
+            if all_excluded(prepared, usage, sample.center, cap):
+                # The patch placed since the snapshot excludes every
+                # candidate (most often the previous patch, whose window
+                # fits this stretch of the stroke best too): prepared again
+                # here, against every patch, rather than repeat a window
+                # or take one past its cap.
+                prepared = prepare_with(kit, sample, key, 3 * p.k, np.random.default_rng([p.seed, 0, i]),
+                                        usage.snapshot(), cap)
             rigid[sample.kind] += prepared[2]
             pending = prepare(i + 1) if i + 1 < len(samples) else None
             rec = place_feature(state.canvas, sample, prepared, lay, index=len(state.records), radius=state.radius,

@@ -16,7 +16,8 @@ BORDER_BAND = 8
 PERCENTILE = 99.9
 
 
-def border_ratio(heights: np.ndarray, plan: TilePlan, *, band: int = BORDER_BAND) -> float:
+def border_ratio(heights: np.ndarray, plan: TilePlan, *, band: int = BORDER_BAND,
+                 exclude: np.ndarray | None = None) -> float:
     """|Laplacian| at the :data:`PERCENTILE` in ``band``-cell bands centred
     on the inner tile borders, over the same in the tiles' interiors.
 
@@ -30,6 +31,10 @@ def border_ratio(heights: np.ndarray, plan: TilePlan, *, band: int = BORDER_BAND
         Metres.
     plan : TilePlan
     band : int, default :data:`BORDER_BAND`
+    exclude : ndarray of bool, shape ``plan.shape``, optional
+        Cells left out of both sides: a drawn stroke's crest is the
+        sharpest ground of a small map, and where it crosses a border it
+        decides the band's percentile, seam or none.
 
     Returns
     -------
@@ -46,6 +51,7 @@ def border_ratio(heights: np.ndarray, plan: TilePlan, *, band: int = BORDER_BAND
         near[max(e - half, 0):e + band - half, :] = True
     for e in plan.col_edges[1:-1]:
         near[:, max(e - half, 0):e + band - half] = True
-    if not near.any():
+    keep = np.ones(heights.shape, bool) if exclude is None else ~np.asarray(exclude, bool)
+    if not (near & keep).any():
         return float("nan")
-    return float(np.percentile(lap[near], PERCENTILE) / np.percentile(lap[~near], PERCENTILE))
+    return float(np.percentile(lap[near & keep], PERCENTILE) / np.percentile(lap[~near & keep], PERCENTILE))

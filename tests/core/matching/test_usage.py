@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from terrasynth_core.matching.usage import UsageRegistry, source_reuse, window_cap
+from terrasynth_core.matching.usage import NEAR_WEIGHT, UsageRegistry, source_reuse, window_cap
 
 
 def _rec(example, source, kind="path"):
@@ -46,6 +46,19 @@ def test_neighbours_may_not_share_a_window_but_far_patches_may():
     assert reg.neighbour_shares(ex, src, (200, 248, 200, 248), (224, 224)).tolist() == [False, False, False]
     pen = reg.penalties(ex, src, (30, 78, 0, 48), (54, 24), cap=5)
     assert pen[0] > 0 and pen[1] == 0 and pen[2] == 0
+
+
+def test_a_window_used_a_little_further_along_costs_more_to_take():
+    """Two patch sizes off (not a neighbour) a window may still be taken,
+    at a ranking cost: else two sources alternate down a straight stroke."""
+    reg = UsageRegistry(48)
+    reg.record(0, (100, 100), (0, 48, 0, 48), (24, 24))
+    ex, src = np.array([0, 0]), np.array([[105, 100], [300, 300]])
+    near = (66, 114, 0, 48), (90, 24)  # centres 66 cells apart
+    assert reg.penalties(ex, src, *near, cap=5).tolist() == [0, 0]
+    assert reg.crowding(ex, src, *near).tolist() == [NEAR_WEIGHT, 0.0]
+    far = (130, 178, 0, 48), (154, 24)  # 130 cells: over two patch sizes
+    assert reg.crowding(ex, src, *far).tolist() == [0.0, 0.0]
 
 
 def test_a_snapshot_does_not_see_later_records():

@@ -53,7 +53,7 @@ class _Pool:
     def __init__(self, candidates):
         self.candidates = candidates
 
-    def rank(self, sample, count, rng, *, exclude=None):
+    def rank(self, sample, count, rng, *, exclude=None, crowding=None):
         return self.candidates[:count]
 
 

@@ -87,10 +87,12 @@ CASES = {
 #: into the heights of the examples' own landforms (landform.fitted_to_examples),
 #: with the seed picking among the candidates near the cheapest
 #: (matching.costs.pick_near_best), and with the drawn ridges held high and
-#: the open valleys low along their whole length (landform._StrokeSides).
+#: the open valleys low along their whole length (landform._StrokeSides),
+#: and with feature windows used a little further along a stroke paying a
+#: ranking cost (matching.usage.NEAR_WEIGHT; the Y keeps its bytes).
 GOLDEN = {
     "y_junction": "caa1ea3b5c9a28584c53cffed14c78848fc68c6a2420efce808ea2eb7a437860",
-    "ring_cross_raster": "27df4034d55973f0685fb92533fcc62281ad64c954c5d9cd89b6a33f13d478c9",
+    "ring_cross_raster": "d89cfc639d8dc400c6454ddc5c7689bbaf2291c52d7c0cdfd535e7278cd66fdd",
     "styles_stamp_water_pin": "6d5437d975795a93ce5e32f4814c666b57a84c1a605036b86e86bdb451af7c9a",
 }
 

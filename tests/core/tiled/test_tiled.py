@@ -20,7 +20,8 @@ from distributed import Client, LocalCluster
 from terrasynth_core.cli.main import EXIT_BAD_INPUT
 from terrasynth_core.cli.main import main as cli_main
 from terrasynth_core.errors import ParamsError, SynthesisCancelled
-from terrasynth_core.features.sketch import read_sketch
+from terrasynth_core.features.network import graph_mask
+from terrasynth_core.features.sketch import read_sketch, sketch_features
 from terrasynth_core.controls.water import Water
 from terrasynth_core.synthesis import Controls, Session, SynthesisParams
 from terrasynth_core.tiled import TileFinished, check_scheduler, plan_tiles, run_tiled
@@ -92,6 +93,22 @@ def test_plan_phases_needs_and_regions():
 def test_bad_tiles_are_refused(tile, match):
     with pytest.raises(ParamsError, match=match):
         plan_tiles(SHAPE, tile, patch_size=32)
+
+
+def test_the_border_measure_sees_a_step_and_leaves_out_what_it_is_told():
+    plan = plan_tiles((256, 256), 128, patch_size=32, seed=0)
+    rng = np.random.default_rng(0)
+    ground = rng.normal(0, 1, (256, 256)).cumsum(0).cumsum(1) * 0.01 + rng.normal(0, 0.5, (256, 256))
+    assert border_ratio(ground, plan) < 1.15
+    stepped = ground.copy()
+    stepped[:, 128:] += 20.0  # a seam: one tile 20 m above the other
+    assert border_ratio(stepped, plan) > 3
+    crest = ground.copy()
+    crest[:, 127:129] += 30.0  # a sharp ridge drawn down the border, no seam
+    along = np.zeros(ground.shape, bool)
+    along[:, 124:132] = True
+    assert border_ratio(crest, plan) > 3
+    assert border_ratio(crest, plan, exclude=along) < 1.15
 
 
 def test_scheduler_addresses():
@@ -192,7 +209,14 @@ def test_two_worker_processes_give_the_same_bytes_and_no_seams(reference, white_
     assert not store_path(out).exists()  # the store goes once the output is written
     assert np.isfinite(heights).all() and heights.std() > 10
     # No seam at the tile borders: their sharpest curvature as the interiors'.
-    assert border_ratio(heights, result.plan) <= 1.15
+    # The Y's crest is left out: on this small map, where an arm crosses a
+    # tile corner its crest alone decides the band's 99.9th percentile
+    # (seeds 1, 2, 3 and 7 measured 1.00-1.23 with it, 1.09-1.19 on the
+    # engine before, the hillshades seamless; 0.89-1.08 and 1.04-1.11
+    # without it).
+    strokes = sketch_features(sketch.resized(SHAPE))
+    crest = ndimage.binary_dilation(graph_mask(strokes.ridges), iterations=4)
+    assert border_ratio(heights, result.plan, exclude=crest) <= 1.15
 
 
 def test_local_cluster_workers_keep_glibcs_own_malloc_thresholds(monkeypatch):
