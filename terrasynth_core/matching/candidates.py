@@ -215,7 +215,6 @@ class FeaturePool:
         else:
             src, rel = _match_counts(src, rel)
             flat, mflat, centred = self._alignments(rel)
-        d = src.shape[0]
         n_align = len(flat) // len(centers)
         cost = _deformations(src, flat, mflat, centred)
         cost = cost + rng.random(cost.shape) * 1e-6  # random tie-break, seeded
