@@ -115,8 +115,8 @@ class _WindowSearch:
         self.prior = cache.kept_array(f"prior-{self._windows_key}", lambda: roughness_prior(example, window, allowed, f),
                                       name="prior", dtype=np.float64)
 
-    def best(self, target: np.ndarray, filled: np.ndarray, count: int, rng: np.random.Generator
-             ) -> list[tuple[tuple[int, int], float, float]]:
+    def best(self, target: np.ndarray, filled: np.ndarray, count: int, rng: np.random.Generator, *,
+             shortlist: np.ndarray | None = None) -> list[tuple[tuple[int, int], float, float]]:
         """The ``count`` best example windows for one output window.
 
         Parameters
@@ -127,6 +127,9 @@ class _WindowSearch:
         count : int
         rng : Generator
             Picks positions at random when nothing is filled yet.
+        shortlist : ndarray of int, shape (m, 2), optional
+            The windows to score, when the caller has fetched them
+            (:meth:`FillSearch.nearest`); else the search fetches them.
 
         Returns
         -------
@@ -143,13 +146,14 @@ class _WindowSearch:
             picks = rng.choice(flat, size=min(count, flat.size), replace=False)
             return [((int(p // self.allowed.shape[1]) * self.f, int(p % self.allowed.shape[1]) * self.f), 0.0, 0.0, 0.0)
                     for p in picks]
-        coarse_pos = self._coarse_best(target, filled, count)
+        coarse_pos = self._coarse_best(target, filled, count, shortlist)
         out = [self._refine(target, filled, pos) for pos in coarse_pos]
         out.sort(key=lambda t: t[1])
         return out
 
-    def _coarse_best(self, target, filled, count) -> list[tuple[int, int]]:
-        """Up to ``count`` well-separated grid positions (in grid units), best first."""
+    def _coarse_best(self, target, filled, count, shortlist=None) -> list[tuple[int, int]]:
+        """Up to ``count`` well-separated grid positions (in grid units), best
+        first (``shortlist``: the windows to score, for an indexed search)."""
         raise NotImplementedError
 
     def _separated(self, order, count: int) -> list[tuple[int, int]]:
@@ -276,7 +280,7 @@ class FftFillSearch(_WindowSearch):
         self.F_e = fft.rfft2(self.coarse, self.fshape, workers=workers)
         self.F_e2 = fft.rfft2(self.coarse**2, self.fshape, workers=workers)
 
-    def _coarse_best(self, target, filled, count):
+    def _coarse_best(self, target, filled, count, shortlist=None):
         f = self.f
         ch, cw = self.cwin
         h, w = self.window
@@ -390,14 +394,24 @@ class FillSearch(_WindowSearch):
             return self.positions
         return self.indexes.get(zone_of(filled, self.overlap)).query(target, filled, self.shortlist)
 
+    def nearest(self, target: np.ndarray, filled: np.ndarray) -> tuple[np.ndarray, float] | None:
+        """The index's shortlist for this output window and its nearest
+        distance (what :meth:`best` would score, and how well this example
+        can match at all); None for a small example scored whole."""
+        if self.indexes is None:
+            return None
+        positions, dist = self.indexes.get(zone_of(filled, self.overlap)).query(
+            target, filled, self.shortlist, distances=True)
+        return positions, float(dist[0]) if dist.size else float("inf")
+
     def _refine_radius(self) -> int:
         # The grid windows are scored exactly at full resolution, so a pick
         # is refined over the cells nearer to it than to any other grid
         # window; the FFT search scores block means and looks further.
         return self.f // 2
 
-    def _coarse_best(self, target, filled, count):
-        positions = self.candidates(target, filled)
+    def _coarse_best(self, target, filled, count, shortlist=None):
+        positions = self.candidates(target, filled) if shortlist is None else shortlist
         score = self.scores(target, filled, positions)
         order = np.argsort(score, kind="stable")
         return self._separated(((int(r) // self.f, int(c) // self.f) for r, c in positions[order]), count)

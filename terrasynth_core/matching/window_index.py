@@ -242,7 +242,8 @@ class ZoneIndex:
             raise ValueError(f"{path} is not the file this index was read from")
         return _open_stored(path)
 
-    def query(self, target: np.ndarray, filled: np.ndarray, count: int) -> np.ndarray:
+    def query(self, target: np.ndarray, filled: np.ndarray, count: int, *,
+              distances: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """Indexed windows nearest to a partly filled output window.
 
         Parameters
@@ -252,17 +253,24 @@ class ZoneIndex:
         filled : ndarray of bool, shape (h, w)
         count : int
             Shortlist length.
+        distances : bool
+            Also give each one's squared distance in the index (half of
+            it approximates the search's score, see the module notes).
 
         Returns
         -------
         ndarray of int32, shape (m, 2), m <= count
             Top-left corners of the shortlisted windows, nearest first.
+        ndarray of float32, shape (m,)
+            Their distances, with ``distances``.
         """
         _single_thread()
         k = min(count, self.positions.shape[0])
-        _, ids = self._faiss().search(self.query_vector(target, filled), k)
-        ids = ids[0][ids[0] >= 0]
-        return self.positions[ids]
+        dist, ids = self._faiss().search(self.query_vector(target, filled), k)
+        found = ids[0] >= 0
+        if distances:
+            return self.positions[ids[0][found]], dist[0][found]
+        return self.positions[ids[0][found]]
 
     def query_vector(self, target: np.ndarray, filled: np.ndarray) -> np.ndarray:
         """The index vector of an output window, shape (1, PCA_DIMS + 2),

@@ -120,3 +120,33 @@ def test_voids_that_leave_no_window_on_the_grid_make_it_finer(white_mountains):
         assert not void[pos[0]:pos[0] + 24, pos[1]:pos[1] + 24].any()
     with pytest.raises(Exception, match="no 24x24 window without nodata"):
         FillSearch(E, (24, 24), void_mask=np.ones(E.shape, bool))
+
+
+def test_a_window_is_searched_in_the_examples_nearest_to_it(white_mountains, monkeypatch, tmp_path):
+    """A library larger than ``SEARCHED_EXAMPLES``: each window is searched
+    only in the examples whose indexes hold its nearest windows, the one
+    it was cut from among them, and the answer is what a search over just
+    those examples gives (their shortlists are not fetched twice)."""
+    from terrasynth_core.synthesis import fill_patches
+
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    heights = white_mountains.heights
+    crops = [np.ascontiguousarray(heights[r:r + 150, c:c + 150]) for r in (0, 120, 240) for c in (0, 120, 240)]
+    searches = [FillSearch(crop, (32, 32), coarse_factor=1) for crop in crops]
+    assert all(s.indexes is not None for s in searches) and len(crops) > fill_patches.SEARCHED_EXAMPLES
+    members = list(range(len(crops)))
+    anchor = np.zeros(len(crops))
+    filled = np.zeros((32, 32), bool)
+    filled[:10] = True
+    target = crops[7][60:92, 40:72] + 100.0
+    chosen, shortlists = fill_patches._nearest_examples(searches, members, target, filled)
+    assert len(chosen) == fill_patches.SEARCHED_EXAMPLES and 7 in chosen and chosen == sorted(chosen)
+    args = (searches, crops, anchor)
+    rng = np.random.default_rng
+    pruned = fill_patches.search_fill(*args, members, 100.0, target, filled, rng(0), patch_size=32, k=4)
+    direct = fill_patches.search_fill(*args, chosen, 100.0, target, filled, rng(0), patch_size=32, k=4)
+    assert pruned == direct
+    assert any(ei == 7 for _, _, _, ei, _, _ in pruned)
+    # Fewer examples than the limit: every one is searched, as before.
+    few = fill_patches.search_fill(*args, members[:3], 100.0, target, filled, rng(0), patch_size=32, k=4)
+    assert {ei for _, _, _, ei, _, _ in few} <= {0, 1, 2}
