@@ -395,9 +395,10 @@ class FillSearch(_WindowSearch):
         return self.indexes.get(zone_of(filled, self.overlap)).query(target, filled, self.shortlist)
 
     def nearest(self, target: np.ndarray, filled: np.ndarray) -> tuple[np.ndarray, float] | None:
-        """The index's shortlist for this output window and its nearest
-        distance (what :meth:`best` would score, and how well this example
-        can match at all); None for a small example scored whole."""
+        """The index's shortlist for this output window (``filled`` not
+        empty: a window with nothing in it has no zone to match) and its
+        nearest distance (what :meth:`best` would score, and how well this
+        example can match at all); None for a small example scored whole."""
         if self.indexes is None:
             return None
         positions, dist = self.indexes.get(zone_of(filled, self.overlap)).query(

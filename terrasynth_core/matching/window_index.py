@@ -223,9 +223,10 @@ class ZoneIndex:
     def _faiss(self):
         """The faiss index: this one's own, or its stored file's, opened
         (mapped) through the process's few open indexes (:data:`OPEN_INDEXES`).
-        Should the file have gone or been replaced since (the cache cleared
-        during a run), the index is made again by ``remake`` and kept in
-        memory."""
+        Should the file have gone or been replaced since (another worker
+        stored the same index again, the cache was cleared during a run),
+        ``remake`` gives it again: read from the cache entry as it is now
+        (checked against its digest), or made and kept in memory."""
         if self._index is not None:
             return self._index
         try:
@@ -233,14 +234,21 @@ class ZoneIndex:
         except (OSError, RuntimeError, ValueError):
             if self._remake is None:
                 raise
-            self._index = self._remake()._faiss()
+        again = self._remake()
+        if again._stored is None:
+            self._index = again._index
             return self._index
+        self._stored = again._stored
+        return _OPEN.get(self._stored, self._reopen)  # (opened by that read)
 
     def _reopen(self):
         path = self._stored[0]
         if _file_identity(path) != self._stored:
             raise ValueError(f"{path} is not the file this index was read from")
-        return _open_stored(path)
+        index = _open_stored(path)
+        if _file_identity(path) != self._stored:  # (replaced while it was being read)
+            raise ValueError(f"{path} was replaced while it was read")
+        return index
 
     def query(self, target: np.ndarray, filled: np.ndarray, count: int, *,
               distances: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
@@ -508,6 +516,14 @@ def index_key(example: np.ndarray, window: tuple[int, int], overlap: int, positi
     return f"windows-v{INDEX_VERSION}-{h.hexdigest()}"
 
 
+def _stored_or_built(load, key: str, *build_args) -> ZoneIndex:
+    """The zone index stored under ``key`` as the cache holds it now, or,
+    when it holds none, one built here (``build_args`` as for
+    :func:`build_zone_index`)."""
+    got = load(key) if load else None
+    return got if got is not None else build_zone_index(*build_args)
+
+
 class LazyIndexes:
     """The zone indexes of one example and window, each built (or loaded
     from the disk cache) the first time it is asked for; thread-safe."""
@@ -553,10 +569,10 @@ class LazyIndexes:
                     # on a library builds every example's zones).
                     stored = self._load(key) if self._load else None
                     got = got if stored is None else stored
-            # (Made from the inputs, not this object's blocks: no cycle
-            # through the index back to this object.)
-            got._remake = partial(build_zone_index, self.example, self.window, self.overlap, zone,
-                                  self.positions, self.prior)
+            # (From the inputs, not this object's blocks: no cycle through
+            # the index back to this object.)
+            got._remake = partial(_stored_or_built, self._load, key, self.example, self.window, self.overlap,
+                                  zone, self.positions, self.prior)
             self._indexes[zone] = got
             return got
 

@@ -55,13 +55,15 @@ SEARCHED_EXAMPLES = 8
 
 def _nearest_examples(searches: list, members: list[int], target: np.ndarray, filled: np.ndarray
                       ) -> tuple[list[int], dict]:
-    """The :data:`SEARCHED_EXAMPLES` examples whose indexes hold the windows
-    nearest to this one (an example too small for an index, scored whole,
-    is always searched), in ``members``' order, and their shortlists."""
+    """The examples to search for this window (``filled`` not empty), in
+    ``members``' order, and their shortlists: those whose indexes hold the
+    windows nearest to it, :data:`SEARCHED_EXAMPLES` in all, and every
+    example too small for an index (scored whole); however many of those
+    there are, at least half as many indexed ones."""
     nearest = {ei: searches[ei].nearest(target, filled) for ei in members}
     indexed = [ei for ei in members if nearest[ei] is not None]
     small = [ei for ei in members if nearest[ei] is None]
-    room = max(0, SEARCHED_EXAMPLES - len(small))
+    room = max(SEARCHED_EXAMPLES - len(small), SEARCHED_EXAMPLES // 2)
     # (Ties go to the earlier example: the same choice on every process.)
     kept = set(sorted(indexed, key=lambda ei: (nearest[ei][1], ei))[:room]) | set(small)
     chosen = [ei for ei in members if ei in kept]
@@ -90,7 +92,9 @@ def search_fill(searches: list, detail: list[np.ndarray], anchor: np.ndarray, me
     anchor : ndarray of float, shape (n_examples,)
         Each example's shift weight (``StyleLayout.anchor``).
     members : list of int
-        Examples to search.
+        The window's examples: all are searched, or, past
+        :data:`SEARCHED_EXAMPLES`, those nearest to it
+        (:func:`_nearest_examples`).
     relief : float
         Cost unit, metres.
     target : ndarray of float32, shape (patch_size, patch_size)

@@ -39,11 +39,14 @@ def border_ratio(heights: np.ndarray, plan: TilePlan, *, band: int = BORDER_BAND
     Returns
     -------
     float
-        NaN for a single tile (no inner border).
+        NaN for a single tile (no inner border), or when ``exclude``
+        leaves no cell on one side.
     """
     heights = np.asarray(heights, np.float64)
     if heights.shape != tuple(plan.shape):
         raise ValueError(f"heights are {heights.shape}, the plan {plan.shape}")
+    if exclude is not None and np.shape(exclude) != heights.shape:
+        raise ValueError(f"the mask left out is {np.shape(exclude)}, the heights {heights.shape}")
     lap = np.abs(ndimage.laplace(heights))
     near = np.zeros(heights.shape, bool)
     half = band // 2
@@ -52,6 +55,6 @@ def border_ratio(heights: np.ndarray, plan: TilePlan, *, band: int = BORDER_BAND
     for e in plan.col_edges[1:-1]:
         near[:, max(e - half, 0):e + band - half] = True
     keep = np.ones(heights.shape, bool) if exclude is None else ~np.asarray(exclude, bool)
-    if not (near & keep).any():
+    if not (near & keep).any() or not (~near & keep).any():
         return float("nan")
     return float(np.percentile(lap[near & keep], PERCENTILE) / np.percentile(lap[~near & keep], PERCENTILE))

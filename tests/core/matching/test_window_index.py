@@ -195,6 +195,32 @@ def test_a_stored_index_replaced_while_closed_is_made_again(white_mountains, mon
     np.testing.assert_array_equal(search.candidates(t1, m1), want)
 
 
+def test_a_stored_index_written_again_while_closed_is_read_again_not_built(white_mountains, monkeypatch, tmp_path):
+    """Another worker storing the same index renames a new file onto the
+    old one: the closed index is read again from the cache entry (its
+    digest checked), not built."""
+    from terrasynth_core.memo import Memo
+
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(window_index, "_OPEN", Memo(1))
+    example = white_mountains.heights[:200, :200]
+    (t1, m1), (t2, m2) = _windows_from(example, np.random.default_rng(5), 2, (32, 32), noise=3.0,
+                                       zones=((0,), (2,)))
+    search = FillSearch(example, (32, 32), coarse_factor=1)
+    want = search.candidates(t1, m1)
+    search.candidates(t2, m2)  # closes the first zone's index
+    for f in tmp_path.glob("*.bin"):
+        data = f.read_bytes()
+        f.unlink()
+        f.write_bytes(data)
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("built again instead of read")
+
+    monkeypatch.setattr(window_index, "build_zone_index", no_build)
+    np.testing.assert_array_equal(search.candidates(t1, m1), want)
+
+
 def test_builds_are_deterministic(white_mountains):
     """Two builds from scratch give the same index, byte for byte, so a
     seed gives the same terrain whether or not the cache is warm."""

@@ -67,7 +67,8 @@ def test_neighbouring_feature_patches_never_share_a_source_window(ring):
 def test_feature_patches_a_little_further_along_seldom_share_a_window(ring):
     """Within two patch sizes, 32 of the 47 patches shared a window with
     another (two sources alternating round the ring) before such windows
-    ranked after the free ones; none do now."""
+    paid a ranking cost; none did when this was written (at most one in
+    twenty may)."""
     feats = _features(ring)
     centres = np.array([((p.bbox[0] + p.bbox[1]) / 2, (p.bbox[2] + p.bbox[3]) / 2) for p in feats])
     src = np.array([p.source for p in feats])

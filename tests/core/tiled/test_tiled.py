@@ -109,6 +109,9 @@ def test_the_border_measure_sees_a_step_and_leaves_out_what_it_is_told():
     along[:, 124:132] = True
     assert border_ratio(crest, plan) > 3
     assert border_ratio(crest, plan, exclude=along) < 1.15
+    assert np.isnan(border_ratio(crest, plan, exclude=np.ones(ground.shape, bool)))
+    with pytest.raises(ValueError, match="left out"):
+        border_ratio(crest, plan, exclude=along[:10])
 
 
 def test_scheduler_addresses():
