@@ -390,9 +390,8 @@ class FillSearch(_WindowSearch):
             Top-left corners (on the grid): the index's shortlist, or every
             window on offer for a small example.
         """
-        if self.indexes is None:
-            return self.positions
-        return self.indexes.get(zone_of(filled, self.overlap)).query(target, filled, self.shortlist)
+        found = self.nearest(target, filled)
+        return self.positions if found is None else found[0]
 
     def nearest(self, target: np.ndarray, filled: np.ndarray) -> tuple[np.ndarray, float] | None:
         """The index's shortlist for this output window (``filled`` not

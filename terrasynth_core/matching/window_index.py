@@ -207,8 +207,7 @@ class ZoneIndex:
     """
 
     def __init__(self, *, cells: np.ndarray, step: int, floor: float, pca_mean: np.ndarray,
-                 pca_axes: np.ndarray, positions: np.ndarray, index=None, path: str | None = None,
-                 remake: Callable[[], ZoneIndex] | None = None):
+                 pca_axes: np.ndarray, positions: np.ndarray, index=None, path: str | None = None):
         self.cells, self.step, self.floor = cells, step, floor
         self.pca_mean, self.pca_axes = pca_mean, pca_axes
         self.positions = positions
@@ -218,7 +217,8 @@ class ZoneIndex:
         self._stored = None if path is None else _file_identity(path)
         if self._stored is not None:
             _OPEN.get(self._stored, self._reopen)  # (a damaged file raises here)
-        self._remake = remake
+        #: Gives the index again once its file is gone (set by LazyIndexes).
+        self._remake: Callable[[], ZoneIndex] | None = None
 
     def _faiss(self):
         """The faiss index: this one's own, or its stored file's, opened

@@ -400,8 +400,7 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
     if not warped:
         return None
     warped = allowed(warped, usage, bbox, sample.center, cap)
-    crowding = usage.crowding(np.array([c.example for c, _ in warped]),
-                              np.array([c.center for c, _ in warped], dtype=float), bbox, sample.center)
+    crowding = usage.crowding(*_sources(warped), bbox, sample.center)
     r0, r1, c0, c1 = bbox
     filled = canvas.filled[r0:r1, c0:c1]
     level = layout.level[r0:r1, c0:c1]
@@ -435,7 +434,7 @@ def place_feature(canvas: Canvas, sample: FeatureSample, prepared, layout: Style
 def allowed(warped: list, usage: UsageRegistry, bbox, centre, cap: int) -> list:
     """The prepared candidates the full registry allows (order kept); when
     it allows none, those of the least penalty (least used)."""
-    penalty = _penalties(warped, usage, bbox, centre, cap)
+    penalty = usage.penalties(*_sources(warped), bbox, centre, cap)
     least = penalty.min()
     return [w for w, p in zip(warped, penalty) if p == least]
 
@@ -444,13 +443,13 @@ def all_excluded(prepared, usage: UsageRegistry, centre, cap: int) -> bool:
     """Whether the full registry excludes every candidate of a preparation
     (:func:`prepare_feature`'s result; False without candidates)."""
     bbox, warped, _ = prepared
-    return bool(warped) and bool(_penalties(warped, usage, bbox, centre, cap).min() >= 1)
+    return bool(warped) and bool(usage.penalties(*_sources(warped), bbox, centre, cap).min() >= 1)
 
 
-def _penalties(warped: list, usage: UsageRegistry, bbox, centre, cap: int) -> np.ndarray:
-    examples = np.array([c.example for c, _ in warped])
-    sources = np.array([c.center for c, _ in warped], dtype=float)
-    return usage.penalties(examples, sources, bbox, centre, cap)
+def _sources(warped: list) -> tuple[np.ndarray, np.ndarray]:
+    """The example and sample centre of each prepared candidate."""
+    return (np.array([c.example for c, _ in warped]),
+            np.array([c.center for c, _ in warped], dtype=float).reshape(-1, 2))
 
 
 def place_stamp(canvas: Canvas, stamp, level: np.ndarray, *, index: int, stamp_index: int) -> PatchRecord:

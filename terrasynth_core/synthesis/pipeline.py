@@ -254,18 +254,21 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
     kit = FeatureKit(pools, lay.detail, stations, state.session.shape, p.patch_size)
     processes = state.processes if state.warmed and len(samples) >= MIN_AHEAD_SAMPLES else 1
     with PrepareAhead(kit, processes=processes) as ahead:
+        def ranking_rng(i):
+            return np.random.default_rng([p.seed, 0, i])
+
         def prepare(i):
             key = pool_key(pools, lay, samples[i], state.warnings, patch_size=p.patch_size)
             cap = window_cap(len(samples), n_kind[samples[i].kind], pools[key].size())
-            rng = np.random.default_rng([p.seed, 0, i])
-            return key, cap, ahead.submit(samples[i], key, 3 * p.k, rng, usage.snapshot(), cap)
+            return key, cap, ahead.submit(samples[i], key, 3 * p.k, ranking_rng(i), usage.snapshot(), cap)
 
         pending = prepare(0) if samples else None
         for i, sample in enumerate(samples):
             key, cap, future = pending
             got = pools[key].nearest_degree(sample.degree)
             if got != sample.degree:
-                fallbacks[sample.kind, sample.degree, got] = fallbacks.get((sample.kind, sample.degree, got), 0) + 1
+                fell = (sample.kind, sample.degree, got)
+                fallbacks[fell] = fallbacks.get(fell, 0) + 1
             prepared = future.result()
             if all_excluded(prepared, usage, sample.center, cap):
                 # The patch placed since the snapshot excludes every
@@ -273,8 +276,7 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
                 # fits this stretch of the stroke best too): prepared again
                 # here, against every patch, rather than repeat a window
                 # or take one past its cap.
-                prepared = prepare_with(kit, sample, key, 3 * p.k, np.random.default_rng([p.seed, 0, i]),
-                                        usage.snapshot(), cap)
+                prepared = prepare_with(kit, sample, key, 3 * p.k, ranking_rng(i), usage.snapshot(), cap)
             rigid[sample.kind] += prepared[2]
             pending = prepare(i + 1) if i + 1 < len(samples) else None
             rec = place_feature(state.canvas, sample, prepared, lay, index=len(state.records), radius=state.radius,

@@ -171,9 +171,9 @@ def test_stored_indexes_past_the_open_limit_are_closed_and_opened_again(white_mo
     assert len(window_index._OPEN._values) == 1
 
 
-def test_a_stored_index_replaced_while_closed_is_made_again(white_mountains, monkeypatch, tmp_path):
-    """The cache cleared during a run: an index closed since is built
-    again, the same, instead of mapping whatever file now has its name."""
+def _first_zone_closed(white_mountains, monkeypatch, tmp_path):
+    """A search whose first zone's index was stored, answered and closed
+    (one index open at a time): the search, that window, its answer."""
     from terrasynth_core.memo import Memo
 
     monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
@@ -184,41 +184,41 @@ def test_a_stored_index_replaced_while_closed_is_made_again(white_mountains, mon
     search = FillSearch(example, (32, 32), coarse_factor=1)
     want = search.candidates(t1, m1)
     search.candidates(t2, m2)  # closes the first zone's index
-    # Each zone's file now holds the other's index (new files, as a cache
-    # written again would be): valid indexes, but not this one.
-    files = sorted(tmp_path.glob("*.bin"))
-    assert len(files) == 2
-    swapped = [f.read_bytes() for f in reversed(files)]
-    for f, data in zip(files, swapped):
+    return search, (t1, m1), want
+
+
+def _rewrite(files, contents) -> None:
+    """New files with these contents under the old names, as the cache
+    renames them on (a new inode and time)."""
+    for f, data in zip(files, contents):
         f.unlink()
         f.write_bytes(data)
-    np.testing.assert_array_equal(search.candidates(t1, m1), want)
+
+
+def test_a_stored_index_replaced_while_closed_is_made_again(white_mountains, monkeypatch, tmp_path):
+    """The cache cleared during a run: an index closed since is built
+    again, the same, instead of mapping whatever file now has its name."""
+    search, window, want = _first_zone_closed(white_mountains, monkeypatch, tmp_path)
+    # Each zone's file now holds the other's index: valid indexes, but not this one.
+    files = sorted(tmp_path.glob("*.bin"))
+    assert len(files) == 2
+    _rewrite(files, [f.read_bytes() for f in reversed(files)])
+    np.testing.assert_array_equal(search.candidates(*window), want)
 
 
 def test_a_stored_index_written_again_while_closed_is_read_again_not_built(white_mountains, monkeypatch, tmp_path):
     """Another worker storing the same index renames a new file onto the
     old one: the closed index is read again from the cache entry (its
     digest checked), not built."""
-    from terrasynth_core.memo import Memo
-
-    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(window_index, "_OPEN", Memo(1))
-    example = white_mountains.heights[:200, :200]
-    (t1, m1), (t2, m2) = _windows_from(example, np.random.default_rng(5), 2, (32, 32), noise=3.0,
-                                       zones=((0,), (2,)))
-    search = FillSearch(example, (32, 32), coarse_factor=1)
-    want = search.candidates(t1, m1)
-    search.candidates(t2, m2)  # closes the first zone's index
-    for f in tmp_path.glob("*.bin"):
-        data = f.read_bytes()
-        f.unlink()
-        f.write_bytes(data)
+    search, window, want = _first_zone_closed(white_mountains, monkeypatch, tmp_path)
+    files = sorted(tmp_path.glob("*.bin"))
+    _rewrite(files, [f.read_bytes() for f in files])
 
     def no_build(*args, **kwargs):
         raise AssertionError("built again instead of read")
 
     monkeypatch.setattr(window_index, "build_zone_index", no_build)
-    np.testing.assert_array_equal(search.candidates(t1, m1), want)
+    np.testing.assert_array_equal(search.candidates(*window), want)
 
 
 def test_builds_are_deterministic(white_mountains):
