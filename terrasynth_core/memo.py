@@ -81,6 +81,11 @@ class Memo:
                 self._values.popitem(last=False)
         return value
 
+    def clear(self) -> None:
+        """Drop every kept value (values being made are kept when made)."""
+        with self._lock:
+            self._values.clear()
+
     def peek(self, key: Hashable):
         """The value kept for ``key`` (None when there is none), not made."""
         with self._lock:

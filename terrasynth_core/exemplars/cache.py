@@ -51,6 +51,7 @@ from ..features import FeatureGraph, FeatureMaps
 from ..features.graph import NodeTable, PathTable
 from ..io._common import atomic_outputs, open_new
 from ..features.samples import FeatureSample, SampleTable
+from . import mapped_pages
 
 #: Bump when the analysis changes, so old files are not reused.
 CACHE_VERSION = 1
@@ -182,7 +183,9 @@ class _Entry:
         side = self._folder / filename
         _check_side(side, int(size), digest, int(written[0]) if written else None)
         if side.suffix == ".npy":
-            return np.load(side, mmap_mode="r", allow_pickle=False)
+            # (Tracked, so a process over a large library can hand its
+            # pages back: mapped_pages.)
+            return mapped_pages.track(np.load(side, mmap_mode="r", allow_pickle=False))
         return side
 
 

@@ -50,6 +50,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..exemplars import mapped_pages
 from ..memo import Memo
 from .costs import ROUGHNESS_WEIGHT
 
@@ -351,6 +352,16 @@ class ZoneIndex:
 OPEN_INDEXES = 64
 
 _OPEN = Memo(OPEN_INDEXES)
+
+
+def _close_open_indexes() -> None:
+    """Close every open stored index (each is opened again when asked)."""
+    _OPEN.clear()
+
+
+# Closed with the cache's other mappings when a process holds too many of
+# their pages (an open index keeps the pages of its lists it has read).
+mapped_pages.on_release(_close_open_indexes)
 
 
 def _file_identity(path: str) -> tuple:

@@ -1,0 +1,68 @@
+"""The mapped cache pages a process holds, handed back past a budget."""
+
+import numpy as np
+import pytest
+
+from terrasynth_core.exemplars import cache, mapped_pages
+from terrasynth_core.matching import window_index
+from terrasynth_core.matching.fill_search import FillSearch
+
+needs_proc = pytest.mark.skipif(mapped_pages.file_resident() is None, reason="reads /proc/self/statm (Linux)")
+
+
+@pytest.fixture
+def releasers(monkeypatch):
+    """The releasers registered during the test alone (the fill indexes' kept)."""
+    monkeypatch.setattr(mapped_pages, "_RELEASERS", list(mapped_pages._RELEASERS))
+    return mapped_pages._RELEASERS
+
+
+def _mapped(key: str, megabytes: int) -> np.ndarray:
+    values = np.arange(megabytes * 2**18, dtype=np.float32)
+    return cache.kept_array(key, lambda: values)
+
+
+@needs_proc
+def test_released_pages_leave_the_resident_set_and_read_back_the_same():
+    array = _mapped("mapped-pages-test", 48)
+    assert isinstance(array, np.memmap)
+    total = float(array.sum(dtype=np.float64))  # every page touched
+    before = mapped_pages.file_resident()
+    mapped_pages.release()
+    after = mapped_pages.file_resident()
+    assert before - after >= 40 * 2**20
+    assert float(array.sum(dtype=np.float64)) == total
+    assert mapped_pages.file_resident() - after >= 40 * 2**20  # mapped again as read
+
+
+def test_keep_within_budget_releases_only_past_it(releasers):
+    calls = []
+    mapped_pages.on_release(lambda: calls.append(1))
+    if mapped_pages.file_resident() is None:
+        assert not mapped_pages.keep_within_budget(0)
+        return
+    assert not mapped_pages.keep_within_budget(2**60)
+    assert calls == []
+    assert mapped_pages.keep_within_budget(0)
+    assert calls == [1]
+
+
+def test_arrays_in_memory_are_not_tracked():
+    array = np.zeros(10)
+    assert mapped_pages.track(array) is array
+    assert all(m is not getattr(array, "_mmap", None) for m in mapped_pages._MAPS)
+
+
+def test_a_release_closes_the_open_indexes_and_they_answer_as_before(white_mountains, monkeypatch, tmp_path):
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    example = white_mountains.heights[:200, :200]
+    rng = np.random.default_rng(3)
+    target = example[60:92, 70:102] + rng.normal(0.0, 3.0, (32, 32)).astype(np.float32)
+    filled = np.zeros((32, 32), bool)
+    filled[:11] = True
+    search = FillSearch(example, (32, 32), coarse_factor=1)
+    want = search.candidates(target, filled)
+    assert window_index._OPEN._values
+    mapped_pages.release()
+    assert not window_index._OPEN._values
+    np.testing.assert_array_equal(search.candidates(target, filled), want)
