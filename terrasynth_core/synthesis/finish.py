@@ -74,6 +74,15 @@ def _asked_range(layout: StyleLayout, heights: np.ndarray) -> tuple[float, float
     return lo, hi
 
 
+def _onto(heights: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """``heights`` mapped linearly onto ``[lo, hi]`` (float32; a flat
+    terrain is left as it is)."""
+    span = float(heights.max() - heights.min())
+    if span <= 0:
+        return heights
+    return (lo + (heights.astype(np.float64) - heights.min()) * ((hi - lo) / span)).astype(np.float32)
+
+
 def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout, *, locked: np.ndarray | None,
                    patch_size: int, sketch: FeatureMaps | None = None) -> tuple[np.ndarray, tuple[PinError, ...], list[str]]:
     """Apply the height range, drainage, water and pins to synthesized heights.
@@ -105,11 +114,9 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
         Warnings for the result (flooded land, pins outside the selection).
     """
     notes = []
-    if layout.remap is not None and locked is None:
-        lo, hi = layout.remap[:2]
-        span = float(heights.max() - heights.min())
-        if span > 0:
-            heights = (lo + (heights.astype(np.float64) - heights.min()) * ((hi - lo) / span)).astype(np.float32)
+    ranged = layout.remap is not None and locked is None
+    if ranged:
+        heights = _onto(heights, *layout.remap[:2])
     if sketch is not None:
         water = None if controls.water is None else controls.water.mask
         heights = apply_drainage(heights, sketch.valleys, sketch.ridges, patch_size=patch_size, water=water,
@@ -118,6 +125,11 @@ def finish_heights(heights: np.ndarray, controls: Controls, layout: StyleLayout,
         # breached, the painted ridges as walls (but for a basin of painted valleys).
         heights = drain_terrain(heights, factor=grid_factor(patch_size, heights.shape), ridges=sketch.ridges,
                                 valleys=sketch.valleys, water=water, locked=locked)
+        if ranged:
+            # (The drainage cut some floors a little below the range and
+            # breached rims; mapped onto it again, linearly, every descent
+            # stays one.)
+            heights = _onto(heights, *layout.remap[:2])
     if layout.remap is None:
         # (After drainage, which may carve a valley floor below the range:
         # the knee keeps every descent a descent.)

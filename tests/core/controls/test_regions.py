@@ -89,3 +89,14 @@ def test_local_resynthesis_changes_nothing_outside(two_styles, lowland, highland
     edge = ndimage.binary_dilation(selection) & ~ndimage.binary_erosion(selection)
     slope = _slope(again.heights)
     assert np.percentile(slope[edge], 99) < 2.0 * np.percentile(slope[selection], 99)
+
+
+def test_height_range_holds_after_the_drainage(lowland, sketch_dir):
+    """The drainage cuts floors and breaches rims after the range is
+    applied; the result is still exactly on the range."""
+    from terrasynth_core.features import read_sketch
+
+    sketch = read_sketch(sketch_dir / "ring_cross_512.png").resized(SHAPE)
+    ranged = Session([lowland], sketch, shape=SHAPE, params=P,
+                     controls=Controls(height_range=(0.0, 500.0))).run().heights
+    assert ranged.min() == pytest.approx(0.0, abs=0.01) and ranged.max() == pytest.approx(500.0, abs=0.01)
