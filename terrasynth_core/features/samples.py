@@ -188,7 +188,7 @@ class NetworkSampler:
         """The sample centred on node ``node`` (None when nothing leaves the disc)."""
         nd = self.graph.nodes[node]
         c = np.array([nd.row, nd.col], dtype=float)
-        return _make_sample(c, self.graph.kind, self.crossings_from_node(c, node))
+        return make_sample(c, self.graph.kind, self.crossings_from_node(c, node))
 
     def path_samples(self, path: int, spacing: float, *, reverse: bool = False) -> list[FeatureSample]:
         """Samples every ``spacing`` cells along path ``path``, half a spacing
@@ -199,7 +199,7 @@ class NetworkSampler:
         for j in _arc_positions(pts, spacing, spacing / 2):
             idx = len(pts) - 1 - j if reverse else j
             c = forward[idx]
-            s = _make_sample(c, self.graph.kind, self.crossings_from_path(c, path, idx))
+            s = make_sample(c, self.graph.kind, self.crossings_from_path(c, path, idx))
             if s is not None:
                 out.append(s)
         return out
@@ -279,7 +279,10 @@ def _circle_exit(a: np.ndarray, b: np.ndarray, c: np.ndarray, r: float) -> np.nd
     return a + np.clip(t, 0.0, 1.0) * d
 
 
-def _make_sample(center: np.ndarray, kind: str, crossings: list[np.ndarray]) -> FeatureSample | None:
+def make_sample(center: np.ndarray, kind: str, crossings: list[np.ndarray]) -> FeatureSample | None:
+    """The sample at ``center`` whose feature leaves its disc at
+    ``crossings`` (put counter-clockwise from east, north up, as matching
+    pairs them); None without crossings."""
     if not crossings:
         return None
     pts = np.array(crossings, dtype=float)
@@ -394,7 +397,7 @@ def example_samples(graph: FeatureGraph, radius: float, spacing: float) -> list[
                 sample = sampler.node_sample(s)
             else:
                 path, index = int(sample_path[s - n_nodes]), int(sample_index[s - n_nodes])
-                sample = _make_sample(points[path][index], kind, sampler.crossings_from_path(
+                sample = make_sample(points[path][index], kind, sampler.crossings_from_path(
                     points[path][index], path, index))
             out.append(sample)
         else:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..features.graph import FeatureGraph
-from ..features.samples import FeatureSample, NetworkSampler
+from ..features.samples import FeatureSample, NetworkSampler, make_sample
 
 
 @dataclass(frozen=True, eq=False)
@@ -64,6 +64,7 @@ def breadth_first_components(graph: FeatureGraph, radius: float, *, spacing: flo
             continue
         order: list[FeatureSample] = []
         length = 0.0
+        members: list[int] = []  # the component's paths
         seen[root] = True
         queue = deque([root])
         _append(order, sampler.node_sample(root))
@@ -79,8 +80,34 @@ def breadth_first_components(graph: FeatureGraph, radius: float, *, spacing: flo
                 order.extend(sampler.path_samples(path, spacing, reverse=direction < 0))
                 _append(order, sampler.node_sample(other))
                 queue.append(other)
+                members.append(path)
+        if not order and members:
+            # The whole stroke lies inside one patch's disc, so no node or
+            # path sample has a way out of it: one patch along it.
+            order.append(_short_stroke_sample(graph, members, radius))
         components.append(Component(order, length))
     return components
+
+
+def _short_stroke_sample(graph: FeatureGraph, paths: list[int], radius: float) -> FeatureSample:
+    """The one sample of a component too short for any other: centred
+    half way along its longest path, leaving the disc both ways along the
+    component's main axis (a feature through the patch, as along a path).
+
+    A stroke shorter than the patch's radius used to give no patch at all,
+    silently: a sketch of short dashes came out as plain fill.
+    """
+    longest = max(paths, key=lambda i: graph.paths[i].length)
+    pts = np.asarray(graph.paths[longest].points, dtype=float)
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+    center = pts[min(int(np.searchsorted(arc, arc[-1] / 2)), len(pts) - 1)]
+    every = np.concatenate([np.asarray(graph.paths[i].points, dtype=float) for i in paths])
+    spread = every - every.mean(axis=0)
+    if np.ptp(every, axis=0).max() > 0:
+        axis = np.linalg.svd(spread, full_matrices=False)[2][0]
+    else:  # a dot: any axis (east-west)
+        axis = np.array([0.0, 1.0])
+    return make_sample(center, graph.kind, [center + radius * axis, center - radius * axis])
 
 
 def feature_order(graphs: Sequence[FeatureGraph], radius: float, *, spacing: float,

@@ -80,3 +80,21 @@ def test_keep_filters_after_ordering_and_raster_sorts_by_position():
     raster = feature_order([graph], RADIUS, spacing=RADIUS, raster=True)
     assert sorted(_centres(raster)) == sorted(_centres(full))
     assert _centres(raster) == sorted(_centres(full))
+
+
+def test_a_stroke_inside_one_patch_gets_one_patch_along_it():
+    """A dash shorter than the patch's radius has no node or path sample
+    with a way out of the disc; it gets one, centred on it, along it."""
+    dash = _graph("valley", [(50, 40), (53, 44)], [(0, 1)])  # 5 cells, under RADIUS
+    (component,) = breadth_first_components(dash, RADIUS, spacing=RADIUS)
+    (sample,) = component.samples
+    assert sample.patch_type == "path"
+    assert np.hypot(*(sample.center - np.array([51.5, 42.0]))) <= 1.0
+    way = np.array([3.0, 4.0]) / 5.0
+    for crossing in sample.crossings:
+        out = crossing - sample.center
+        assert np.hypot(*out) == pytest.approx(RADIUS)
+        assert abs(out @ way) == pytest.approx(RADIUS)  # along the dash
+    # A longer stroke keeps its own samples.
+    assert len(breadth_first_components(_graph("valley", [(50, 40), (50, 70)], [(0, 1)]), RADIUS,
+                                        spacing=RADIUS)[0].samples) > 1

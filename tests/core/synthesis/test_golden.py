@@ -89,10 +89,13 @@ CASES = {
 #: (matching.costs.pick_near_best), and with the drawn ridges held high and
 #: the open valleys low along their whole length (landform._StrokeSides),
 #: and with feature windows used a little further along a stroke paying a
-#: ranking cost (matching.usage.NEAR_WEIGHT; the Y keeps its bytes).
+#: ranking cost (matching.usage.NEAR_WEIGHT; the Y keeps its bytes), and
+#: with a stroke that lies inside one patch's disc getting a patch along it
+#: (order.bfs: the ring-cross's landform pass, on a 32x32 grid, now places
+#: its cross of valleys).
 GOLDEN = {
     "y_junction": "caa1ea3b5c9a28584c53cffed14c78848fc68c6a2420efce808ea2eb7a437860",
-    "ring_cross_raster": "d89cfc639d8dc400c6454ddc5c7689bbaf2291c52d7c0cdfd535e7278cd66fdd",
+    "ring_cross_raster": "05c48a9de8ea62b0ca8e6a7780e951ce7c2fa3d3cad3a9be3001e152d7419ea7",
     "styles_stamp_water_pin": "6d5437d975795a93ce5e32f4814c666b57a84c1a605036b86e86bdb451af7c9a",
 }
 
