@@ -226,6 +226,11 @@ def cmd_convert(args: argparse.Namespace) -> int:
         raise TerraSynthError(f"--texture needs a .glb output, got {out}")
     field = resolve_dem(args.input, size=args.size, band=args.band)
     _refuse_replacing(args, [out], _sources([field]))  # (the file a builtin:KEY names too)
+    if args.cell_size is not None:
+        if field.cell_size is not None:
+            raise TerraSynthError(f"{args.input} has cells of {field.cell_size[0]:g} x {field.cell_size[1]:g} m "
+                                  f"already; --cell-size is for an input without a cell size")
+        field = field.with_heights(field.heights, cell_size=(args.cell_size, args.cell_size))
     if is_mesh:
         texture = None
         if args.texture:
@@ -238,6 +243,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
     else:
         save_dem(field, out, cog=args.cog)
     print(f"wrote {out} ({field.shape[0]} x {field.shape[1]})", file=sys.stderr)
+    _note_assumed_cell(field, out)
     if out.suffix.lower() == ".ter" and field.nodata_count:
         print(f"terrasynth-cli: note: Terragen has no nodata: {field.nodata_count} nodata cells of {args.input} "
               f"were written as the minimum height {field.min:g} m", file=sys.stderr)
@@ -741,6 +747,18 @@ def _save_result(result, out: Path, *, cog: bool = False) -> None:
         save_mesh(field, out)
     else:
         save_dem(field, out, cog=cog)
+    _note_assumed_cell(field, out)
+
+
+def _note_assumed_cell(field, out: Path) -> None:
+    """Say so when ``out``'s format had to state a cell size ``field`` does not have."""
+    from ..io import assumed_cell_size
+
+    cell = assumed_cell_size(field, out)
+    if cell is not None:
+        print(f"terrasynth-cli: note: the heights have no cell size, but {out.suffix} states one: "
+              f"written with cells of {cell:g} m (convert --cell-size M states it; .tif and .npy "
+              f"can leave it unknown)", file=sys.stderr)
 
 
 def _summary(result, out: Path, said: list[str]) -> None:
@@ -847,6 +865,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("output")
     _add_overwrite(p)
     p.add_argument("--size", type=parse_size, help="ROWSxCOLS of a headerless .r16/.r32 input")
+    p.add_argument("--cell-size", type=positive_metres, metavar="M",
+                   help="the input's cell size in metres, for an input without one (.npy, .png, .r16)")
     p.add_argument("--vertical-scale", type=float, default=1.0, help="height multiplier for meshes")
     p.add_argument("--triangles", type=positive_count, metavar="N",
                    help="meshes: simplify to about N triangles (fewer where the ground is flat)")

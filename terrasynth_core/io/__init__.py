@@ -161,6 +161,23 @@ WRITE_EXTENSIONS: tuple[str, ...] = tuple(
 #: Extensions :func:`save_mesh` writes.
 MESH_EXTENSIONS: tuple[str, ...] = tuple(_MESH_WRITERS)
 
+#: Cell sizes (metres) the writers of formats that must state one put down
+#: for a field without one; other formats leave it unknown.
+_ASSUMED_CELL = {"terragen": terragen.DEFAULT_SCALE, "esri-ascii": esri_ascii.DEFAULT_CELL}
+
+
+def assumed_cell_size(field: HeightField, path: str | PathLike) -> float | None:
+    """The cell size (metres) writing ``field`` to ``path`` states though
+    ``field`` has none (a Terragen file's scale, an ESRI grid's
+    ``cellsize``, a mesh's spacing); None when the field has one or the
+    format can leave it unknown."""
+    if field.cell_size is not None:
+        return None
+    suffix = Path(path).suffix.lower()
+    if suffix in _MESH_WRITERS:
+        return mesh.DEFAULT_SPACING
+    return _ASSUMED_CELL.get(_FORMAT_NAMES.get(suffix))
+
 
 def format_name(path: str | PathLike) -> str:
     """Short name of the DEM format of ``path`` from its extension.

@@ -38,6 +38,9 @@ HEADER_KEYS = (
 #: Nodata value written unless a valid height happens to equal it.
 NODATA_VALUE = -9999.0
 
+#: ``cellsize`` written for a field without a cell size (or a map placement).
+DEFAULT_CELL = 1.0
+
 
 def _split_header(text: str, path: Path) -> tuple[dict[str, float], str]:
     """Header entries (keys lower-case) and the text of the grid values."""
@@ -197,7 +200,7 @@ def write_esri_ascii(field: HeightField, fh: BinaryIO) -> None:
         x_step, y_step = geo.x_step, geo.y_step
         x_corner, y_corner = geo.x_origin, geo.y_origin - rows * geo.y_step
     else:
-        y_step, x_step = field.cell_size or (1.0, 1.0)
+        y_step, x_step = field.cell_size or (DEFAULT_CELL, DEFAULT_CELL)
         x_corner = y_corner = 0.0
     heights = field.heights
     nodata = field.nodata

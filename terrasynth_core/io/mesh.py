@@ -24,6 +24,9 @@ CHUNK = 1 << 18
 #: Significant digits of OBJ coordinates: float32 precision.
 OBJ_DIGITS = 7
 
+#: Vertex spacing (metres) of a field without a cell size.
+DEFAULT_SPACING = 1.0
+
 _STL_TRIANGLE = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])
 _PLY_FACE = np.dtype([("count", "u1"), ("indices", "<i4", (3,))])
 
@@ -64,7 +67,7 @@ def mesh_arrays(
     rows, cols = heights.shape
     if rows < 2 or cols < 2:
         raise ParamsError(f"step {step} leaves a {rows} x {cols} grid from {field.shape}; need at least 2 x 2")
-    dy, dx = field.cell_size or (1.0, 1.0)
+    dy, dx = field.cell_size or (DEFAULT_SPACING, DEFAULT_SPACING)
     valid = ~np.isnan(heights)
     n_vertices = int(valid.sum())
 
@@ -170,7 +173,7 @@ def texture_coordinates(vertices: np.ndarray, field: HeightField) -> np.ndarray:
     ndarray of float32, shape (n, 2)
     """
     rows, cols = field.shape
-    dy, dx = field.cell_size or (1.0, 1.0)
+    dy, dx = field.cell_size or (DEFAULT_SPACING, DEFAULT_SPACING)
     u = (vertices[:, 0] / dx + 0.5) / cols
     v = ((rows - 1) - vertices[:, 1] / dy + 0.5) / rows
     return np.stack([u, v], axis=1).astype(np.float32)

@@ -185,6 +185,26 @@ def test_convert_headerless_r32_needs_size(capsys, tmp_path):
     assert info["shape"] == [100, 150] and info["cell_size"] is None
 
 
+
+def test_convert_says_what_cell_size_a_format_states_for_heights_without_one(capsys, tmp_path):
+    heights = np.linspace(0.0, 900.0, 60 * 80, dtype=np.float32).reshape(60, 80)
+    bare = tmp_path / "bare.npy"
+    np.save(bare, heights)
+    code, _, err = run(capsys, "convert", bare, tmp_path / "bare.asc")
+    assert code == EXIT_OK, err
+    assert "no cell size" in err and "cells of 1 m" in err
+    code, _, err = run(capsys, "convert", bare, tmp_path / "bare.ter")
+    assert code == EXIT_OK and "cells of 30 m" in err
+    code, _, err = run(capsys, "convert", bare, tmp_path / "bare.tif")
+    assert code == EXIT_OK and "no cell size" not in err
+    # --cell-size states it ...
+    code, _, err = run(capsys, "convert", bare, tmp_path / "stated.ter", "--cell-size", "25")
+    assert code == EXIT_OK and "no cell size" not in err
+    assert info_json(capsys, tmp_path / "stated.ter")["cell_size"] == pytest.approx([25.0, 25.0], abs=0.01)
+    # ... for an input without one only.
+    code, _, err = run(capsys, "convert", tmp_path / "stated.ter", tmp_path / "again.asc", "--cell-size", "10")
+    assert code == EXIT_BAD_INPUT and "already" in err and not (tmp_path / "again.asc").exists()
+
 def test_convert_to_ply_mesh(capsys, crop_256, tmp_path):
     out = tmp_path / "crop.ply"
     code, _, err = run(capsys, "convert", crop_256, out, "--vertical-scale", "2")
