@@ -391,18 +391,29 @@ class FillSearch(_WindowSearch):
             window on offer for a small example.
         """
         found = self.nearest(target, filled)
-        return self.positions if found is None else found[0]
+        return self.positions if found is None else found
 
-    def nearest(self, target: np.ndarray, filled: np.ndarray) -> tuple[np.ndarray, float] | None:
+    def nearest(self, target: np.ndarray, filled: np.ndarray, *, distances: bool = False):
         """The index's shortlist for this output window (``filled`` not
-        empty: a window with nothing in it has no zone to match) and its
-        nearest distance (what :meth:`best` would score, and how well this
-        example can match at all); None for a small example scored whole."""
+        empty: a window with nothing in it has no zone to match), with
+        ``distances`` also its nearest distance (``inf`` for an empty
+        shortlist); None for a small example scored whole."""
         if self.indexes is None:
             return None
-        positions, dist = self.indexes.get(zone_of(filled, self.overlap)).query(
-            target, filled, self.shortlist, distances=True)
+        found = self.indexes.get(zone_of(filled, self.overlap)).query(target, filled, self.shortlist,
+                                                                      distances=distances)
+        if not distances:
+            return found
+        positions, dist = found
         return positions, float(dist[0]) if dist.size else float("inf")
+
+    def nearest_cluster(self, target: np.ndarray, filled: np.ndarray) -> float | None:
+        """How near this example's windows come to the output window, by
+        the nearest centre of its index (:meth:`ZoneIndex.cluster_distance`);
+        None for a small example scored whole."""
+        if self.indexes is None:
+            return None
+        return self.indexes.get(zone_of(filled, self.overlap)).cluster_distance(target, filled)
 
     def _refine_radius(self) -> int:
         # The grid windows are scored exactly at full resolution, so a pick

@@ -281,6 +281,15 @@ class ZoneIndex:
             return self.positions[ids[0][found]], dist[0][found]
         return self.positions[ids[0][found]]
 
+    def cluster_distance(self, target: np.ndarray, filled: np.ndarray) -> float:
+        """Squared distance from a partly filled output window to the
+        nearest of the index's k-means centres: how near its windows come,
+        roughly, read from the centres faiss holds in memory (no list, no
+        page of the file, is read; :meth:`query` reads ``NPROBE`` lists)."""
+        _single_thread()
+        dist, _ = self._faiss().quantizer.search(self.query_vector(target, filled), 1)
+        return float(dist[0, 0])
+
     def query_vector(self, target: np.ndarray, filled: np.ndarray) -> np.ndarray:
         """The index vector of an output window, shape (1, PCA_DIMS + 2),
         float32 (its roughness coordinate 0: the prior is the example

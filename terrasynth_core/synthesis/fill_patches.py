@@ -47,27 +47,42 @@ def _search(detail: np.ndarray, window: tuple[int, int], feature_mask, coarse: i
 #: style was searched for every window, so a window's time, and the pages
 #: of the library it reads, grew with the library (a 1024x1024 run in
 #: tiles: 15 s on 2 DEMs, 62-68 s on 20).  Past this many, a window is
-#: searched in the examples whose index holds its nearest windows (each
-#: index asked once, a fraction of a millisecond; the shortlists are
-#: reused).  The built-ins' styles have fewer: their runs are unchanged.
+#: searched in the examples whose indexes' nearest k-means centres are
+#: nearest to it (each index's centres asked once, from memory: a window
+#: reads the lists and windows of these examples alone, however large the
+#: library).  The built-ins' styles have fewer: their runs are unchanged.
 SEARCHED_EXAMPLES = 8
+
+#: Examples whose indexes are asked for their nearest windows, those whose
+#: centres come nearest: of them, the :data:`SEARCHED_EXAMPLES` with the
+#: nearest windows are searched.
+PROBED_EXAMPLES = 2 * SEARCHED_EXAMPLES
 
 
 def _nearest_examples(searches: list, members: list[int], target: np.ndarray, filled: np.ndarray
                       ) -> tuple[list[int], dict]:
     """The examples to search for this window (``filled`` not empty), in
-    ``members``' order, and their shortlists: those whose indexes hold the
-    windows nearest to it, :data:`SEARCHED_EXAMPLES` in all, and every
+    ``members``' order, and their shortlists: those whose indexes' centres
+    come nearest to it, :data:`SEARCHED_EXAMPLES` in all, and every
     example too small for an index (scored whole); however many of those
-    there are, at least half as many indexed ones."""
-    nearest = {ei: searches[ei].nearest(target, filled) for ei in members}
-    indexed = [ei for ei in members if nearest[ei] is not None]
-    small = [ei for ei in members if nearest[ei] is None]
+    there are, at least half as many indexed ones.
+
+    By the centres, not the nearest windows: asking every example's index
+    for its nearest windows read a few megabytes of each one's lists per
+    window, so a process's resident pages grew with the library (a tiled
+    worker over 32 DEMs, its mapped pages handed back past the budget
+    after every window: 1.1 GB against 0.8 over 20).
+    """
+    centre = {ei: searches[ei].nearest_cluster(target, filled) for ei in members}
+    indexed = [ei for ei in members if centre[ei] is not None]
+    small = [ei for ei in members if centre[ei] is None]
     room = max(SEARCHED_EXAMPLES - len(small), SEARCHED_EXAMPLES // 2)
     # (Ties go to the earlier example: the same choice on every process.)
-    kept = set(sorted(indexed, key=lambda ei: (nearest[ei][1], ei))[:room]) | set(small)
+    asked = sorted(indexed, key=lambda ei: (centre[ei], ei))[:PROBED_EXAMPLES]
+    found = {ei: searches[ei].nearest(target, filled, distances=True) for ei in asked}
+    kept = set(sorted(asked, key=lambda ei: (found[ei][1], ei))[:room]) | set(small)
     chosen = [ei for ei in members if ei in kept]
-    return chosen, {ei: None if nearest[ei] is None else nearest[ei][0] for ei in chosen}
+    return chosen, {ei: None if ei in small else found[ei][0] for ei in chosen}
 
 
 def window_examples(layout: StyleLayout, bbox) -> tuple[list[int], float]:

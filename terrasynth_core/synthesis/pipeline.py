@@ -21,6 +21,7 @@ from threadpoolctl import ThreadpoolController
 
 from ..controls.layout import StyleLayout
 from ..controls.options import Controls
+from ..exemplars.mapped_pages import keep_within_budget
 from ..features.samples import FeatureSample
 from ..matching.usage import UsageRegistry, window_cap
 from ..order.bfs import feature_order
@@ -122,9 +123,14 @@ def run_pipeline(state: RunState) -> Iterator[object]:
         warm_up(state.processes, p.patch_size)
         state.warmed = state.processes > 1
     with _blas_threads().limit(limits=1, user_api="blas"):
+        # (Between stages, and after every patch, the mapped pages of a
+        # large library are handed back past their budget: mapped_pages.)
         yield from landform_stage(state)
+        keep_within_budget()
         samples, pools = yield from analyse_stage(state)
+        keep_within_budget()
         yield from feature_stage(state, samples, pools)
+        keep_within_budget()
         yield from fill_stage(state)
         yield from finish_stage(state, t_start)
 
@@ -285,6 +291,7 @@ def feature_stage(state: RunState, samples: list[FeatureSample], pools: dict):
             if rec is not None:
                 usage.record(rec.example, rec.source, rec.bbox, sample.center)
                 yield state.placed(rec, total)
+            keep_within_budget()
     for (kind, want, got), n in sorted(fallbacks.items()):
         state.warnings.append(
             f"no degree-{want} {kind} patch in the examples: used degree {got} instead ({n} patch(es))"

@@ -126,7 +126,10 @@ def test_a_window_is_searched_in_the_examples_nearest_to_it(white_mountains, mon
     """A library larger than ``SEARCHED_EXAMPLES``: each window is searched
     only in the examples whose indexes hold its nearest windows, the one
     it was cut from among them, and the answer is what a search over just
-    those examples gives (their shortlists are not fetched twice)."""
+    those examples gives (their shortlists are not fetched twice).  Only
+    the ``PROBED_EXAMPLES`` whose index centres come nearest are asked for
+    their windows (a window reads so many indexes' lists, however large
+    the library)."""
     from terrasynth_core.synthesis import fill_patches
 
     monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
@@ -147,6 +150,15 @@ def test_a_window_is_searched_in_the_examples_nearest_to_it(white_mountains, mon
     direct = fill_patches.search_fill(*args, chosen, 100.0, target, filled, rng(0), patch_size=32, k=4)
     assert pruned == direct
     assert any(ei == 7 for _, _, _, ei, _, _ in pruned)
+    # Fewer indexes asked than the library holds: the nearest by centre.
+    asked = []
+    nearest = FillSearch.nearest
+    monkeypatch.setattr(FillSearch, "nearest", lambda self, *a, **kw: asked.append(self) or nearest(self, *a, **kw))
+    monkeypatch.setattr(fill_patches, "PROBED_EXAMPLES", 4)
+    chosen, _ = fill_patches._nearest_examples(searches, members, target, filled)
+    assert len(asked) == 4 and len(chosen) == 4 and 7 in chosen
+    by_centre = sorted(members, key=lambda ei: searches[ei].nearest_cluster(target, filled))
+    assert set(chosen) == set(by_centre[:4])
     # Fewer examples than the limit: every one is searched, as before.
     few = fill_patches.search_fill(*args, members[:3], 100.0, target, filled, rng(0), patch_size=32, k=4)
     assert {ei for _, _, _, ei, _, _ in few} <= {0, 1, 2}
