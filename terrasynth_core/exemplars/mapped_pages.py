@@ -5,10 +5,10 @@ The cache maps its large arrays and the fill indexes (:mod:`.cache`), so a
 process holds file pages, not copies of the examples.  But a page once
 touched stays in the process's resident set until the mapping goes or the
 kernel needs the memory, and the resident set is what Dask's memory
-monitor (like ``ps`` and ``top``) counts.  A fill window asks every example
-of its style, so a tiled run's worker over 20 DEMs came to hold 1.4 GB
-resident where it held 0.57 GB over 2, its own (private) memory 0.17 GB
-either way.
+monitor (like ``ps`` and ``top``) counts.  A fill window reads pages of
+many examples of its style, so a tiled run's worker over 20 DEMs came to
+hold 1.4 GB resident where it held 0.57 GB over 2, its own (private)
+memory 0.17 GB either way.
 
 Past :data:`MAPPED_BUDGET` of file pages, :func:`keep_within_budget` hands
 them back to the page cache: ``madvise(MADV_DONTNEED)`` on every mapped
@@ -40,6 +40,7 @@ _MAPS: weakref.WeakSet = weakref.WeakSet()  # the mmap objects of the tracked ar
 _RELEASERS: list[Callable[[], None]] = []
 _LOCK = threading.Lock()
 _PAGE = mmap.PAGESIZE
+_floor = 0  # file-backed resident bytes just after the last release
 
 
 def track(array: np.ndarray) -> np.ndarray:
@@ -47,7 +48,8 @@ def track(array: np.ndarray) -> np.ndarray:
     ``np.load(..., mmap_mode="r")`` gives); any other array is returned as
     it is.  The mapping is forgotten when its last array goes."""
     mapped = getattr(array, "_mmap", None)
-    if isinstance(mapped, mmap.mmap):
+    # (Read-only maps alone: advice on a copy-on-write one would drop its writes.)
+    if isinstance(mapped, mmap.mmap) and getattr(array, "mode", None) == "r":
         with _LOCK:
             _MAPS.add(mapped)
     return array
@@ -64,7 +66,9 @@ def release() -> None:
     """Hand every tracked mapping's pages back to the page cache, and call
     the registered releasers.  Safe while other threads read the arrays:
     a page read after this is mapped again, with the same bytes (the files
-    are read only)."""
+    are read only).  A releaser must be safe too: the fill indexes' closes
+    an index another thread may hold, which that thread keeps open until
+    it lets it go."""
     with _LOCK:
         maps, releasers = list(_MAPS), list(_RELEASERS)
     advise = getattr(mmap, "MADV_DONTNEED", None)
@@ -100,9 +104,14 @@ def keep_within_budget(budget: int | None = None) -> bool:
     bool
         Whether the pages were released.
     """
+    global _floor
     used = file_resident()
-    if used is None or used <= (MAPPED_BUDGET if budget is None else budget):
+    limit = MAPPED_BUDGET if budget is None else budget
+    # Pages a release cannot hand back (the libraries', other mappings')
+    # raise the mark, so they do not make every call release again.
+    if used is None or used <= max(limit, _floor + limit // 2):
         return False
     release()
+    _floor = file_resident() or 0
     return True
 

@@ -284,10 +284,13 @@ class ZoneIndex:
     def cluster_distance(self, target: np.ndarray, filled: np.ndarray) -> float:
         """Squared distance from a partly filled output window to the
         nearest of the index's k-means centres: how near its windows come,
-        roughly, read from the centres faiss holds in memory (no list, no
-        page of the file, is read; :meth:`query` reads ``NPROBE`` lists)."""
+        roughly.  The centres are a few kB of each index (:meth:`query`
+        reads ``NPROBE`` lists besides)."""
         _single_thread()
-        dist, _ = self._faiss().quantizer.search(self.query_vector(target, filled), 1)
+        # (The index is held here: faiss's quantizer does not keep its index
+        # alive, and another thread may close it meanwhile, mapped_pages.)
+        index = self._faiss()
+        dist, _ = index.quantizer.search(self.query_vector(target, filled), 1)
         return float(dist[0, 0])
 
     def query_vector(self, target: np.ndarray, filled: np.ndarray) -> np.ndarray:

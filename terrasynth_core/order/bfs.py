@@ -90,23 +90,40 @@ def breadth_first_components(graph: FeatureGraph, radius: float, *, spacing: flo
 
 
 def _short_stroke_sample(graph: FeatureGraph, paths: list[int], radius: float) -> FeatureSample:
-    """The one sample of a component too short for any other: centred
-    half way along its longest path, leaving the disc both ways along the
-    component's main axis (a feature through the patch, as along a path).
+    """The one sample of a component too short for any other.
 
     A stroke shorter than the patch's radius used to give no patch at all,
-    silently: a sketch of short dashes came out as plain fill.
+    silently: a sketch of short dashes came out as plain fill.  A branched
+    one (a small Y or cross) is centred on its branch node and leaves the
+    disc once along each of the node's arms (towards the arm's far end),
+    so it keeps its degree; a dash is centred half way along its longest
+    path and leaves the disc both ways along its main axis.
     """
+    ends = [(graph.paths[i].start, graph.paths[i].end) for i in paths]
+    degree = np.bincount(np.ravel(ends))
+    if degree.max() >= 3:
+        node = int(np.argmax(degree))  # (the first of the highest degree: the same every time)
+        nd = graph.nodes[node]
+        center = np.array([nd.row, nd.col], dtype=float)
+        ways = []
+        for i, (a, b) in zip(paths, ends):
+            if node in (a, b):
+                pts = np.asarray(graph.paths[i].points, dtype=float)
+                far = (pts[-1] if a == node else pts[0]) - center
+                if np.hypot(*far) > 0:
+                    ways.append(center + radius * far / np.hypot(*far))
+        if len(ways) >= 3:
+            return make_sample(center, graph.kind, ways)
     longest = max(paths, key=lambda i: graph.paths[i].length)
     pts = np.asarray(graph.paths[longest].points, dtype=float)
     arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
-    center = pts[min(int(np.searchsorted(arc, arc[-1] / 2)), len(pts) - 1)]
+    center = pts[int(np.searchsorted(arc, arc[-1] / 2))]
     every = np.concatenate([np.asarray(graph.paths[i].points, dtype=float) for i in paths])
-    spread = every - every.mean(axis=0)
-    if np.ptp(every, axis=0).max() > 0:
-        axis = np.linalg.svd(spread, full_matrices=False)[2][0]
-    else:  # a dot: any axis (east-west)
-        axis = np.array([0.0, 1.0])
+    d = every - every.mean(axis=0)
+    # The main axis, its angle from east, in closed form (no LAPACK: the
+    # same floats on every machine); a dot, with no axis, runs east-west.
+    angle = 0.5 * np.arctan2(2.0 * float(d[:, 0] @ d[:, 1]), float(d[:, 1] @ d[:, 1] - d[:, 0] @ d[:, 0]))
+    axis = np.array([np.sin(angle), np.cos(angle)])
     return make_sample(center, graph.kind, [center + radius * axis, center - radius * axis])
 
 

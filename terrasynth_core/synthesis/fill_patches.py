@@ -47,28 +47,28 @@ def _search(detail: np.ndarray, window: tuple[int, int], feature_mask, coarse: i
 #: style was searched for every window, so a window's time, and the pages
 #: of the library it reads, grew with the library (a 1024x1024 run in
 #: tiles: 15 s on 2 DEMs, 62-68 s on 20).  Past this many, a window is
-#: searched in the examples whose indexes' nearest k-means centres are
-#: nearest to it (each index's centres asked once, from memory: a window
-#: reads the lists and windows of these examples alone, however large the
-#: library).  The built-ins' styles have fewer: their runs are unchanged.
+#: searched in those of :data:`PROBED_EXAMPLES` with its nearest windows.
+#: The built-ins' styles have fewer: their runs are unchanged.
 SEARCHED_EXAMPLES = 8
 
-#: Examples whose indexes are asked for their nearest windows, those whose
-#: centres come nearest: of them, the :data:`SEARCHED_EXAMPLES` with the
-#: nearest windows are searched.
+#: Examples whose indexes are asked for a window's nearest windows: those
+#: whose index centres come nearest to it (each index's centres asked
+#: once, a few kB), so a window reads the lists of this many examples
+#: however large the library.
 PROBED_EXAMPLES = 2 * SEARCHED_EXAMPLES
 
 
 def _nearest_examples(searches: list, members: list[int], target: np.ndarray, filled: np.ndarray
                       ) -> tuple[list[int], dict]:
     """The examples to search for this window (``filled`` not empty), in
-    ``members``' order, and their shortlists: those whose indexes' centres
-    come nearest to it, :data:`SEARCHED_EXAMPLES` in all, and every
-    example too small for an index (scored whole); however many of those
-    there are, at least half as many indexed ones.
+    ``members``' order, and their shortlists: of the :data:`PROBED_EXAMPLES`
+    whose indexes' centres come nearest to it, those whose indexes hold its
+    nearest windows, :data:`SEARCHED_EXAMPLES` in all, and every example
+    too small for an index (scored whole); however many of those there
+    are, at least half as many indexed ones.
 
-    By the centres, not the nearest windows: asking every example's index
-    for its nearest windows read a few megabytes of each one's lists per
+    First by the centres: asking every example's index for its nearest
+    windows read a few megabytes of each one's lists per
     window, so a process's resident pages grew with the library (a tiled
     worker over 32 DEMs, its mapped pages handed back past the budget
     after every window: 1.1 GB against 0.8 over 20).

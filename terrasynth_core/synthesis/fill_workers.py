@@ -134,9 +134,9 @@ def fill_window(kit: FillKit, task: WindowTask) -> tuple[Canvas, PatchRecord]:
     rec = choose_fill(canvas, local, options, kit.detail, task.level, index=task.index, patch_size=kit.patch_size,
                       rng=rng)
     canvas.blend(local)
-    # A window reads every example of its style: over a large library the
-    # mapped pages it touched are handed back past the budget, here and
-    # in each worker process alike.
+    # A window reads pages of many examples of its style: over a large
+    # library the mapped pages it touched are handed back past the budget,
+    # here and in each worker process alike.
     keep_within_budget()
     return canvas, replace(rec, bbox=task.bbox)
 

@@ -48,9 +48,19 @@ def test_keep_within_budget_releases_only_past_it(releasers):
 
 
 def test_arrays_in_memory_are_not_tracked():
+    before = len(mapped_pages._MAPS)
     array = np.zeros(10)
     assert mapped_pages.track(array) is array
-    assert all(m is not getattr(array, "_mmap", None) for m in mapped_pages._MAPS)
+    assert len(mapped_pages._MAPS) == before
+
+
+def test_pages_it_cannot_hand_back_do_not_make_every_call_release(releasers, monkeypatch):
+    calls = []
+    mapped_pages.on_release(lambda: calls.append(1))
+    monkeypatch.setattr(mapped_pages, "_floor", 0)
+    monkeypatch.setattr(mapped_pages, "file_resident", lambda: 600)  # nothing released: stays at 600
+    assert [mapped_pages.keep_within_budget(500) for _ in range(3)] == [True, False, False]
+    assert calls == [1]
 
 
 def test_a_release_closes_the_open_indexes_and_they_answer_as_before(white_mountains, monkeypatch, tmp_path):
@@ -66,3 +76,26 @@ def test_a_release_closes_the_open_indexes_and_they_answer_as_before(white_mount
     mapped_pages.release()
     assert not window_index._OPEN._values
     np.testing.assert_array_equal(search.candidates(target, filled), want)
+
+
+def test_an_index_closed_by_another_thread_during_a_query_still_answers(white_mountains, monkeypatch, tmp_path):
+    """A release (another thread's) between opening an index and asking
+    its centres: the index asked stays alive until the answer."""
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    example = white_mountains.heights[:200, :200]
+    target = np.ascontiguousarray(example[60:92, 70:102])
+    filled = np.zeros((32, 32), bool)
+    filled[:11] = True
+    search = FillSearch(example, (32, 32), coarse_factor=1)
+    want = search.nearest_cluster(target, filled)
+    query_vector = window_index.ZoneIndex.query_vector
+
+    def released(self, *args):
+        mapped_pages.release()
+        import gc
+        gc.collect()
+        return query_vector(self, *args)
+
+    monkeypatch.setattr(window_index.ZoneIndex, "query_vector", released)
+    for _ in range(3):
+        assert search.nearest_cluster(target, filled) == want

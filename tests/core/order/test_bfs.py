@@ -98,3 +98,14 @@ def test_a_stroke_inside_one_patch_gets_one_patch_along_it():
     # A longer stroke keeps its own samples.
     assert len(breadth_first_components(_graph("valley", [(50, 40), (50, 70)], [(0, 1)]), RADIUS,
                                         spacing=RADIUS)[0].samples) > 1
+
+
+def test_a_small_branched_stroke_keeps_its_degree():
+    """A cross of 3-cell arms, inside one disc: one branch sample on its
+    node, one crossing along each arm."""
+    cross = _graph("ridge", [(50, 50), (47, 50), (50, 53), (53, 50), (50, 47)], [(0, 1), (0, 2), (0, 3), (0, 4)])
+    (component,) = breadth_first_components(cross, RADIUS, spacing=RADIUS)
+    (sample,) = component.samples
+    assert sample.degree == 4 and tuple(sample.center) == (50.0, 50.0)
+    ways = sorted(tuple(np.round((c - sample.center) / RADIUS, 6)) for c in sample.crossings)
+    assert ways == [(-1.0, 0.0), (0.0, -1.0), (0.0, 1.0), (1.0, 0.0)]
