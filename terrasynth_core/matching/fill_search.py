@@ -393,27 +393,17 @@ class FillSearch(_WindowSearch):
         found = self.nearest(target, filled)
         return self.positions if found is None else found
 
-    def nearest(self, target: np.ndarray, filled: np.ndarray, *, distances: bool = False):
+    def nearest(self, target: np.ndarray, filled: np.ndarray) -> np.ndarray | None:
         """The index's shortlist for this output window (``filled`` not
-        empty: a window with nothing in it has no zone to match), with
-        ``distances`` also its nearest distance (``inf`` for an empty
-        shortlist); None for a small example scored whole."""
-        if self.indexes is None:
-            return None
-        found = self.indexes.get(zone_of(filled, self.overlap)).query(target, filled, self.shortlist,
-                                                                      distances=distances)
-        if not distances:
-            return found
-        positions, dist = found
-        return positions, float(dist[0]) if dist.size else float("inf")
+        empty: a window with nothing in it has no zone to match); None for
+        a small example scored whole."""
+        zone = self.zone_index(filled)
+        return None if zone is None else zone.query(target, filled, self.shortlist)
 
-    def nearest_cluster(self, target: np.ndarray, filled: np.ndarray) -> float | None:
-        """How near this example's windows come to the output window, by
-        the nearest centre of its index (:meth:`ZoneIndex.cluster_distance`);
-        None for a small example scored whole."""
-        if self.indexes is None:
-            return None
-        return self.indexes.get(zone_of(filled, self.overlap)).cluster_distance(target, filled)
+    def zone_index(self, filled: np.ndarray) -> ZoneIndex | None:
+        """The index of the zone ``filled`` makes (not empty); None for a
+        small example scored whole."""
+        return None if self.indexes is None else self.indexes.get(zone_of(filled, self.overlap))
 
     def _refine_radius(self) -> int:
         # The grid windows are scored exactly at full resolution, so a pick

@@ -251,8 +251,7 @@ class ZoneIndex:
             raise ValueError(f"{path} was replaced while it was read")
         return index
 
-    def query(self, target: np.ndarray, filled: np.ndarray, count: int, *,
-              distances: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+    def query(self, target: np.ndarray, filled: np.ndarray, count: int) -> np.ndarray:
         """Indexed windows nearest to a partly filled output window.
 
         Parameters
@@ -262,35 +261,38 @@ class ZoneIndex:
         filled : ndarray of bool, shape (h, w)
         count : int
             Shortlist length.
-        distances : bool
-            Also give each one's squared distance in the index (half of
-            it approximates the search's score, see the module notes).
 
         Returns
         -------
         ndarray of int32, shape (m, 2), m <= count
             Top-left corners of the shortlisted windows, nearest first.
-        ndarray of float32, shape (m,)
-            Their distances, with ``distances``.
         """
+        return self.search(self.query_vector(target, filled), count)
+
+    def search(self, vector: np.ndarray, count: int, *,
+               distances: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """:meth:`query` for a window's vector (:meth:`query_vector`), when
+        the caller has it already; with ``distances`` also each window's
+        squared distance in the index (ndarray of float32, shape (m,); half
+        of it approximates the search's score, see the module notes)."""
         _single_thread()
         k = min(count, self.positions.shape[0])
-        dist, ids = self._faiss().search(self.query_vector(target, filled), k)
+        dist, ids = self._faiss().search(vector, k)
         found = ids[0] >= 0
         if distances:
             return self.positions[ids[0][found]], dist[0][found]
         return self.positions[ids[0][found]]
 
-    def cluster_distance(self, target: np.ndarray, filled: np.ndarray) -> float:
-        """Squared distance from a partly filled output window to the
-        nearest of the index's k-means centres: how near its windows come,
-        roughly.  The centres are a few kB of each index (:meth:`query`
-        reads ``NPROBE`` lists besides)."""
+    def cluster_distance(self, vector: np.ndarray) -> float:
+        """Squared distance from a window's vector (:meth:`query_vector`)
+        to the nearest of the index's k-means centres: how near its windows
+        come, roughly.  The centres are a few kB of each index
+        (:meth:`search` reads ``NPROBE`` lists besides)."""
         _single_thread()
         # (The index is held here: faiss's quantizer does not keep its index
         # alive, and another thread may close it meanwhile, mapped_pages.)
         index = self._faiss()
-        dist, _ = index.quantizer.search(self.query_vector(target, filled), 1)
+        dist, _ = index.quantizer.search(vector, 1)
         return float(dist[0, 0])
 
     def query_vector(self, target: np.ndarray, filled: np.ndarray) -> np.ndarray:

@@ -73,14 +73,16 @@ def _nearest_examples(searches: list, members: list[int], target: np.ndarray, fi
     worker over 32 DEMs, its mapped pages handed back past the budget
     after every window: 1.1 GB against 0.8 over 20).
     """
-    centre = {ei: searches[ei].nearest_cluster(target, filled) for ei in members}
-    indexed = [ei for ei in members if centre[ei] is not None]
-    small = [ei for ei in members if centre[ei] is None]
+    zones = {ei: searches[ei].zone_index(filled) for ei in members}
+    indexed = [ei for ei in members if zones[ei] is not None]
+    small = [ei for ei in members if zones[ei] is None]
     room = max(SEARCHED_EXAMPLES - len(small), SEARCHED_EXAMPLES // 2)
+    vectors = {ei: zones[ei].query_vector(target, filled) for ei in indexed}  # (each index's own axes)
     # (Ties go to the earlier example: the same choice on every process.)
-    asked = sorted(indexed, key=lambda ei: (centre[ei], ei))[:PROBED_EXAMPLES]
-    found = {ei: searches[ei].nearest(target, filled, distances=True) for ei in asked}
-    kept = set(sorted(asked, key=lambda ei: (found[ei][1], ei))[:room]) | set(small)
+    asked = sorted(indexed, key=lambda ei: (zones[ei].cluster_distance(vectors[ei]), ei))[:PROBED_EXAMPLES]
+    found = {ei: zones[ei].search(vectors[ei], searches[ei].shortlist, distances=True) for ei in asked}
+    nearest = {ei: float(dist[0]) if dist.size else float("inf") for ei, (_, dist) in found.items()}
+    kept = set(sorted(asked, key=lambda ei: (nearest[ei], ei))[:room]) | set(small)
     chosen = [ei for ei in members if ei in kept]
     return chosen, {ei: None if ei in small else found[ei][0] for ei in chosen}
 

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from terrasynth_core.matching.costs import ROUGHNESS_WEIGHT
+from terrasynth_core.matching import window_index
 from terrasynth_core.matching.fill_search import FftFillSearch, FillSearch, roughness_prior
 
 SEARCHES = pytest.mark.parametrize("search_class", [FillSearch, FftFillSearch])
@@ -152,12 +153,16 @@ def test_a_window_is_searched_in_the_examples_nearest_to_it(white_mountains, mon
     assert any(ei == 7 for _, _, _, ei, _, _ in pruned)
     # Fewer indexes asked than the library holds: the nearest by centre.
     asked = []
-    nearest = FillSearch.nearest
-    monkeypatch.setattr(FillSearch, "nearest", lambda self, *a, **kw: asked.append(self) or nearest(self, *a, **kw))
+    search = window_index.ZoneIndex.search
+    monkeypatch.setattr(window_index.ZoneIndex, "search", lambda self, *a, **kw: asked.append(self) or search(self, *a, **kw))
     monkeypatch.setattr(fill_patches, "PROBED_EXAMPLES", 4)
     chosen, _ = fill_patches._nearest_examples(searches, members, target, filled)
     assert len(asked) == 4 and len(chosen) == 4 and 7 in chosen
-    by_centre = sorted(members, key=lambda ei: searches[ei].nearest_cluster(target, filled))
+    def centre(ei):
+        zone = searches[ei].zone_index(filled)
+        return zone.cluster_distance(zone.query_vector(target, filled))
+
+    by_centre = sorted(members, key=centre)
     assert set(chosen) == set(by_centre[:4])
     # Fewer examples than the limit: every one is searched, as before.
     few = fill_patches.search_fill(*args, members[:3], 100.0, target, filled, rng(0), patch_size=32, k=4)
