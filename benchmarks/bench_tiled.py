@@ -49,18 +49,22 @@ def _inputs(sketch: str | None = None):
 def _library(n: int) -> list:
     """``n`` example DEMs, a stand-in for a large library of real ones: the
     two large built-ins (White Mountains, Gabon plateau) in their eight
-    rotations and mirror images, then their central 1000 x 1000 crops so
-    turned.  (The other built-ins, at the common cell size, are too small
-    for the landform pass, which would then be left out for all.)"""
+    rotations and mirror images, then so turned their central crops (100
+    cells off each side), then crops without their last and without their
+    first 150 rows and columns: up to 64.  (The other built-ins, at the
+    common cell size, are too small for the landform pass, which would then
+    be left out for all.)"""
     from terrasynth_core.examples import builtin_example
 
     fields = [builtin_example(key).load() for key in ("white-mountains", "gabon-plateau")]
     turns = [lambda h, k=k, m=m: np.rot90(h[:, ::-1] if m else h, k) for m in (False, True) for k in range(4)]
-    variants = [(f, t, None) for t in turns for f in fields] + [(f, t, 100) for t in turns for f in fields]
+    crops = [np.s_[:, :], np.s_[100:-100, 100:-100], np.s_[:-150, :-150], np.s_[150:, 150:]]
+    variants = [(f, t, crop) for crop in crops for t in turns for f in fields]
+    if n > len(variants):
+        raise SystemExit(f"--library: at most {len(variants)} examples, not {n}")
     out = []
-    for field, turn, margin in variants[:n]:
-        heights = field.heights if margin is None else field.heights[margin:-margin, margin:-margin]
-        out.append(field.with_heights(np.ascontiguousarray(turn(heights))))
+    for field, turn, crop in variants[:n]:
+        out.append(field.with_heights(np.ascontiguousarray(turn(field.heights[crop]))))
     return out
 
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..exemplars import cache
 from ..exemplars.ground import on_ground, run_cell_size
+from ..exemplars.mapped_pages import checked
 from ..exemplars.patch_size import fitting_patch_size
 from ..exemplars.prepare import ExampleAnalysis, prepare_example
 from ..matching.costs import anchor_weight, level_spread
@@ -134,14 +135,18 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
     if cell is None:
         notes.append("no example has a known cell size: examples are used cell for cell and the output's "
                      "cell size is unknown")
-    for ex, name, said in zip(grounded.fields, grounded.names, grounded.notes):
+    # (Each example is read whole here and below: checked() hands a large
+    # library's pages back as it goes, mapped_pages.)
+    for ex, name, said in checked(zip(grounded.fields, grounded.names, grounded.notes)):
         notes.extend(said)
         analysis = prepare_example(ex, patch_size, name=name)
         if analysis.note:
             notes.append(analysis.note)
         examples.append(analysis)
-    real = [ex.valid_values(ex.heights) for ex in examples]  # (their filled voids left out)
-    medians = np.array([float(np.median(h)) for h in real])
+    # Each example's median, lowest and highest cell (its filled voids left out).
+    spans = np.array([(np.median(h), h.min(), h.max())
+                      for h in (ex.valid_values(ex.heights) for ex in checked(examples))], dtype=np.float64)
+    medians = spans[:, 0]
     scales = np.array(scales)
     base = np.array([float(np.mean(medians[m])) if b is None else float(b) for m, b in zip(members, bases)])
 
@@ -158,13 +163,14 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
     if controls.height_range is not None:
         lo, hi = controls.height_range
         used = np.unique(group_map)
-        low = min(base[g] + scales[i] * (float(real[i].min()) - medians[i]) for g in used for i in members[g])
-        high = max(base[g] + scales[i] * (float(real[i].max()) - medians[i]) for g in used for i in members[g])
+        low = min(base[g] + scales[i] * (spans[i, 1] - medians[i]) for g in used for i in members[g])
+        high = max(base[g] + scales[i] * (spans[i, 2] - medians[i]) for g in used for i in members[g])
         factor = (hi - lo) / max(high - low, 1e-6)
         shift = lo - factor * low
         base = factor * base + shift
         remap = (lo, hi, factor, shift)
-    detail = [_detail(ex.heights, med, s * factor) for ex, med, s in zip(examples, medians, scales)]
+    detail = [_detail(ex.heights, med, s * factor) for ex, med, s in checked(zip(examples, medians, scales))]
+    detail_span = np.array([(float(d.min()), float(d.max())) for d in checked(detail)]).reshape(-1, 2)
     relief = np.array([ex.relief for ex in examples]) * scales * factor
     level = level_field(group_map, base, patch_size)
     if controls.selection is None:
@@ -174,8 +180,8 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
     for st in controls.stamps:
         r = render_stamp(st, shape, patch_size, cell_size=cell, notes=notes)
         stamps.append(RenderedStamp(r.bbox, (r.detail * np.float32(factor)).astype(np.float32), r.valid, r.core))
-    placed = np.array([[base[g] + min(float(detail[i].min()) for i in m),
-                        base[g] + max(float(detail[i].max()) for i in m)] for g, m in enumerate(members)])
+    placed = np.array([[base[g] + detail_span[m, 0].min(), base[g] + detail_span[m, 1].max()]
+                       for g, m in enumerate(members)])
     return StyleLayout(examples, detail, relief, members, names, group_map, level, stamps, remap, notes, cell,
                        anchors(detail, relief, patch_size, [ex.valid for ex in examples]), placed)
 
@@ -208,7 +214,7 @@ def grounded_examples(plain: list, controls: Controls, cell_size: float | None =
     fields = [*plain, *(st.example for st in controls.styles)]
     cell = run_cell_size(cell_size, [*fields, *(st.field for st in controls.stamps)])
     names = [_example_name(ex, i) for i, ex in enumerate(fields)]
-    both = [on_ground(ex, cell, name=name) for ex, name in zip(fields, names)]
+    both = [on_ground(ex, cell, name=name) for ex, name in checked(zip(fields, names))]
     return Grounded([g for g, _ in both], names, cell, [said for _, said in both])
 
 
@@ -219,8 +225,8 @@ def automatic_patch_size(grounded: Grounded, kinds: tuple[str, ...], *,
     (:func:`~terrasynth_core.exemplars.patch_size.fitting_patch_size`), and
     its notes for the warnings.  Kept by the examples' bytes: every run and
     variation of a document asks again."""
-    key = (array_key(*(np.asarray(getattr(g, "heights", g)) for g in grounded.fields)), tuple(grounded.names),
-           tuple(kinds), largest)
+    key = (tuple(array_key(np.asarray(getattr(g, "heights", g))) for g in checked(grounded.fields)),
+           tuple(grounded.names), tuple(kinds), largest)
     size, notes = _PATCH_SIZES.get(
         key, lambda: fitting_patch_size(grounded.fields, grounded.names, kinds, largest=largest))
     return size, list(notes)
@@ -297,6 +303,6 @@ def anchors(detail: list, relief: np.ndarray, patch_size: int, valid: list | Non
     """
     valid = valid or [None] * len(detail)
     spreads = [_SPREADS.get((array_key(d, v), int(patch_size)), lambda d=d, v=v: level_spread(d, patch_size, v))
-               for d, v in zip(detail, valid)]
+               for d, v in checked(zip(detail, valid))]
     return np.array([anchor_weight(float(r), spread) for spread, r in zip(spreads, relief)])
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 import mmap
 import threading
 import weakref
-from typing import Callable
+from typing import Callable, Iterable, Iterator, TypeVar
 
 import numpy as np
 
@@ -41,6 +41,8 @@ _RELEASERS: list[Callable[[], None]] = []
 _LOCK = threading.Lock()
 _PAGE = mmap.PAGESIZE
 _floor = 0  # file-backed resident bytes just after the last release
+
+T = TypeVar("T")
 
 
 def track(array: np.ndarray) -> np.ndarray:
@@ -115,3 +117,13 @@ def keep_within_budget(budget: int | None = None) -> bool:
     _floor = file_resident() or 0
     return True
 
+
+
+def checked(items: Iterable[T]) -> Iterator[T]:
+    """``items``, with :func:`keep_within_budget` after each: for a loop
+    that reads every example of a library whole (a session's set-up, the
+    landform fit, a first window's index keys), whose pages would
+    otherwise pile up with the library's size between two checks."""
+    for item in items:
+        yield item
+        keep_within_budget()

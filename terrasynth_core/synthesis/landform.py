@@ -35,6 +35,7 @@ from ..errors import ParamsError
 from ..features.network import graph_mask
 from ..features.sketch import sketch_features
 from ..heightfield import HeightField
+from ..exemplars.mapped_pages import checked
 from ..exemplars.prepare import WIDE_VOIDS
 from ..measures import surface_gradient
 from ..placing.windows import estimate_fill_count
@@ -208,7 +209,7 @@ def coarse_session_for(params, layout, shape: tuple[int, int], controls: Control
     if min(grid) < pc:
         return None, 0, None  # the whole output is about one landform: nothing to structure
     cell = None if lay.cell_size is None else lay.cell_size * f
-    fields = [_coarsened(ex.heights, f, cell, ex.valid) for ex in lay.examples]
+    fields = [_coarsened(ex.heights, f, cell, ex.valid) for ex in checked(lay.examples)]
     styles = tuple(replace(s, example=fields[n_plain + i]) for i, s in enumerate(c.styles))
     style_map = None if c.style_map is None else c.style_map[::f, ::f]
     coarse_controls = Controls(styles=styles, style_map=style_map, height_range=c.height_range)
@@ -493,7 +494,7 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
     for g, n in zip(groups, cover):
         base = float(np.median(layout.level[layout.group_map == g]))
         members = layout.members[int(g)]
-        for i in members:
+        for i in checked(members):
             coarse = _coarsened(layout.detail[i], f, None).heights.astype(np.float64)
             # (Only the example's valid blocks: its filled voids are no landform.)
             valid = _valid_blocks(layout.examples[i].valid, f, coarse.shape)

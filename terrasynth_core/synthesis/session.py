@@ -29,6 +29,7 @@ from ..controls.options import Controls, check_heights
 from ..errors import ParamsError
 from ..exemplars.patch_size import PATCH_SIZES
 from ..exemplars import cache
+from ..exemplars import mapped_pages
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import MOST_GRID_CELLS, HeightField
@@ -231,7 +232,7 @@ class Session:
         """Each example's detail above its low-pass and its shift weight
         (memoised: a session may run again), see :func:`.landform.detail_above`."""
         if sigma not in self._detail_above:
-            detail = [_memo_detail_above(d, sigma) for d in self.layout.detail]
+            detail = [_memo_detail_above(d, sigma) for d in mapped_pages.checked(self.layout.detail)]
             self._detail_above[sigma] = detail, anchors(detail, self.layout.relief, self.params.patch_size,
                                                         [ex.valid for ex in self.layout.examples])
         return self._detail_above[sigma]

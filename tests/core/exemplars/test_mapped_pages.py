@@ -47,6 +47,33 @@ def test_keep_within_budget_releases_only_past_it(releasers):
     assert calls == [1]
 
 
+def test_checked_keeps_the_budget_after_each_item(monkeypatch):
+    """A loop over a library's examples checks the budget after each one,
+    once the loop's body has read it (not only when the loop is done)."""
+    events = []
+    monkeypatch.setattr(mapped_pages, "keep_within_budget", lambda: events.append("check"))
+    for item in mapped_pages.checked(["a", "b", "c"]):
+        events.append(item)
+    assert events == ["a", "check", "b", "check", "c", "check"]
+
+
+@needs_proc
+def test_a_library_read_whole_in_a_checked_loop_stays_within_the_budget(monkeypatch):
+    """Six 24 MB examples read whole one after another: past a 64 MB
+    budget (over what the process held before) the pages are handed back
+    as the loop goes, so it never holds them all."""
+    arrays = [_mapped(f"mapped-pages-library-{i}", 24) for i in range(6)]
+    mapped_pages.release()
+    start = mapped_pages.file_resident()
+    monkeypatch.setattr(mapped_pages, "MAPPED_BUDGET", start + 64 * 2**20)
+    monkeypatch.setattr(mapped_pages, "_floor", 0)
+    highest = 0
+    for a in mapped_pages.checked(arrays):
+        a.sum(dtype=np.float64)
+        highest = max(highest, mapped_pages.file_resident() - start)
+    assert highest < 100 * 2**20  # (all six would be 144 MB)
+
+
 def test_arrays_in_memory_are_not_tracked():
     before = len(mapped_pages._MAPS)
     array = np.zeros(10)
