@@ -212,6 +212,14 @@ class Session:
             if not graph.paths:
                 continue
             have = sum(len(ex.samples[graph.kind]) for ex in self.examples)
+            flat = [ex for ex in self.examples if not np.ptp(ex.heights)]
+            if have == 0 and len(flat) == len(self.examples):
+                raise ParamsError(
+                    f"the sketch has {graph.kind}s but every example is flat ({flat[0].heights.shape[0]}x"
+                    f"{flat[0].heights.shape[1]} cells all at {float(flat[0].heights.flat[0]):g} m"
+                    + ("" if len(flat) == 1 else f", and {len(flat) - 1} more") + "): a flat DEM has no "
+                    f"{graph.kind}s to give; choose an example with relief"
+                )
             if have == 0:
                 size = (f"a patch of any automatic size (down to {PATCH_SIZES[-1]} cells)" if automatic
                         else f"a patch of {self.params.patch_size} cells")

@@ -192,6 +192,17 @@ def test_an_example_without_a_drawn_kind_at_any_size_is_named_without_a_vain_hin
         Session([plane], sketch, params=SynthesisParams(patch_size=40))
 
 
+def test_a_flat_example_is_refused_for_being_flat():
+    # A constant DEM has no feature of any kind: the error says why, not
+    # only that no ridge was found.
+    rr, cc = np.mgrid[0:200, 0:200]
+    sketch = SketchMap(np.abs(rr - cc) < 3, np.zeros((200, 200), bool))
+    flat = np.full((200, 200), 500.0, np.float32)
+    with pytest.raises(ParamsError, match=r"every example is flat \(200x200 cells all at 500 m\): a flat DEM has "
+                                          r"no ridges to give; choose an example with relief$"):
+        Session([flat], sketch, params=SynthesisParams())
+
+
 def test_a_kind_an_example_lacks_does_not_choose_its_size(monkeypatch):
     # Rich in ridges, one valley window at 32 and none above, beside an
     # example rich in both: the run keeps the size the ridges ask for (the
