@@ -332,6 +332,25 @@ def test_too_small_or_one_landform_examples_skip_it_with_a_reason(helens, y_sket
     assert any("landform pass skipped" in w for w in result.warnings)
 
 
+def test_a_coarse_session_it_cannot_make_is_named_at_its_own_scale(white_mountains, y_sketch, monkeypatch):
+    # The coarse session's error speaks of coarse cells (its patch size,
+    # its windows): the note says that they are, and how they map to the run's.
+    from terrasynth_core.errors import ParamsError
+    from terrasynth_core.synthesis import landform, session as session_module
+
+    session = Session([white_mountains], y_sketch, params=P)
+
+    def refused(self, *args, **kwargs):
+        raise ParamsError("holed has no 24x24 window without nodata, which a patch of 20x20 needs")
+
+    monkeypatch.setattr(session_module.Session, "__init__", refused)
+    coarse, f, note = landform.coarse_session(session)
+    assert coarse is None and f == 0
+    pc = landform.coarse_patch(P.patch_size, landform.coarse_factor(P.patch_size, min(white_mountains.shape)))
+    assert note.startswith("landform pass skipped: at its scale (the examples down-sampled ")
+    assert f"a patch of {pc} coarse cells spanning " in note and note.endswith("a patch of 20x20 needs")
+
+
 def test_without_the_pass_the_drawing_gives_the_landforms(helens, sketch_dir, monkeypatch):
     # An example too small for the pass: the level rises about the drawn
     # ridges and falls about the valley (smoothly, no step), fitted to the
