@@ -47,8 +47,10 @@ def parse_size(text: str) -> tuple[int, int]:
         raise argparse.ArgumentTypeError(f"size {text!r} is not ROWSxCOLS, e.g. 1000x1000") from None
     if len(dims) == 1:
         dims = (dims[0], dims[0])
-    if len(dims) != 2 or min(dims) < 2:
-        raise argparse.ArgumentTypeError(f"size {text!r} is not ROWSxCOLS with both at least 2")
+    if len(dims) != 2:
+        raise argparse.ArgumentTypeError(f"size {text!r} has {len(dims)} numbers: give ROWSxCOLS (two), e.g. 1000x1000")
+    if min(dims) < 2:
+        raise argparse.ArgumentTypeError(f"size {text!r}: both ROWS and COLS must be at least 2")
     return dims  # type: ignore[return-value]
 
 

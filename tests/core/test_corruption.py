@@ -216,6 +216,12 @@ def c_negative_size(tmp):
             ["--size", "'-5x5'", "at least 2"])
 
 
+def c_size_with_three_numbers(tmp):
+    _example(tmp / "x.npy")
+    return (["synth", "--example", tmp / "x.npy", "--size", "256x256x2", "--out", tmp / "t.tif"], EXIT_BAD_INPUT,
+            ["--size", "'256x256x2' has 3 numbers", "ROWSxCOLS (two)"])
+
+
 def c_sketch_decompression_bomb(tmp):
     _example(tmp / "x.npy")
     _png_header_only(tmp / "bomb.png", 20000, 20000)
@@ -752,6 +758,7 @@ CASES = [
     c_all_red_sketch_is_reported,
     c_flat_example_is_reported,
     c_negative_size,
+    c_size_with_three_numbers,
     c_sketch_decompression_bomb,
     c_sketch_over_the_pixel_limit,
     c_style_map_over_the_pixel_limit,
