@@ -502,10 +502,13 @@ def fitted_to_examples(heights: np.ndarray, layout, f: int, sigma: float,
             # (Only the example's valid blocks: its filled voids are no landform.)
             valid = _valid_blocks(layout.examples[i].valid, f, coarse.shape)
             valid = np.ones(coarse.size, bool) if valid is None else valid.ravel()
-            values.append((coarse + base).ravel()[valid][::step])
+            # (Compact copies: a strided view would keep the example's
+            # every cell alive, and the fit's arrays would grow with the library.)
+            values.append(np.ascontiguousarray((coarse + base).ravel()[valid][::step]))
             landform = (landform_lowpass(coarse, sigma) + base).ravel()[valid]
             lowest, highest = min(lowest, float(landform.min())), max(highest, float(landform.max()))
-            details.append((coarse - ndimage.gaussian_filter(coarse, detail_sigma, mode="reflect")).ravel()[valid][::step])
+            details.append(np.ascontiguousarray(
+                (coarse - ndimage.gaussian_filter(coarse, detail_sigma, mode="reflect")).ravel()[valid][::step]))
             weights.append(np.full(len(values[-1]), n / (len(members) * len(values[-1]))))
     values, details, weights = np.concatenate(values), np.concatenate(details), np.concatenate(weights)
     target = _weighted_quantiles(values, weights, FIT_QUANTILES)
