@@ -135,17 +135,18 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
     if cell is None:
         notes.append("no example has a known cell size: examples are used cell for cell and the output's "
                      "cell size is unknown")
-    # (Each example is read whole here and below: checked() hands a large
-    # library's pages back as it goes, mapped_pages.)
-    for ex, name, said in checked(zip(grounded.fields, grounded.names, grounded.notes)):
+    # Each example's median, lowest and highest cell (its filled voids left out).
+    spans = np.empty((len(grounded.fields), 3))
+    # (Each example is read whole here and below, once a pass: checked()
+    # hands a large library's pages back as it goes, mapped_pages.)
+    for i, (ex, name, said) in enumerate(checked(zip(grounded.fields, grounded.names, grounded.notes))):
         notes.extend(said)
         analysis = prepare_example(ex, patch_size, name=name)
         if analysis.note:
             notes.append(analysis.note)
         examples.append(analysis)
-    # Each example's median, lowest and highest cell (its filled voids left out).
-    spans = np.array([(np.median(h), h.min(), h.max())
-                      for h in (ex.valid_values(ex.heights) for ex in checked(examples))], dtype=np.float64)
+        real = analysis.valid_values(analysis.heights)
+        spans[i] = np.median(real), real.min(), real.max()
     medians = spans[:, 0]
     scales = np.array(scales)
     base = np.array([float(np.mean(medians[m])) if b is None else float(b) for m, b in zip(members, bases)])
@@ -169,8 +170,10 @@ def build_layout(plain: list, controls: Controls, shape: tuple[int, int], patch_
         shift = lo - factor * low
         base = factor * base + shift
         remap = (lo, hi, factor, shift)
-    detail = [_detail(ex.heights, med, s * factor) for ex, med, s in checked(zip(examples, medians, scales))]
-    detail_span = np.array([(float(d.min()), float(d.max())) for d in checked(detail)]).reshape(-1, 2)
+    detail, detail_span = [], np.empty((len(examples), 2))
+    for i, (ex, med, s) in enumerate(checked(zip(examples, medians, scales))):
+        detail.append(_detail(ex.heights, med, s * factor))
+        detail_span[i] = detail[-1].min(), detail[-1].max()
     relief = np.array([ex.relief for ex in examples]) * scales * factor
     level = level_field(group_map, base, patch_size)
     if controls.selection is None:

@@ -39,6 +39,7 @@ MAPPED_BUDGET = 512 * 2**20
 _MAPS: weakref.WeakSet = weakref.WeakSet()  # the mmap objects of the tracked arrays
 _RELEASERS: list[Callable[[], None]] = []
 _LOCK = threading.Lock()
+_CHECK = threading.Lock()  # one thread decides (and releases) at a time
 _PAGE = mmap.PAGESIZE
 _floor = 0  # file-backed resident bytes just after the last release
 
@@ -99,7 +100,8 @@ def file_resident() -> int | None:
 def keep_within_budget(budget: int | None = None) -> bool:
     """:func:`release` if the file-backed resident memory is past
     ``budget`` (bytes; :data:`MAPPED_BUDGET` unless given).  A read of
-    ``/proc`` (about 10 microseconds) when within it.
+    ``/proc`` (about 10 microseconds) when within it; nothing while
+    another thread checks (its release would serve both).
 
     Returns
     -------
@@ -107,23 +109,27 @@ def keep_within_budget(budget: int | None = None) -> bool:
         Whether the pages were released.
     """
     global _floor
-    used = file_resident()
-    limit = MAPPED_BUDGET if budget is None else budget
-    # Pages a release cannot hand back (the libraries', other mappings')
-    # raise the mark, so they do not make every call release again.
-    if used is None or used <= max(limit, _floor + limit // 2):
+    if not _CHECK.acquire(blocking=False):
         return False
-    release()
-    _floor = file_resident() or 0
-    return True
-
+    try:
+        used = file_resident()
+        limit = MAPPED_BUDGET if budget is None else budget
+        # Pages a release cannot hand back (the libraries', other mappings')
+        # raise the mark, so they do not make every call release again.
+        if used is None or used <= max(limit, _floor + limit // 2):
+            return False
+        release()
+        _floor = file_resident() or 0
+        return True
+    finally:
+        _CHECK.release()
 
 
 def checked(items: Iterable[T]) -> Iterator[T]:
     """``items``, with :func:`keep_within_budget` after each: for a loop
     that reads every example of a library whole (a session's set-up, the
-    landform fit, a first window's index keys), whose pages would
-    otherwise pile up with the library's size between two checks."""
+    landform fit), whose pages would otherwise pile up with the library's
+    size between two checks."""
     for item in items:
         yield item
         keep_within_budget()

@@ -583,6 +583,9 @@ class LazyIndexes:
                 return got
             if self._base_key is None:
                 self._base_key = index_key(self.example, self.window, self.overlap, self.positions, self.prior)
+                # (That read the example's arrays whole: a first window of a
+                # large library asks every example's, mapped_pages.)
+                mapped_pages.keep_within_budget()
             key = f"{self._base_key}-z{zone}"
             got = self._load(key) if self._load else None
             if got is None:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..controls.layout import StyleLayout
-from ..exemplars.mapped_pages import checked
 from ..matching.costs import ROUGHNESS_WEIGHT, choose_near_best, match_cost, settle
 from ..matching.fill_search import FillSearch
 from ..memo import Memo, array_key
@@ -74,8 +73,7 @@ def _nearest_examples(searches: list, members: list[int], target: np.ndarray, fi
     worker over 32 DEMs, its mapped pages handed back past the budget
     after every window: 1.1 GB against 0.8 over 20).
     """
-    # (A first window hashes each example's arrays for its index keys: checked.)
-    zones = {ei: searches[ei].zone_index(filled) for ei in checked(members)}
+    zones = {ei: searches[ei].zone_index(filled) for ei in members}
     indexed = [ei for ei in members if zones[ei] is not None]
     small = [ei for ei in members if zones[ei] is None]
     room = max(SEARCHED_EXAMPLES - len(small), SEARCHED_EXAMPLES // 2)

@@ -231,7 +231,7 @@ def coarse_session_for(params, layout, shape: tuple[int, int], controls: Control
         # (Its sizes are the coarse grid's: said so, or a hole DEM's note
         # would name a patch size the run does not have.)
         return None, 0, (f"landform pass skipped: at its scale (the examples down-sampled {f}x, a patch of {pc} "
-                         f"coarse cells spanning {pc * f} of the run's) {exc}")
+                         f"coarse cells spanning {pc * f} of the run's cells) {exc}")
     for graph in (sketch_maps.ridges, sketch_maps.valleys):
         have = sum(len(ex.samples[graph.kind]) for ex in coarse.examples)
         if graph.paths and have < MIN_COARSE_SAMPLES:

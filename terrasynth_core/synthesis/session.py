@@ -126,6 +126,7 @@ class Session:
         checked = controls.checked((rows, cols), len(examples))
         check_heights(examples, checked)
         grounded = grounded_examples(examples, checked, params.cell_size)
+        self._example_names = list(grounded.names)  # (for messages)
         automatic = params.patch_size is None
         params, size_notes = with_patch_size(params, grounded, sketch, (rows, cols))
         if min(rows, cols) < params.patch_size:
@@ -212,12 +213,12 @@ class Session:
             if not graph.paths:
                 continue
             have = sum(len(ex.samples[graph.kind]) for ex in self.examples)
-            flat = [ex for ex in self.examples if not np.ptp(ex.heights)]
-            if have == 0 and len(flat) == len(self.examples):
+            # (Read only here: every example's heights, whole.)
+            if have == 0 and all(not np.ptp(ex.heights) for ex in self.examples):
+                flat = "; ".join(f"{name}: all at {float(ex.heights.flat[0]):g} m"
+                                 for name, ex in zip(self._example_names, self.examples))
                 raise ParamsError(
-                    f"the sketch has {graph.kind}s but every example is flat ({flat[0].heights.shape[0]}x"
-                    f"{flat[0].heights.shape[1]} cells all at {float(flat[0].heights.flat[0]):g} m"
-                    + ("" if len(flat) == 1 else f", and {len(flat) - 1} more") + "): a flat DEM has no "
+                    f"the sketch has {graph.kind}s but every example is flat ({flat}): a flat DEM has no "
                     f"{graph.kind}s to give; choose an example with relief"
                 )
             if have == 0:

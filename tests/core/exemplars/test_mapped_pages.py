@@ -74,6 +74,14 @@ def test_a_library_read_whole_in_a_checked_loop_stays_within_the_budget(monkeypa
     assert highest < 100 * 2**20  # (all six would be 144 MB)
 
 
+def test_a_check_while_another_thread_checks_leaves_it_to_that_one(releasers):
+    calls = []
+    mapped_pages.on_release(lambda: calls.append(1))
+    with mapped_pages._CHECK:  # (another thread deciding, or releasing)
+        assert not mapped_pages.keep_within_budget(0)
+    assert calls == []
+
+
 def test_arrays_in_memory_are_not_tracked():
     before = len(mapped_pages._MAPS)
     array = np.zeros(10)

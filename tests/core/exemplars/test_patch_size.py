@@ -11,6 +11,7 @@ from terrasynth_core.errors import ParamsError
 from terrasynth_core.exemplars.prepare import prepare_example
 from terrasynth_core.features.sketch import SketchMap
 from terrasynth_core.synthesis import Session, SynthesisParams
+from terrasynth_core.heightfield import HeightField
 
 BOTH = ("ridge", "valley")
 
@@ -197,10 +198,16 @@ def test_a_flat_example_is_refused_for_being_flat():
     # only that no ridge was found.
     rr, cc = np.mgrid[0:200, 0:200]
     sketch = SketchMap(np.abs(rr - cc) < 3, np.zeros((200, 200), bool))
-    flat = np.full((200, 200), 500.0, np.float32)
-    with pytest.raises(ParamsError, match=r"every example is flat \(200x200 cells all at 500 m\): a flat DEM has "
+    flat = HeightField(np.full((200, 200), 500.0, np.float32), source="flat.asc")
+    with pytest.raises(ParamsError, match=r"every example is flat \(flat.asc: all at 500 m\): a flat DEM has "
                                           r"no ridges to give; choose an example with relief$"):
         Session([flat], sketch, params=SynthesisParams())
+    # Each is named; with one that is not flat, the plainer error (no ridge found) stands.
+    with pytest.raises(ParamsError, match=r"\(flat.asc: all at 500 m; example 2: all at 20 m\)"):
+        Session([flat, np.full((200, 200), 20.0, np.float32)], sketch, params=SynthesisParams())
+    plane = (3.0 * rr + cc).astype(np.float32)
+    with pytest.raises(ParamsError, match="no example has ridge features"):
+        Session([flat, plane], sketch, params=SynthesisParams())
 
 
 def test_a_kind_an_example_lacks_does_not_choose_its_size(monkeypatch):
