@@ -52,6 +52,10 @@ class ExampleAnalysis:
         Where the example has real heights; None: everywhere.  Its voids
         are filled in ``heights`` (filters need a whole grid) but no
         feature sample, fill window or landform is taken over them.
+    name : str
+        The example's name in messages.
+    constant : float or None
+        Its one height when every cell has it (a flat DEM), metres; else None.
     """
 
     heights: np.ndarray
@@ -62,6 +66,8 @@ class ExampleAnalysis:
     note: str | None
     key: str
     valid: np.ndarray | None = None
+    name: str = "example"
+    constant: float | None = None
 
     def valid_values(self, grid: np.ndarray) -> np.ndarray:
         """The cells of ``grid`` (shape (H, W), e.g. the heights) where the
@@ -108,8 +114,9 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
     low, high = _SPANS.get(what + where, lambda: np.percentile(heights if valid is None else heights[valid],
                                                                [0.5, 99.5]))
     flat = None
-    if not np.ptp(heights):
-        flat = (f"{name} is flat (every cell {heights.flat[0]:g} m): it has no relief to give, "
+    constant = None if np.ptp(heights) else float(heights.flat[0])
+    if constant is not None:
+        flat = (f"{name} is flat (every cell {constant:g} m): it has no relief to give, "
                 "the terrain will be flat")
     elif high - low < NEARLY_FLAT_M:
         flat = (f"{name} is nearly flat ({high - low:.3g} m between its 0.5th and 99.5th height "
@@ -119,7 +126,7 @@ def prepare_example(field: HeightField | np.ndarray, patch_size: int, *, name: s
         notes.append(flat)
     note = "; ".join(notes) or None
     features, samples, strong, relief = _CACHE.get(key, lambda: _analyse(heights, patch_size, valid))
-    return ExampleAnalysis(heights, features, samples, strong, relief, note, key, valid)
+    return ExampleAnalysis(heights, features, samples, strong, relief, note, key, valid, name, constant)
 
 
 #: An example whose heights span less than this (metres, between their

@@ -28,8 +28,7 @@ from ..controls.layout import Grounded, anchors, automatic_patch_size, build_lay
 from ..controls.options import Controls, check_heights
 from ..errors import ParamsError
 from ..exemplars.patch_size import PATCH_SIZES
-from ..exemplars import cache
-from ..exemplars import mapped_pages
+from ..exemplars import cache, mapped_pages
 from ..features import FeatureMaps
 from ..features.sketch import SketchMap, sketch_features
 from ..heightfield import MOST_GRID_CELLS, HeightField
@@ -126,7 +125,6 @@ class Session:
         checked = controls.checked((rows, cols), len(examples))
         check_heights(examples, checked)
         grounded = grounded_examples(examples, checked, params.cell_size)
-        self._example_names = list(grounded.names)  # (for messages)
         automatic = params.patch_size is None
         params, size_notes = with_patch_size(params, grounded, sketch, (rows, cols))
         if min(rows, cols) < params.patch_size:
@@ -213,10 +211,8 @@ class Session:
             if not graph.paths:
                 continue
             have = sum(len(ex.samples[graph.kind]) for ex in self.examples)
-            # (Read only here: every example's heights, whole.)
-            if have == 0 and all(not np.ptp(ex.heights) for ex in self.examples):
-                flat = "; ".join(f"{name}: all at {float(ex.heights.flat[0]):g} m"
-                                 for name, ex in zip(self._example_names, self.examples))
+            if have == 0 and all(ex.constant is not None for ex in self.examples):
+                flat = "; ".join(f"{ex.name}: all at {ex.constant:g} m" for ex in self.examples)
                 raise ParamsError(
                     f"the sketch has {graph.kind}s but every example is flat ({flat}): a flat DEM has no "
                     f"{graph.kind}s to give; choose an example with relief"
