@@ -17,6 +17,7 @@ the GUI extra to PySide6, pyqtgraph and pyvista.
 
 from __future__ import annotations
 
+import gc
 import logging
 import threading
 import traceback
@@ -42,6 +43,24 @@ def _log_failure(exc: Exception) -> None:
         log.info("background work failed: %s", exc)
     else:
         log.error("background work failed:\n%s", traceback.format_exc())
+
+
+def _hold_collector(running: bool) -> None:
+    """Keep the objects alive when a request starts out of the cyclic
+    collector until a request ends.
+
+    A full collection walks every tracked object (a few hundred thousand in
+    the app) on whichever thread triggers it, often the GUI thread, and took
+    0.1 s there in the middle of runs.  Frozen, a collection during a run
+    walks only what the run made; ``gc.freeze``/``unfreeze`` are constant
+    time.  Not counted across runners: when two overlap, the first to end
+    lets the collector see everything again (a possible pause, never objects
+    kept frozen for good).
+    """
+    if running:
+        gc.freeze()
+    else:
+        gc.unfreeze()
 
 
 class GeneratorWorker(QObject):
@@ -186,6 +205,8 @@ class LatestRunner(QObject):
         worker.finished.connect(thread.quit, Qt.DirectConnection)
         thread.finished.connect(self._thread_finished)
         self._threads[worker] = thread
+        if self._current is None:
+            _hold_collector(True)
         self._current = worker
         self.running_changed.emit(True)
         thread.start()
@@ -233,6 +254,7 @@ class LatestRunner(QObject):
     def _finished(self) -> None:
         if self._is_current():
             self._current = None
+            _hold_collector(False)
             self.running_changed.emit(False)
 
     @Slot()

@@ -6,9 +6,12 @@ a banner over the image says how much land lies below it.  The height
 legend, the banner, the feature legend and the placeholder float over the
 image, so showing them never moves the image or the checkboxes.
 
-During a run each placed patch is pasted into a GUI-side buffer and only its
-window is recoloured; the image is pushed to the screen by a timer (about 25
-times a second) so a burst of small patches never floods the event loop.
+During a run each placed patch is pasted into a GUI-side buffer; a timer
+(about 25 times a second) recolours once the window round the patches pasted
+since its last tick and pushes the image to the screen.  Recolouring is a
+dozen numpy calls, each of which gives the GIL to the run's threads and waits
+to get it back, so shading patch by patch as they come let a burst of queued
+patches hold the event loop for a tenth of a second.
 """
 
 from __future__ import annotations
@@ -76,6 +79,7 @@ class HeightmapView(QWidget):
         self.water_level: float | None = None  # None: no painted water, none drawn
         self._painted: np.ndarray | None = None  # given: only water connected to it is drawn
         self._dirty = False
+        self._unshaded: list[tuple[int, int, int, int]] = []  # the windows the next tick recolours
         # Bumped by every new result or run; late images of an older one are
         # dropped.
         self._features_generation = 0
@@ -176,6 +180,7 @@ class HeightmapView(QWidget):
         self._cell_size = cell_size
         self._vrange = vrange
         self.last_bbox = None
+        self._unshaded = []
         self.patches_pasted = 0
         self.outline.setVisible(False)
         self.placeholder.setVisible(False)
@@ -199,11 +204,11 @@ class HeightmapView(QWidget):
             return
         r0, r1, c0, c1 = event.bbox
         self.heights[r0:r1, c0:c1] = event.heights
-        # Recolour the window and a one-cell ring: the ring's slopes changed too.
+        # The window and a one-cell ring need recolouring (the ring's slopes
+        # changed too); the next tick does it for every patch since the last.
         rows, cols = self.heights.shape
         ring = (max(r0 - 1, 0), min(r1 + 1, rows), max(c0 - 1, 0), min(c1 + 1, cols))
-        R0, R1, C0, C1 = ring
-        self._rgba[R0:R1, C0:C1] = shaded_window(self.heights, ring, cell_size=self._cell_size, vrange=self._vrange)
+        self._unshaded = _joined(self._unshaded, ring)
         self.outline.setRect(c0, r0, c1 - c0, r1 - r0)
         self.outline.setVisible(True)
         self.last_bbox = (r0, r1, c0, c1)
@@ -213,12 +218,17 @@ class HeightmapView(QWidget):
     def end_run(self) -> None:
         """Stop live refreshing (the result or the previous one is shown next)."""
         self._timer.stop()
+        self._unshaded = []
         self.outline.setVisible(False)
 
     def _refresh(self) -> None:
         if not self._dirty or self._rgba is None:
             return
         self._dirty = False
+        for R0, R1, C0, C1 in self._unshaded:
+            self._rgba[R0:R1, C0:C1] = shaded_window(self.heights, (R0, R1, C0, C1), cell_size=self._cell_size,
+                                                     vrange=self._vrange)
+        self._unshaded = []
         self.image.setImage(self._rgba, autoLevels=False, levels=None)
         self.refreshed.emit()
 
@@ -371,3 +381,18 @@ def result_images(result: TerrainResult, vrange: tuple[float, float]) -> tuple[n
     seams[result.seam_mask] = (255, 40, 40, 230)
     return rgba, patch_colours(result.patch_id), seams
 
+
+def _joined(windows: list[tuple[int, int, int, int]],
+            new: tuple[int, int, int, int]) -> list[tuple[int, int, int, int]]:
+    """``windows`` (r0, r1, c0, c1) with ``new`` added: joined to the first
+    it lies near (their bounding window at most twice their areas), so a
+    burst of neighbouring patches is recoloured in one go, while patches far
+    apart are not recoloured with the whole map between them."""
+    def area(w):
+        return (w[1] - w[0]) * (w[3] - w[2])
+
+    for i, w in enumerate(windows):
+        both = min(w[0], new[0]), max(w[1], new[1]), min(w[2], new[2]), max(w[3], new[3])
+        if area(both) <= 2 * (area(w) + area(new)):
+            return _joined(windows[:i] + windows[i + 1:], both)
+    return windows + [new]

@@ -1,5 +1,6 @@
 """The generic worker, the latest-request-wins runner and one-off pool jobs, with toy work."""
 
+import gc
 import threading
 
 import pytest
@@ -117,6 +118,28 @@ def test_a_new_request_cancels_the_old_one_at_once_and_drops_its_late_signals(qt
     assert log == [("yielded", "old 1"), ("cancelled",), ("yielded", "new 1"), ("yielded", "new 2"),
                    ("returned", "new")]
     assert states == [True, True, False] and not runner.running
+
+
+def test_the_objects_alive_when_a_request_starts_are_out_of_the_collector_until_it_ends(qtbot):
+    # A full collection on the GUI thread in the middle of a run walked every
+    # object of the app (0.1 s); frozen ones are not walked.
+    gate = threading.Event()
+    seen = []
+
+    def work():
+        seen.append(gc.get_freeze_count())
+        gate.wait(TIMEOUT_MS / 1000)
+        yield "done"
+
+    assert gc.get_freeze_count() == 0
+    runner = LatestRunner()
+    with qtbot.waitSignal(runner.running_changed, timeout=TIMEOUT_MS):
+        runner.start(work())
+    gate.set()
+    with qtbot.waitSignal(runner.running_changed, timeout=TIMEOUT_MS) as ended:
+        pass
+    assert ended.args == [False] and seen and seen[0] > 0
+    assert gc.get_freeze_count() == 0
 
 
 class _Receiver(QObject):

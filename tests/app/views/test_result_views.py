@@ -291,3 +291,26 @@ def test_progress_and_time_clear_on_a_variation_a_project_and_a_new_run(qtbot, w
         window.synthesize()  # a new run: no count or time of the last one
         assert status.time_label.text() == "" and status.stage_label.text() == "Reading examples…"
         assert status.progress.maximum() == 0  # busy until the patch count is known
+
+
+def test_a_live_run_recolours_the_patches_pasted_since_the_last_tick_in_one_go(qtbot, window):
+    # Shading each patch as it came let a burst of queued patches hold the
+    # event loop; the view pastes heights at once and recolours on its tick.
+    from types import SimpleNamespace
+
+    view = window.heightmap
+    terrain = fake_terrain((96, 96)).heights
+    view.begin_run((96, 96), cell_size=(30.0, 30.0), vrange=(100.0, 900.0))
+    blank = view._rgba.copy()
+    for bbox in ((0, 32, 0, 32), (0, 32, 24, 56), (64, 96, 64, 96)):  # two neighbours and one far away
+        r0, r1, c0, c1 = bbox
+        view.paste_patch(SimpleNamespace(bbox=bbox, heights=terrain[r0:r1, c0:c1]))
+    assert np.array_equal(view._rgba, blank)  # nothing shaded yet
+    assert len(view._unshaded) == 2  # the neighbours in one window, the far patch in another
+    with qtbot.waitSignal(view.refreshed, timeout=5_000):
+        pass
+    placed = np.isfinite(view.heights)
+    expected = shaded_relief(view.heights, cell_size=(30.0, 30.0), vrange=(100.0, 900.0))
+    assert np.array_equal(view._rgba[placed], expected[placed])
+    assert not view._rgba[~placed, 3].any()  # transparent where nothing was placed
+    view.end_run()
