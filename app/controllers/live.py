@@ -16,6 +16,8 @@ and says why in the status bar (no dialog: the next stroke tries again).
 
 from __future__ import annotations
 
+import threading
+
 from PySide6.QtCore import QObject, QTimer, Signal
 
 from terrasynth_core.errors import TerraSynthError
@@ -96,6 +98,9 @@ class LiveController(QObject):
         self.runner.cancelled.connect(self.cancelled)
         self.runner.running_changed.connect(self.running_changed)
         self._timer = QTimer(self, singleShot=True, interval=int(delay_ms))
+        # Set to stop the background preparation running (a run starts, Live
+        # goes off, a newer one starts); a new Event for each preparation.
+        self._preparing = threading.Event()
         self._timer.timeout.connect(self._start)
         document.sketch.history_changed.connect(self._edit_finished)
         document.sketch.changed.connect(self._sketch_changed)
@@ -128,6 +133,7 @@ class LiveController(QObject):
         else:
             self._timer.stop()
             self.runner.cancel()
+            self._preparing.set()
         self.enabled_changed.emit(on)
 
     def schedule(self) -> None:
@@ -142,6 +148,7 @@ class LiveController(QObject):
     def wait(self) -> bool:
         """Cancel and wait for the worker's thread (at exit)."""
         self._timer.stop()
+        self._preparing.set()
         return self.runner.wait()
 
     # -- internals ------------------------------------------------------------------------
@@ -163,6 +170,7 @@ class LiveController(QObject):
         if running:
             self._timer.stop()
             self.runner.cancel()
+            self._preparing.set()  # the run needs the cores more
         else:
             # Strokes drawn during the run are not in its terrain.
             self.schedule()
@@ -176,8 +184,10 @@ class LiveController(QObject):
         # rather than making them twice.
         if not self._enabled or self.synthesis.running:
             return  # (a run's end prepares)
+        self._preparing.set()  # an older preparation stops at its next zone index
+        self._preparing = threading.Event()
         try:
-            prepare = live_preparation(self.document)
+            prepare = live_preparation(self.document, cancel=self._preparing.is_set)
         except TerraSynthError:
             prepare = None  # the stroke's update will say what is wrong
         if prepare is None:

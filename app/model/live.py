@@ -103,12 +103,13 @@ def live_request(document) -> LiveRequest | None:
     return LiveRequest(run, document.result_strokes, terrain)
 
 
-def live_preparation(document) -> Callable[[], None] | None:
+def live_preparation(document, cancel: Callable[[], bool] | None = None) -> Callable[[], None] | None:
     """What the first live stroke on ``document``'s terrain would make
     before placing a patch (the examples' feature pools and fill searches
-    as its crop run reads them), as a function for a worker thread; None
-    when there is no terrain to change.  Snapshots the document here, on
-    the GUI thread."""
+    as its crop run reads them, with their zone indexes), as a function for
+    a worker thread; None when there is no terrain to change.  Snapshots
+    the document here, on the GUI thread.  ``cancel`` (thread-safe) is
+    asked between zone indexes; True stops the preparation there."""
     terrain = document.result
     if terrain is None or terrain.shape != document.output_shape:
         return None
@@ -117,7 +118,7 @@ def live_preparation(document) -> Callable[[], None] | None:
 
     def prepare() -> None:
         prepare_resynthesis(run.example_fields(), run.sketch_map, previous=terrain.heights, params=params,
-                            controls=run.make_controls())
+                            controls=run.make_controls(), cancel=cancel)
 
     return prepare
 

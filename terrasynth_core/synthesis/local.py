@@ -412,19 +412,22 @@ def _crop_session(examples, sketch: SketchMap | None, previous: np.ndarray, sele
 
 def prepare_resynthesis(examples: Sequence[HeightField | np.ndarray], sketch: SketchMap | None, *,
                         previous: np.ndarray, params: SynthesisParams = SynthesisParams(),
-                        controls: Controls | None = None) -> None:
+                        controls: Controls | None = None, cancel: Callable[[], bool] | None = None) -> None:
     """Make, and keep, what a re-synthesis of this map reads from its
     examples before it places a patch: their feature pools and fill
-    searches as a stroke's crop run (no landform pass) uses them.
+    searches as a stroke's crop run (no landform pass) uses them, with
+    every zone index of the searches (on disk, for the fill's workers).
 
     They are kept in the core by what they are made of, so the first live
     stroke after a run need not make them (0.4-0.5 s for a 1201x1201
-    example); a stroke asking for them while this runs waits for them
-    rather than making them twice.  The arguments are those of
-    :func:`resynthesize_region`.  The selection is a cell at the map's
-    centre: the pools do not depend on it, nor do the searches on a map
-    of one style (with several, only the styles within the crop around
-    it get theirs; a stroke elsewhere makes the others).
+    example, and 0.3-0.4 s per zone index); a stroke asking for them while
+    this runs waits for them rather than making them twice.  The arguments
+    are those of :func:`resynthesize_region`; ``cancel`` is asked between
+    zone indexes (4-5 s in all for a new 1201x1201 example, nothing once
+    they are on disk) and True stops there.  The selection is a cell at
+    the map's centre: the pools do not depend on it, nor do the searches on
+    a map of one style (with several, only the styles within the crop
+    around it get theirs; a stroke elsewhere makes the others).
     """
     rows, cols = np.shape(previous)[:2] if np.ndim(previous) == 2 else (0, 0)
     selection = np.zeros((rows, cols), bool)
@@ -432,7 +435,12 @@ def prepare_resynthesis(examples: Sequence[HeightField | np.ndarray], sketch: Sk
         selection[rows // 2, cols // 2] = True
     session = _crop_session(examples, sketch, previous, selection, params, controls, CONTEXT_PATCHES,
                             False).session
-    examples_read(session.layout, session.params)
+    _pools, searches = examples_read(session.layout, session.params)
+    # With the zones a crop's holes ask for, which a whole-map run may not
+    # have made: the first strokes built them (0.3-0.4 s each).
+    for search in searches:
+        if search is not None and search.indexes is not None:
+            search.indexes.make_all(cancel)
 
 
 # -- cutting the inputs --------------------------------------------------------------------

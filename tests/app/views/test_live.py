@@ -164,3 +164,29 @@ def test_live_prepares_the_first_strokes_analysis_in_the_background(qtbot, windo
         window.document.sketch.draw_polyline([(120, 30), (125, 90)], "valley", radius=2)
     assert len(made) == prepared
     window.live.wait()
+
+
+def test_a_run_stops_the_background_preparation(qtbot, window, monkeypatch):
+    """The preparation builds zone indexes for seconds on a new example; a
+    full run started meanwhile needs the cores, so it stops the preparation
+    at its next zone index."""
+    from terrasynth_app.model import live as live_model
+
+    with qtbot.waitSignals([window.synthesis.finished, window.heightmap.result_shown], timeout=RUN_TIMEOUT_MS):
+        window.synthesize()
+    asked = []
+
+    def preparing(*args, cancel, **kwargs):
+        asked.append(cancel())
+        cancel.__self__.wait(RUN_TIMEOUT_MS / 1000)  # the Event cancel reads: set when told to stop
+        asked.append(cancel())
+
+    monkeypatch.setattr(live_model, "prepare_resynthesis", preparing)
+    with qtbot.waitSignal(window.live.prepared, timeout=RUN_TIMEOUT_MS):
+        window.actions.live.trigger()
+        qtbot.waitUntil(lambda: len(asked) == 1)
+        window.synthesize()
+    assert asked == [False, True]
+    with qtbot.waitSignal(window.synthesis.finished, timeout=RUN_TIMEOUT_MS):
+        pass
+    window.live.wait()

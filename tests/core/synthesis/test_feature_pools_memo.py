@@ -8,7 +8,7 @@ import pytest
 from terrasynth_core.features.sketch import read_sketch
 from terrasynth_core.synthesis import Session, SynthesisParams
 from terrasynth_core.memo import Memo
-from terrasynth_core.synthesis import feature_patches
+from terrasynth_core.synthesis import feature_patches, fill_patches
 
 P = SynthesisParams(patch_size=32, k=2, seed=3, landform=False)
 
@@ -154,9 +154,11 @@ def test_a_once_memo_makes_a_value_once_for_threads_asking_together():
 
 def test_prepare_resynthesis_makes_what_the_first_stroke_reads(white_mountains, sketch_dir, monkeypatch):
     """After ``prepare_resynthesis`` a stroke's crop run makes no feature
-    pools and no fill search of its own, and its result is the same bytes."""
+    pools, no fill search and no zone index of its own (here or in a fill
+    worker, which would store it), and its result is the same bytes."""
+    from terrasynth_core.exemplars.cache import cache_dir
     from terrasynth_core.features import SketchMap
-    from terrasynth_core.synthesis import (changed_cells, fill_patches, prepare_resynthesis, resynthesize_region,
+    from terrasynth_core.synthesis import (changed_cells, prepare_resynthesis, resynthesize_region,
                                            stroke_selection)
 
     sketch = read_sketch(sketch_dir / "y_junction_512.png").resized((160, 160))
@@ -177,6 +179,41 @@ def test_prepare_resynthesis_makes_what_the_first_stroke_reads(white_mountains, 
     prepare_resynthesis([white_mountains], after, previous=first.heights, params=P)
     assert sorted(set(made)) == ["pools", "search"]
     prepared = len(made)
+    zones = sorted(p.name for p in cache_dir().glob("*-z*.npz"))
     warm = resynthesize_region([white_mountains], after, previous=first.heights, selection=selection, params=P)
     assert len(made) == prepared
+    assert sorted(p.name for p in cache_dir().glob("*-z*.npz")) == zones
     np.testing.assert_array_equal(warm.heights, cold.heights)
+
+
+def test_prepare_resynthesis_makes_every_zone_index_of_the_crops_searches(white_mountains, sketch_dir, monkeypatch,
+                                                                          tmp_path):
+    """A crop's holes ask for zones a whole-map run may not have made; the
+    first strokes built them (0.3-0.4 s each for a 1201x1201 example)."""
+    import dataclasses
+    import re
+
+    from terrasynth_core.matching import fill_search
+    from terrasynth_core.matching.window_index import ALL_ZONES
+    from terrasynth_core.synthesis import prepare_resynthesis
+
+    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(fill_search.FillSearch, "EXHAUSTIVE_BELOW", 64)  # the 400x400 corner is searched indexed
+    monkeypatch.setattr(fill_patches, "_SEARCHES", Memo(4, once=True))
+    params = dataclasses.replace(P, workers=1)
+    sketch = read_sketch(sketch_dir / "y_junction_512.png").resized((160, 160))
+    first = Session([white_mountains], sketch, params=params).run()
+
+    def zones() -> dict[str, set[int]]:
+        found: dict[str, set[int]] = {}
+        for path in tmp_path.glob("*-z*.npz"):
+            key, zone = re.fullmatch(r"(.*)-z(\d+)\.npz", path.name).groups()
+            found.setdefault(key, set()).add(int(zone))
+        return found
+
+    made_by_the_run = zones()
+    assert made_by_the_run and all(set(z) != set(ALL_ZONES) for z in made_by_the_run.values())
+    prepare_resynthesis([white_mountains], sketch, previous=first.heights, params=params, cancel=lambda: True)
+    assert zones() == made_by_the_run  # cancelled before the first zone index
+    prepare_resynthesis([white_mountains], sketch, previous=first.heights, params=params)
+    assert any(z == set(ALL_ZONES) for z in zones().values())
