@@ -6,15 +6,18 @@ a banner over the image says how much land lies below it.  The height
 legend, the banner, the feature legend and the placeholder float over the
 image, so showing them never moves the image or the checkboxes.
 
-During a run each placed patch is pasted into a GUI-side buffer; a timer
-(about 25 times a second) recolours once the window round the patches pasted
-since its last tick and pushes the image to the screen.  Recolouring is a
-dozen numpy calls, each of which gives the GIL to the run's threads and waits
-to get it back, so shading patch by patch as they come let a burst of queued
-patches hold the event loop for a tenth of a second.
+During a run each placed patch is pasted into a GUI-side buffer of heights;
+a timer (about 25 times a second) hands the windows round the patches pasted
+since its last tick to a pool thread, which recolours them from a copy, and
+the image is pushed to the screen when they come back.  Recolouring on the
+GUI thread, patch by patch, let a burst of queued patches hold the event loop
+for a tenth of a second: each of its dozen numpy calls gives the GIL to the
+run's threads and waits to get it back.
 """
 
 from __future__ import annotations
+
+import logging
 
 import numpy as np
 import pyqtgraph as pg
@@ -30,6 +33,8 @@ from ..workers import run_in_background
 from .feature_overlay import FeatureGraphOverlay, legend_text
 from .mask_overlay import MaskOverlay
 from .overlay_widgets import HeightLegend, WarningBanner, note_label, pin_overlay
+
+log = logging.getLogger(__name__)
 
 #: What the view says before there is a terrain.
 PLACEHOLDER = "Press Synthesize to make a terrain"
@@ -80,6 +85,7 @@ class HeightmapView(QWidget):
         self._painted: np.ndarray | None = None  # given: only water connected to it is drawn
         self._dirty = False
         self._unshaded: list[tuple[int, int, int, int]] = []  # the windows the next tick recolours
+        self._shading = False  # a pool thread is recolouring windows of the live run
         # Bumped by every new result or run; late images of an older one are
         # dropped.
         self._features_generation = 0
@@ -205,7 +211,7 @@ class HeightmapView(QWidget):
         r0, r1, c0, c1 = event.bbox
         self.heights[r0:r1, c0:c1] = event.heights
         # The window and a one-cell ring need recolouring (the ring's slopes
-        # changed too); the next tick does it for every patch since the last.
+        # changed too); the next tick has every window since the last recoloured.
         rows, cols = self.heights.shape
         ring = (max(r0 - 1, 0), min(r1 + 1, rows), max(c0 - 1, 0), min(c1 + 1, cols))
         self._unshaded = _joined(self._unshaded, ring)
@@ -213,7 +219,6 @@ class HeightmapView(QWidget):
         self.outline.setVisible(True)
         self.last_bbox = (r0, r1, c0, c1)
         self.patches_pasted += 1
-        self._dirty = True
 
     def end_run(self) -> None:
         """Stop live refreshing (the result or the previous one is shown next)."""
@@ -222,15 +227,46 @@ class HeightmapView(QWidget):
         self.outline.setVisible(False)
 
     def _refresh(self) -> None:
+        if self._unshaded and not self._shading and self._timer.isActive():
+            self._shade_in_background()
         if not self._dirty or self._rgba is None:
             return
         self._dirty = False
-        for R0, R1, C0, C1 in self._unshaded:
-            self._rgba[R0:R1, C0:C1] = shaded_window(self.heights, (R0, R1, C0, C1), cell_size=self._cell_size,
-                                                     vrange=self._vrange)
-        self._unshaded = []
         self.image.setImage(self._rgba, autoLevels=False, levels=None)
         self.refreshed.emit()
+
+    def _shade_in_background(self) -> None:
+        """Recolour the windows pasted since the last tick on a pool thread,
+        from a copy of their heights (and the one-cell margin their slopes
+        read): the run goes on pasting into the buffer meanwhile."""
+        rows, cols = self.heights.shape
+        pieces = []
+        for r0, r1, c0, c1 in self._unshaded:
+            R0, R1, C0, C1 = max(r0 - 1, 0), min(r1 + 1, rows), max(c0 - 1, 0), min(c1 + 1, cols)
+            pieces.append(((r0, r1, c0, c1), self.heights[R0:R1, C0:C1].copy(), (r0 - R0, r1 - R0, c0 - C0, c1 - C0)))
+        self._unshaded = []
+        self._shading = True
+        generation, cell_size, vrange = self._features_generation, self._cell_size, self._vrange
+
+        def shade():
+            return generation, [(bbox, shaded_window(copy, inner, cell_size=cell_size, vrange=vrange))
+                                for bbox, copy, inner in pieces]
+
+        run_in_background(shade, self._shaded, self._shading_failed)
+
+    def _shaded(self, value) -> None:
+        self._shading = False
+        generation, windows = value
+        if generation != self._features_generation or not self._timer.isActive():
+            return  # the run ended or another began: its own image is shown
+        for (r0, r1, c0, c1), rgba in windows:
+            self._rgba[r0:r1, c0:c1] = rgba
+        self._dirty = True
+        self._refresh()
+
+    def _shading_failed(self, message: str) -> None:
+        self._shading = False
+        log.error("recolouring the live terrain failed: %s", message)
 
     # -- result ----------------------------------------------------------------------------
     def show_result(self, result: TerrainResult | None) -> None:
