@@ -38,6 +38,12 @@ MAX_SIDE = 160
 #: Longest frame, in ms, that still allows live updates during a run (the
 #: GUI thread must never stall for 100 ms).
 LIVE_FRAME_BUDGET_MS = 60.0
+#: A frame this long during a run is a stall of the GUI thread; after
+#: :data:`SLOW_FRAMES` in a row live 3D updates pause (frames measured at
+#: start, on an idle machine, can take twice as long once a run keeps the
+#: cores busy: software OpenGL shares them).
+LOADED_FRAME_LIMIT_MS = 100.0
+SLOW_FRAMES = 2
 #: Shortest redraw period while heights change, in ms (10 redraws a second).
 REDRAW_MS = 100
 #: Redraws may take at most this share of the GUI thread's time; slow OpenGL
@@ -128,6 +134,8 @@ class TerrainView3D(QWidget):
         self._timer = QTimer(self, singleShot=True, interval=REDRAW_MS)
         self._timer.timeout.connect(self._redraw)
         self.render_ms = 0.0
+        self._frame_started_at = 0.0
+        self._slow_frames = 0  # in a row, during a run
         self._live = False
         #: False when a frame is too slow for live updates during runs.
         self.live_updates = True
@@ -165,6 +173,9 @@ class TerrainView3D(QWidget):
         finally:
             self._starting = False
         self.plotter = plotter
+        # Every frame is timed, however it is asked for (a repaint, a camera move).
+        plotter.ren_win.AddObserver("StartEvent", self._frame_started)
+        plotter.ren_win.AddObserver("EndEvent", self._frame_ended)
         self._stack.addWidget(plotter)
         self._stack.setCurrentWidget(plotter)
         self._time_frames()
@@ -192,6 +203,22 @@ class TerrainView3D(QWidget):
             self.heights = None
             self._clear_mesh()
 
+    def _frame_started(self, _obj, _event) -> None:
+        self._frame_started_at = time.perf_counter()
+
+    def _frame_ended(self, _obj, _event) -> None:
+        """Pause live updates once frames during a run stall the GUI thread."""
+        if not (self._live and self.live_updates):
+            return
+        ms = (time.perf_counter() - self._frame_started_at) * 1000
+        self._slow_frames = self._slow_frames + 1 if ms > LOADED_FRAME_LIMIT_MS else 0
+        if self._slow_frames >= SLOW_FRAMES:
+            self.live_updates = False
+            self._timer.stop()
+            log.info("3D frame during a run: %.0f ms; live 3D updates off", ms)
+            self.notice.setText(f"Live 3D off: a frame took {ms:.0f} ms while the run kept the cores busy; "
+                                "the terrain shows when a run ends.")
+
     def _clear_mesh(self) -> None:
         self.plotter.clear()
         self._water_actor = None
@@ -215,6 +242,7 @@ class TerrainView3D(QWidget):
         self._vrange = vrange
         self._dirty = True
         self._live = True
+        self._slow_frames = 0
         self._schedule()
 
     def paste_patch(self, event) -> None:

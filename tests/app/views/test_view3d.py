@@ -39,6 +39,7 @@ def test_3d_view_builds_its_mesh_updates_it_draws_water_and_takes_screenshots(x_
     assert out["available"] and out["reason"] is None, out["reason"]
     assert out["mesh_shape"] == [150, 100]
     assert out["patch_in_mesh"] and out["floor_elsewhere"] and out["result_in_mesh"]
+    assert out["paused_under_load"] == [False, True]  # slow frames in a run: live 3D off, and it says so
     assert out["ramp_error"] <= 2.0  # the 2D view's colours, up to rounding
     assert out["no_water_plane"] and out["water_plane_removed"] and out["unconnected_dry"]
     assert out["water_planes"] == [120.0 * 2.0, 200.0 * 3.0]  # metres times the vertical scale

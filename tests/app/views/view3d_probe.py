@@ -45,6 +45,23 @@ def main(screenshot_path: str) -> None:
         out["mesh_shape"] = list(mesh.shape)
         out["patch_in_mesh"] = bool(np.allclose(mesh[20 // step + 1:60 // step - 1, 40 // step + 1:100 // step - 1], 400))
         out["floor_elsewhere"] = bool(np.allclose(mesh[-1, -1], 400))  # unfilled cells sit at the lowest height
+        # Frames that stall the GUI thread during a run pause live updates:
+        # here every frame counts as slow.
+        from PySide6.QtCore import QEventLoop
+
+        from terrasynth_app.views import terrain_view_3d
+
+        limit, terrain_view_3d.LOADED_FRAME_LIMIT_MS = terrain_view_3d.LOADED_FRAME_LIMIT_MS, 0.0
+        for i in range(1, 1 + terrain_view_3d.SLOW_FRAMES):
+            view.paste_patch(types.SimpleNamespace(bbox=(100, 140, 40 + i, 100 + i), heights=heights, index=i,
+                                                   total=4))
+            redraws = view.redraws
+            while view.redraws == redraws and view.live_updates:
+                app.processEvents()
+            app.processEvents(QEventLoop.AllEvents, 200)  # the repaint that renders the frame
+        out["paused_under_load"] = [view.live_updates, view.notice.text().startswith("Live 3D off")]
+        terrain_view_3d.LOADED_FRAME_LIMIT_MS = limit
+        view.live_updates = True
         ramp = np.add.outer(np.arange(300), np.arange(200)).astype(np.float32)
         view.show_result(TerrainResult(ramp, np.zeros(shape, np.int32), np.zeros(shape, bool), cell_size=(30.0, 30.0)))
         out["result_in_mesh"] = bool(np.allclose(view.mesh_heights(), ramp[::step, ::step]))
