@@ -45,21 +45,26 @@ def _log_failure(exc: Exception) -> None:
         log.error("background work failed:\n%s", traceback.format_exc())
 
 
+#: Requests running, over every runner (synthesis, live, variations).
+_running_requests = 0
+
+
 def _hold_collector(running: bool) -> None:
-    """Keep the objects alive when a request starts out of the cyclic
-    collector until a request ends.
+    """Keep the objects alive when work starts out of the cyclic collector
+    until no runner has work left.
 
     A full collection walks every tracked object (a few hundred thousand in
     the app) on whichever thread triggers it, often the GUI thread, and took
     0.1 s there in the middle of runs.  Frozen, a collection during a run
     walks only what the run made; ``gc.freeze``/``unfreeze`` are constant
-    time.  Not counted across runners: when two overlap, the first to end
-    lets the collector see everything again (a possible pause, never objects
-    kept frozen for good).
+    time.  The full pass the frozen objects missed comes soon after the
+    last request ends, while the result is shown.
     """
+    global _running_requests
+    _running_requests = max(_running_requests + (1 if running else -1), 0)
     if running:
         gc.freeze()
-    else:
+    elif _running_requests == 0:
         gc.unfreeze()
 
 
@@ -177,6 +182,7 @@ class LatestRunner(QObject):
         self.wait_ms = wait_ms
         self._current: GeneratorWorker | None = None
         self._threads: dict[GeneratorWorker, QThread] = {}  # alive until their thread ends
+        self._holding = False  # the collector is held for this runner's current request
 
     @property
     def running(self) -> bool:
@@ -205,7 +211,8 @@ class LatestRunner(QObject):
         worker.finished.connect(thread.quit, Qt.DirectConnection)
         thread.finished.connect(self._thread_finished)
         self._threads[worker] = thread
-        if self._current is None:
+        if not self._holding:
+            self._holding = True
             _hold_collector(True)
         self._current = worker
         self.running_changed.emit(True)
@@ -224,7 +231,16 @@ class LatestRunner(QObject):
         ok = True
         for thread in list(self._threads.values()):
             ok &= thread.wait(self.wait_ms if msecs is None else msecs)
+        if ok:
+            # The current request's queued end may never be delivered (the
+            # window is closing): the collector sees its objects again now.
+            self._release_collector()
         return ok
+
+    def _release_collector(self) -> None:
+        if self._holding:
+            self._holding = False
+            _hold_collector(False)
 
     # -- the current worker's signals, on the GUI thread -----------------------------
     def _is_current(self) -> bool:
@@ -254,7 +270,7 @@ class LatestRunner(QObject):
     def _finished(self) -> None:
         if self._is_current():
             self._current = None
-            _hold_collector(False)
+            self._release_collector()
             self.running_changed.emit(False)
 
     @Slot()
@@ -290,11 +306,11 @@ class _PoolWorkers(QObject):
         super().__init__()
         self._workers: set[GeneratorWorker] = set()
 
-    def start(self, worker: GeneratorWorker) -> None:
+    def start(self, worker: GeneratorWorker, pool: QThreadPool | None = None) -> None:
         self._workers.add(worker)
         # Queued, and connected after the caller's slots: runs after them.
         worker.finished.connect(self._release)
-        QThreadPool.globalInstance().start(_PoolJob(worker))
+        (pool or QThreadPool.globalInstance()).start(_PoolJob(worker))
 
     @Slot()
     def _release(self) -> None:
@@ -305,7 +321,7 @@ _pool_workers: _PoolWorkers | None = None
 
 
 def run_in_background(function: Callable[[], object], on_finished: Callable[[object], None],
-                      on_failed: Callable[[str], None]) -> None:
+                      on_failed: Callable[[str], None], *, pool: QThreadPool | None = None) -> None:
     """Run ``function`` on Qt's thread pool and call back on the GUI thread.
 
     The same :class:`GeneratorWorker`, around a generator that yields nothing
@@ -320,6 +336,9 @@ def run_in_background(function: Callable[[], object], on_finished: Callable[[obj
         ``on_finished(value)`` with ``function``'s return value.
     on_failed : callable
         ``on_failed(message)`` with a one-line message when it raised.
+    pool : QThreadPool, optional
+        A pool of the caller's own (default Qt's global one), for work that
+        must not queue behind long jobs.
 
     The callbacks must be bound methods of QObjects living on the GUI thread,
     so Qt queues the calls there.
@@ -330,4 +349,4 @@ def run_in_background(function: Callable[[], object], on_finished: Callable[[obj
     worker = GeneratorWorker(_call(function))
     worker.returned.connect(on_finished)
     worker.errored.connect(on_failed)
-    _pool_workers.start(worker)
+    _pool_workers.start(worker, pool)

@@ -21,7 +21,7 @@ import logging
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import QPointF, QTimer, Signal
+from PySide6.QtCore import QPointF, QThreadPool, QTimer, Signal
 from PySide6.QtGui import QColor, QPen
 from PySide6.QtWidgets import QCheckBox, QGraphicsRectItem, QToolBar, QVBoxLayout, QWidget
 
@@ -84,8 +84,12 @@ class HeightmapView(QWidget):
         self.water_level: float | None = None  # None: no painted water, none drawn
         self._painted: np.ndarray | None = None  # given: only water connected to it is drawn
         self._dirty = False
-        self._unshaded: list[tuple[int, int, int, int]] = []  # the windows the next tick recolours
+        # The windows the next tick recolours (r0, r1, c0, c1, patch cells in it).
+        self._unshaded: list[tuple[int, int, int, int, int]] = []
         self._shading = False  # a pool thread is recolouring windows of the live run
+        # Its own thread: on the global pool the live image would wait behind
+        # long jobs (a live preparation builds indexes for seconds).
+        self._shading_pool = QThreadPool(self, maxThreadCount=1)
         # Bumped by every new result or run; late images of an older one are
         # dropped.
         self._features_generation = 0
@@ -241,7 +245,7 @@ class HeightmapView(QWidget):
         read): the run goes on pasting into the buffer meanwhile."""
         rows, cols = self.heights.shape
         pieces = []
-        for r0, r1, c0, c1 in self._unshaded:
+        for r0, r1, c0, c1, _cells in self._unshaded:
             R0, R1, C0, C1 = max(r0 - 1, 0), min(r1 + 1, rows), max(c0 - 1, 0), min(c1 + 1, cols)
             pieces.append(((r0, r1, c0, c1), self.heights[R0:R1, C0:C1].copy(), (r0 - R0, r1 - R0, c0 - C0, c1 - C0)))
         self._unshaded = []
@@ -252,7 +256,7 @@ class HeightmapView(QWidget):
             return generation, [(bbox, shaded_window(copy, inner, cell_size=cell_size, vrange=vrange))
                                 for bbox, copy, inner in pieces]
 
-        run_in_background(shade, self._shaded, self._shading_failed)
+        run_in_background(shade, self._shaded, self._shading_failed, pool=self._shading_pool)
 
     def _shaded(self, value) -> None:
         self._shading = False
@@ -418,17 +422,18 @@ def result_images(result: TerrainResult, vrange: tuple[float, float]) -> tuple[n
     return rgba, patch_colours(result.patch_id), seams
 
 
-def _joined(windows: list[tuple[int, int, int, int]],
-            new: tuple[int, int, int, int]) -> list[tuple[int, int, int, int]]:
-    """``windows`` (r0, r1, c0, c1) with ``new`` added: joined to the first
-    it lies near (their bounding window at most twice their areas), so a
-    burst of neighbouring patches is recoloured in one go, while patches far
-    apart are not recoloured with the whole map between them."""
-    def area(w):
-        return (w[1] - w[0]) * (w[3] - w[2])
-
+def _joined(windows: list[tuple[int, int, int, int, int]], new: tuple[int, int, int, int],
+            cells: int | None = None) -> list[tuple[int, int, int, int, int]]:
+    """``windows`` (r0, r1, c0, c1, cells of the patches in it) with the
+    window ``new`` (r0, r1, c0, c1, holding ``cells`` patch cells, default
+    its area) added: joined to the first it lies near (their bounding window
+    at most twice their patches' cells), so a burst of neighbouring patches
+    is recoloured in one go, while patches far apart (or along a diagonal)
+    are not recoloured with the whole map between them."""
+    if cells is None:
+        cells = (new[1] - new[0]) * (new[3] - new[2])
     for i, w in enumerate(windows):
         both = min(w[0], new[0]), max(w[1], new[1]), min(w[2], new[2]), max(w[3], new[3])
-        if area(both) <= 2 * (area(w) + area(new)):
-            return _joined(windows[:i] + windows[i + 1:], both)
-    return windows + [new]
+        if (both[1] - both[0]) * (both[3] - both[2]) <= 2 * (w[4] + cells):
+            return _joined(windows[:i] + windows[i + 1:], both, w[4] + cells)
+    return windows + [(*new, cells)]

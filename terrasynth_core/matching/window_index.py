@@ -99,8 +99,11 @@ PCA_SAMPLE = 8_000
 NPROBE = 32
 
 _TOP, _BOTTOM, _LEFT, _RIGHT = 1, 2, 4, 8
-#: Every zone (see :func:`zone_of`), those with more sides filled first.
-ALL_ZONES = tuple(sorted(range(1, 16), key=lambda zone: (-bin(zone).count("1"), zone)))
+#: The zones (see :func:`zone_of`) of windows with terrain on two sides or
+#: more, the most first: where a live stroke's crop, a hole in kept
+#: terrain, fills (its windows on one side only are few).
+HOLE_ZONES = tuple(sorted((zone for zone in range(1, 16) if bin(zone).count("1") >= 2),
+                          key=lambda zone: (-bin(zone).count("1"), zone)))
 
 
 def zone_of(filled: np.ndarray, overlap: int) -> int:
@@ -553,42 +556,47 @@ def _stored_or_built(load, key: str, *build_args) -> ZoneIndex:
 
 class LazyIndexes:
     """The zone indexes of one example and window, each built (or loaded
-    from the disk cache) the first time it is asked for; thread-safe."""
+    from the disk cache) the first time it is asked for; thread-safe: a
+    caller waits only while the zone it asks for is being made (a live
+    stroke's search runs beside the background preparation building the
+    other zones, :meth:`make_zones`)."""
 
     def __init__(self, example, window, overlap, positions, prior, *, load=None, save=None):
         self.example, self.window, self.overlap = example, window, overlap
         self.positions, self.prior = positions, prior
         self._load, self._save = load, save
         self._indexes: dict[int, ZoneIndex] = {}
-        self._lock = threading.Lock()
+        self._lock = threading.Lock()  # the shared parts: the key, the blocks, the zones' locks
+        self._zone_locks: dict[int, threading.Lock] = {}
         self._base_key = None
         self._blocks = None  # centred_blocks, made by the first build
 
     def __getstate__(self) -> dict:
         # Sent to the fill's worker processes without the indexes built so
-        # far (faiss objects do not pickle) or the lock: a worker loads each
+        # far (faiss objects do not pickle) or the locks: a worker loads each
         # index from the disk cache the first time it needs it.
         state = self.__dict__.copy()
         state["_indexes"] = {}
         state["_blocks"] = None
-        del state["_lock"]
+        del state["_lock"], state["_zone_locks"]
         return state
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self._lock = threading.Lock()
+        self._zone_locks = {}
 
     def get(self, zone: int) -> ZoneIndex:
+        got = self._indexes.get(zone)
+        if got is not None:
+            return got
         with self._lock:
-            got = self._indexes.get(zone)
+            zone_lock = self._zone_locks.setdefault(zone, threading.Lock())
+        with zone_lock:
+            got = self._indexes.get(zone)  # made while this caller waited
             if got is not None:
                 return got
-            if self._base_key is None:
-                self._base_key = index_key(self.example, self.window, self.overlap, self.positions, self.prior)
-                # (That read the example's arrays whole: a first window of a
-                # large library asks every example's, mapped_pages.)
-                mapped_pages.keep_within_budget()
-            key = f"{self._base_key}-z{zone}"
+            key = f"{self._key()}-z{zone}"
             got = self._load(key) if self._load else None
             if got is None:
                 got = self._build(zone)
@@ -606,24 +614,35 @@ class LazyIndexes:
             self._indexes[zone] = got
             return got
 
-    def make_all(self, cancel: Callable[[], bool] | None = None) -> None:
-        """Build (or load) every zone's index now, those with more sides
-        filled first; ``cancel`` is asked before each and True stops there
-        (the zones made so far are kept).
+    def make_zones(self, zones=HOLE_ZONES, cancel: Callable[[], bool] | None = None) -> None:
+        """Build (or load) the indexes of ``zones`` now, in their order;
+        ``cancel`` is asked before each and True stops there (the zones made
+        so far are kept).
 
         A whole-map run asks for the zones its windows make, mostly one or
         two sides filled; a live stroke's crop fills holes in kept terrain
-        and asks for others, built in the stroke's time (0.3-0.4 s each
+        (:data:`HOLE_ZONES`), built in the stroke's time (0.3-0.4 s each
         for a 1201x1201 example) unless made beforehand.
         """
-        for zone in ALL_ZONES:
+        for zone in zones:
             if cancel is not None and cancel():
                 return
             self.get(zone)
 
+    def _key(self) -> str:
+        with self._lock:
+            if self._base_key is None:
+                self._base_key = index_key(self.example, self.window, self.overlap, self.positions, self.prior)
+                # (That read the example's arrays whole: a first window of a
+                # large library asks every example's, mapped_pages.)
+                mapped_pages.keep_within_budget()
+            return self._base_key
+
     def _build(self, zone: int) -> ZoneIndex:
         """The zone's index, built here (in memory)."""
-        if self._blocks is None:
-            self._blocks = centred_blocks(self.example, self.window)
+        with self._lock:
+            if self._blocks is None:
+                self._blocks = centred_blocks(self.example, self.window)
+            blocks = self._blocks
         return build_zone_index(self.example, self.window, self.overlap, zone, self.positions, self.prior,
-                                blocks=self._blocks)
+                                blocks=blocks)

@@ -416,14 +416,15 @@ def prepare_resynthesis(examples: Sequence[HeightField | np.ndarray], sketch: Sk
     """Make, and keep, what a re-synthesis of this map reads from its
     examples before it places a patch: their feature pools and fill
     searches as a stroke's crop run (no landform pass) uses them, with
-    every zone index of the searches (on disk, for the fill's workers).
+    the searches' zone indexes a crop's holes ask for (on disk, for the
+    fill's workers; :data:`~terrasynth_core.matching.window_index.HOLE_ZONES`).
 
     They are kept in the core by what they are made of, so the first live
     stroke after a run need not make them (0.4-0.5 s for a 1201x1201
     example, and 0.3-0.4 s per zone index); a stroke asking for them while
     this runs waits for them rather than making them twice.  The arguments
     are those of :func:`resynthesize_region`; ``cancel`` is asked between
-    zone indexes (4-5 s in all for a new 1201x1201 example, nothing once
+    zone indexes (about 4 s in all for a new 1201x1201 example, nothing once
     they are on disk) and True stops there.  The selection is a cell at
     the map's centre: the pools do not depend on it, nor do the searches on
     a map of one style (with several, only the styles within the crop
@@ -437,10 +438,11 @@ def prepare_resynthesis(examples: Sequence[HeightField | np.ndarray], sketch: Sk
                             False).session
     _pools, searches = examples_read(session.layout, session.params)
     # With the zones a crop's holes ask for, which a whole-map run may not
-    # have made: the first strokes built them (0.3-0.4 s each).
+    # have made: the first strokes built them (0.3-0.4 s each, 15 MB on
+    # disk for a 1201x1201 example).
     for search in searches:
         if search is not None and search.indexes is not None:
-            search.indexes.make_all(cancel)
+            search.indexes.make_zones(cancel=cancel)
 
 
 # -- cutting the inputs --------------------------------------------------------------------

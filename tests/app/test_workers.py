@@ -140,6 +140,7 @@ def test_the_objects_alive_when_a_request_starts_are_out_of_the_collector_until_
         pass
     assert ended.args == [False] and seen and seen[0] > 0
     assert gc.get_freeze_count() == 0
+    assert runner.wait()
 
 
 class _Receiver(QObject):
@@ -164,3 +165,28 @@ def test_run_in_background_hands_back_the_value_or_the_error_on_the_gui_thread(q
     with qtbot.waitSignal(receiver.got, timeout=TIMEOUT_MS) as got:
         run_in_background(lambda: 1 / 0, receiver.finished, receiver.failed)
     assert got.args == ["failed", "internal error: ZeroDivisionError: division by zero"]
+
+
+def test_the_collector_is_held_until_the_last_of_overlapping_requests_ends(qtbot):
+    # A stroke's update ending after the run that superseded it began must
+    # not let the collector walk everything during that run.
+    gates = {"a": threading.Event(), "b": threading.Event()}
+
+    def work(name):
+        gates[name].wait(TIMEOUT_MS / 1000)
+        yield name
+
+    first, second = LatestRunner(), LatestRunner()
+    with qtbot.waitSignal(first.running_changed, timeout=TIMEOUT_MS):
+        first.start(work("a"))
+    with qtbot.waitSignal(second.running_changed, timeout=TIMEOUT_MS):
+        second.start(work("b"))
+    gates["a"].set()
+    with qtbot.waitSignal(first.running_changed, timeout=TIMEOUT_MS):
+        pass
+    held = gc.get_freeze_count()
+    gates["b"].set()
+    with qtbot.waitSignal(second.running_changed, timeout=TIMEOUT_MS):
+        pass
+    assert held > 0 and gc.get_freeze_count() == 0
+    assert first.wait() and second.wait()

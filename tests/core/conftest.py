@@ -22,12 +22,6 @@ def sketch_dir() -> Path:
     return Path(__file__).resolve().parents[2] / "resources" / "sketches"
 
 
-@pytest.fixture(autouse=True)
-def _private_analysis_cache(tmp_path_factory, monkeypatch):
-    """Keep the example-analysis disk cache out of the user's home."""
-    monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "analysis-cache"))
-
-
 # -- example DEMs shared by the engine's tests (read-only: copy before changing)
 
 

@@ -314,3 +314,14 @@ def test_a_live_run_recolours_the_patches_pasted_since_the_last_tick_in_one_go(q
     assert np.array_equal(view._rgba[placed], expected[placed])
     assert not view._rgba[~placed, 3].any()  # transparent where nothing was placed
     view.end_run()
+
+
+def test_patches_along_a_diagonal_are_not_recoloured_with_the_map_between_them():
+    from terrasynth_app.views.heightmap_view import _joined
+
+    windows = []
+    for k in range(10):
+        windows = _joined(windows, (30 * k, 30 * k + 32, 30 * k, 30 * k + 32))
+    shaded = sum((w[1] - w[0]) * (w[3] - w[2]) for w in windows)
+    assert shaded <= 2 * 10 * 32 * 32  # (joining window to window, it grew to the whole 302x302 diagonal)
+    assert sum(w[4] for w in windows) == 10 * 32 * 32

@@ -286,3 +286,40 @@ def test_indexes_and_searches_do_not_depend_on_the_cpus_simd_kernels():
                                  check=True).stdout.split()) for name in levels}
     assert len(outs) == 1
     assert next(iter(outs))[0] == "NONE"
+
+
+def test_a_zone_made_is_handed_out_while_another_zone_is_being_built():
+    """The live preparation builds zone after zone in the background; a
+    stroke's search asking for a zone already made, or another one, does not
+    wait for that build."""
+    import threading
+    import types
+
+    building = threading.Event()
+    release = threading.Event()
+
+    class Slow(window_index.LazyIndexes):
+        def _key(self):
+            return "k"
+
+        def _build(self, zone):
+            if zone == 15:
+                building.set()
+                release.wait(30)
+            return types.SimpleNamespace(zone=zone)
+
+    indexes = Slow(None, (8, 8), 2, None, None)
+    assert indexes.get(3).zone == 3
+    slow = threading.Thread(target=indexes.get, args=(15,))
+    slow.start()
+    assert building.wait(30)
+    got = []
+    asking = threading.Thread(target=lambda: got.extend([indexes.get(3), indexes.get(5)]))
+    asking.start()
+    asking.join(10)
+    waited = asking.is_alive()
+    release.set()
+    slow.join(30)
+    asking.join(30)
+    assert not waited and [g.zone for g in got] == [3, 5]
+    assert indexes.get(15).zone == 15
