@@ -6,7 +6,8 @@ resampled to a run's cell size (:mod:`.ground`), and one per fill-search
 zone index (:mod:`terrasynth_core.matching.window_index`: example, window,
 zone, version), in
 ``$TERRASYNTH_CACHE_DIR`` or ``$XDG_CACHE_HOME/terrasynth`` (default
-``~/.cache/terrasynth``).  Files are written atomically and read with
+``~/.cache/terrasynth``), kept within ``$TERRASYNTH_CACHE_MAX_GB`` (default
+4 GiB) by removing the least recently used entries (:mod:`.cache_size`).  Files are written atomically and read with
 ``allow_pickle=False``; each holds its key (the heights' digest, shape and
 patch size), checked on load, so a file of another example under this
 one's name is never used; an unreadable, stale or foreign file is ignored
@@ -51,7 +52,7 @@ from ..features import FeatureGraph, FeatureMaps
 from ..features.graph import NodeTable, PathTable
 from ..io._common import atomic_outputs, open_new
 from ..features.samples import FeatureSample, SampleTable
-from . import mapped_pages
+from . import cache_size, mapped_pages
 
 #: Bump when the analysis changes, so old files are not reused.
 CACHE_VERSION = 1
@@ -155,9 +156,12 @@ def _read(key: str, read):
                 return None  # another grid's file under this name (or one from before keys)
             if _large_inside(z):
                 return None  # written before side files: made again, so that it is mapped
-            return read(_Entry(z, path))
+            got = read(_Entry(z, path))
     except Exception:  # a damaged or foreign file (or a side file missing or changed): recompute
         return None
+    if got is not None:
+        cache_size.mark_used(path)
+    return got
 
 
 def _large_inside(z) -> bool:
@@ -254,7 +258,8 @@ def _write(path: Path, arrays: dict) -> None:
         with atomic_outputs(path) as (tmp,), open_new(tmp) as f:
             np.savez(f, **inside)
     except OSError:
-        pass
+        return
+    cache_size.written(path.parent)
 
 
 def _npy_bytes(array: np.ndarray) -> bytes:
