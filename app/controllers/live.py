@@ -145,6 +145,12 @@ class LiveController(QObject):
         self._timer.start()
         self.scheduled.emit()
 
+    def stop_preparation(self) -> None:
+        """Stop the background preparation at its next zone index: other
+        heavy work (variations, a large render) needs the cores.  The next
+        run's end prepares again."""
+        self._preparing.set()
+
     def wait(self) -> bool:
         """Cancel and wait for the worker's thread (at exit)."""
         self._timer.stop()

@@ -183,6 +183,9 @@ class MainWindow(QMainWindow):
         v.started.connect(self._open_variations_dialog)
         v.running_changed.connect(
             lambda running: self.actions.variations.setText("Making variations…" if running else "Make variations…"))
+        # Heavy work of their own: the live preparation gives them the cores.
+        v.started.connect(lambda _seeds: self.live.stop_preparation())
+        self.large_render.started.connect(self.live.stop_preparation)
 
         self.heightmap.hovered.connect(self._hovered)
         self.canvas.hovered.connect(self._hovered)

@@ -404,7 +404,9 @@ class TerrainView3D(QWidget):
             x0, x1, y0, y1, _, _ = grid.bounds
             eye = centre + 2.0 * max(x1 - x0, y1 - y0) * camera_direction(*CAMERA)
             self.plotter.camera_position = [tuple(eye), tuple(centre), (0.0, 0.0, 1.0)]
-            self.plotter.reset_camera(render=False)
+            # The renderer's own: the plotter's renders whatever it is told,
+            # a whole frame more on the GUI thread when a run's mesh is made.
+            self.plotter.renderer.reset_camera(render=False)
         else:
             self._apply_heights(z)
             self._actor.mapper.scalar_range = self._vrange

@@ -166,10 +166,11 @@ def test_live_prepares_the_first_strokes_analysis_in_the_background(qtbot, windo
     window.live.wait()
 
 
-def test_a_run_stops_the_background_preparation(qtbot, window, monkeypatch):
+@pytest.mark.parametrize("work", ["run", "variations"])
+def test_a_run_or_variations_stop_the_background_preparation(qtbot, window, monkeypatch, work):
     """The preparation builds zone indexes for seconds on a new example; a
-    full run started meanwhile needs the cores, so it stops the preparation
-    at its next zone index."""
+    full run or variations started meanwhile need the cores, so they stop
+    the preparation at its next zone index."""
     from terrasynth_app.model import live as live_model
 
     with qtbot.waitSignals([window.synthesis.finished, window.heightmap.result_shown], timeout=RUN_TIMEOUT_MS):
@@ -182,9 +183,11 @@ def test_a_run_stops_the_background_preparation(qtbot, window, monkeypatch):
         asked.append(cancel())
 
     monkeypatch.setattr(live_model, "prepare_resynthesis", preparing)
-    with qtbot.waitSignals([window.live.prepared, window.synthesis.finished], timeout=RUN_TIMEOUT_MS):
+    ended = window.synthesis.finished if work == "run" else window.variations.finished
+    with qtbot.waitSignals([window.live.prepared, ended], timeout=RUN_TIMEOUT_MS):
         window.actions.live.trigger()
         qtbot.waitUntil(lambda: len(asked) == 1)
-        window.synthesize()
-    assert asked[:2] == [False, True]  # (the run's end starts another preparation)
+        window.synthesize() if work == "run" else window.variations.make(2)
+    assert asked[:2] == [False, True]  # (a run's end starts another preparation)
     window.live.wait()
+    window.variations.wait()
