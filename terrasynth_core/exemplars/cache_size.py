@@ -11,8 +11,10 @@ it.  An entry is used when it is read (:func:`mark_used` sets its ``.npz``
 file's modification time; its side files' times are their checks' and are
 never touched) or written.
 
-Nothing used in the last :data:`KEEP_RECENT_S` seconds is removed: a run
-may still read it.  Removing an entry another process has mapped is safe
+Only the cache's own files are counted and removed (named as
+:data:`ENTRY_PREFIX` says): ``TERRASYNTH_CACHE_DIR`` may name a folder that
+holds the user's files too.  Nothing used in the last
+:data:`KEEP_RECENT_S` seconds is removed: a run may still read it.  Removing an entry another process has mapped is safe
 (the mapping keeps the file's data until it is closed); a reader that then
 asks for the entry finds none and makes it again, as after any miss.  An
 entry goes ``.npz`` first, so a reader never finds an entry whose side
@@ -29,6 +31,8 @@ import threading
 import time
 from pathlib import Path
 
+#: How the cache's files are named (:func:`.cache._path`); no other file is touched.
+ENTRY_PREFIX = "example-v"
 #: Default most bytes the cache keeps; ``TERRASYNTH_CACHE_MAX_GB`` sets another.
 DEFAULT_LIMIT_BYTES = 4 * 2**30
 #: A file used (or written) this recently, in seconds, is never removed.
@@ -97,7 +101,8 @@ def keep_within(folder: Path, limit: int, *, now: float | None = None) -> int:
     """
     now = time.time() if now is None else now
     try:
-        files = [(e.name, e.stat()) for e in os.scandir(folder) if e.is_file(follow_symlinks=False)]
+        files = [(e.name, e.stat()) for e in os.scandir(folder)
+                 if _ours(e.name) and e.is_file(follow_symlinks=False)]
     except OSError:
         return 0
     total = sum(st.st_size for _, st in files)
@@ -130,6 +135,13 @@ def keep_within(folder: Path, limit: int, *, now: float | None = None) -> int:
             except OSError:
                 pass
     return removed
+
+
+def _ours(name: str) -> bool:
+    """Whether the file ``name`` is one the cache writes (an entry, a side
+    file, an unfinished temporary): the folder may be one the user chose
+    and share with files of their own, which are never counted or removed."""
+    return name.startswith(ENTRY_PREFIX) or (name.startswith("." + ENTRY_PREFIX) and name.endswith(".tmp"))
 
 
 def _entry_of(name: str, stems) -> str | None:

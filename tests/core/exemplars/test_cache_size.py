@@ -53,6 +53,18 @@ def test_the_least_recently_used_entries_go_whole_down_to_four_fifths_of_the_lim
     assert cache.load_arrays("a") is None and cache.load_arrays("c") is not None
 
 
+def test_files_that_are_not_the_caches_are_never_counted_nor_removed(folder):
+    # TERRASYNTH_CACHE_DIR may name a folder of the user's own.
+    mine = [folder / "N44W072.hgt", folder / "notes.txt", folder / ".hidden.tmp"]
+    for path in mine:
+        path.write_bytes(b"x" * 3 * MB)
+        os.utime(path, (time.time() - 30 * 86400,) * 2)
+    entry = _entry("a", 2, used_hours_ago=30)
+    assert cache_size.keep_within(folder, 4 * MB) == 0  # the cache's own 2 MB are within 4 MB
+    assert cache_size.keep_within(folder, 1 * MB) >= 2 * MB
+    assert all(path.exists() for path in mine) and not any((folder / name).exists() for name in entry)
+
+
 def test_within_the_limit_nothing_goes_and_what_was_used_lately_never_goes(folder):
     a = _entry("a", 2, used_hours_ago=30)
     assert cache_size.keep_within(folder, 100 * MB) == 0
