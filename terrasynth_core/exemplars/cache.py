@@ -7,7 +7,7 @@ zone index (:mod:`terrasynth_core.matching.window_index`: example, window,
 zone, version), in
 ``$TERRASYNTH_CACHE_DIR`` or ``$XDG_CACHE_HOME/terrasynth`` (default
 ``~/.cache/terrasynth``), kept within ``$TERRASYNTH_CACHE_MAX_GB`` (default
-4 GiB) by removing the least recently used entries (:mod:`.cache_size`).  Files are written atomically and read with
+16 GiB) by removing the least recently used entries (:mod:`.cache_size`).  Files are written atomically and read with
 ``allow_pickle=False``; each holds its key (the heights' digest, shape and
 patch size), checked on load, so a file of another example under this
 one's name is never used; an unreadable, stale or foreign file is ignored

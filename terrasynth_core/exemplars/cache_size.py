@@ -9,39 +9,46 @@ process, the folder is scanned and, when over :func:`cache_limit`, whole
 entries are removed, least recently used first, down to four fifths of
 it.  An entry is used when it is read (:func:`mark_used` sets its ``.npz``
 file's modification time; its side files' times are their checks' and are
-never touched) or written.
+never touched) or written (its newest file's time).
 
-Only the cache's own files are counted and removed (named as
-:data:`ENTRY_PREFIX` says): ``TERRASYNTH_CACHE_DIR`` may name a folder that
-holds the user's files too.  Nothing used in the last
-:data:`KEEP_RECENT_S` seconds is removed: a run may still read it.  Removing an entry another process has mapped is safe
-(the mapping keeps the file's data until it is closed); a reader that then
-asks for the entry finds none and makes it again, as after any miss.  An
-entry goes ``.npz`` first, so a reader never finds an entry whose side
-files are gone without it noticing (the ``.npz`` names them).  Side files
-without an entry (an entry being written lays them first; a crash can
-leave them) and unfinished temporary files are removed once older than
-:data:`KEEP_RECENT_S`.
+Only the cache's own files are counted and removed (:data:`_ENTRY`,
+:data:`_SIDE`, :data:`_UNFINISHED`): ``TERRASYNTH_CACHE_DIR`` may name a
+folder that holds the user's files too.  No file used or written in the
+last :data:`KEEP_RECENT_S` seconds is removed, nor any entry holding one: a
+run may still read it, or a writer be laying it (side files first, the
+``.npz`` last).  A file is looked at again just before it goes, and an
+entry whose ``.npz`` changed since the scan (used, rewritten) or cannot be
+removed (open elsewhere, on Windows) is left whole.  Removing an entry
+another process has mapped is safe on POSIX (the mapping keeps the file's
+data until it is closed); a reader that then asks for the entry finds none
+and makes it again, as after any miss.  Side files without an entry (a
+crash can leave them) and unfinished temporary files go once old.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import threading
 import time
 from pathlib import Path
 
-#: How the cache's files are named (:func:`.cache._path`); no other file is touched.
-ENTRY_PREFIX = "example-v"
-#: Default most bytes the cache keeps; ``TERRASYNTH_CACHE_MAX_GB`` sets another.
-DEFAULT_LIMIT_BYTES = 4 * 2**30
-#: A file used (or written) this recently, in seconds, is never removed.
-KEEP_RECENT_S = 600.0
+#: Default most bytes the cache keeps; ``TERRASYNTH_CACHE_MAX_GB`` sets
+#: another.  A library of 20 DEMs uses a few GB during a tiled run.
+DEFAULT_LIMIT_BYTES = 16 * 2**30
+#: A file used (or written) this recently, in seconds, is never removed: a
+#: long tiled run reads its examples' entries throughout.
+KEEP_RECENT_S = 3600.0
 #: Shortest time between two scans of the folder in one process, seconds.
 SCAN_EVERY_S = 60.0
 #: Removal goes down to this share of the limit, so the next entries
 #: written do not start a removal each.
 AFTER_REMOVAL = 0.8
+#: The names the cache writes (:func:`.cache._path`, :func:`.cache._side_path`,
+#: :func:`~terrasynth_core.io._common.atomic_outputs`); no other file is touched.
+_ENTRY = re.compile(r"example-v\d+-.+\.npz")
+_SIDE = re.compile(r"example-v\d+-.+\.[^.]+\.(npy|bin)")
+_UNFINISHED = re.compile(r"\.example-v\d+-.+\.[0-9a-f]{12}\.tmp")
 
 _last_scan = float("-inf")
 _scan_lock = threading.Lock()
@@ -49,13 +56,13 @@ _scan_lock = threading.Lock()
 
 def cache_limit() -> int:
     """Most bytes the cache keeps: ``TERRASYNTH_CACHE_MAX_GB`` (GiB, a
-    positive number), else :data:`DEFAULT_LIMIT_BYTES` (also for a value
-    that is not a positive number: the cache never stops a run)."""
+    positive number; at most a million), else :data:`DEFAULT_LIMIT_BYTES`
+    (also for anything else: the cache never stops a run)."""
     try:
         gib = float(os.environ.get("TERRASYNTH_CACHE_MAX_GB", ""))
     except ValueError:
         return DEFAULT_LIMIT_BYTES
-    return int(gib * 2**30) if gib > 0 and gib != float("inf") else DEFAULT_LIMIT_BYTES
+    return int(min(gib, 1e6) * 2**30) if gib > 0 else DEFAULT_LIMIT_BYTES  # (NaN > 0 is False)
 
 
 def mark_used(entry: Path) -> None:
@@ -70,14 +77,18 @@ def mark_used(entry: Path) -> None:
 
 def written(folder: Path) -> None:
     """An entry was written to ``folder``: keep it within the limit, unless
-    this process scanned it less than :data:`SCAN_EVERY_S` ago."""
+    this process scanned it less than :data:`SCAN_EVERY_S` ago.  Never
+    raises (the cache never stops a run)."""
     global _last_scan
     with _scan_lock:
         now = time.monotonic()
         if now - _last_scan < SCAN_EVERY_S:
             return
         _last_scan = now
-    keep_within(folder, cache_limit())
+    try:
+        keep_within(folder, cache_limit())
+    except Exception:  # best effort: a cache too big is better than a failed run
+        pass
 
 
 def keep_within(folder: Path, limit: int, *, now: float | None = None) -> int:
@@ -97,51 +108,76 @@ def keep_within(folder: Path, limit: int, *, now: float | None = None) -> int:
     Returns
     -------
     int
-        Bytes removed.
+        Bytes removed (by this call, or by another process meanwhile).
     """
     now = time.time() if now is None else now
-    try:
-        files = [(e.name, e.stat()) for e in os.scandir(folder)
-                 if _ours(e.name) and e.is_file(follow_symlinks=False)]
-    except OSError:
-        return 0
-    total = sum(st.st_size for _, st in files)
+    files = _listing(folder)
+    total = sum(st.st_size for st in files.values())
     if total <= limit:
         return 0
-    stems = {name[:-4]: st for name, st in files if name.endswith(".npz") and not name.startswith(".")}
-    entries: dict[str, list[tuple[str, int]]] = {stem: [(stem + ".npz", st.st_size)] for stem, st in stems.items()}
+    stems = {name[:-4] for name in files if _ENTRY.fullmatch(name)}
+    entries: dict[str, list[str]] = {stem: [stem + ".npz"] for stem in stems}
     loose = []  # side files without an entry, unfinished temporary files
-    for name, st in files:
-        if name.endswith(".npz") and name[:-4] in stems:
+    for name in files:
+        if _ENTRY.fullmatch(name):
             continue
-        stem = _entry_of(name, stems)
+        stem = _entry_of(name, stems) if _SIDE.fullmatch(name) else None
         if stem is None:
-            loose.append((st.st_mtime, name, st.st_size))
+            loose.append(name)
         else:
-            entries[stem].append((name, st.st_size))
+            entries[stem].append(name)
     old = now - KEEP_RECENT_S
-    # Loose files first, then entries by when they were last used.
-    queue = [(mtime, [(name, size)]) for mtime, name, size in sorted(loose) if mtime < old]
-    queue += sorted((stems[stem].st_mtime, entries[stem]) for stem in stems if stems[stem].st_mtime < old)
+    # Loose files first, then entries by when they were last used (their
+    # newest file), none holding a file younger than ``old``.
+    queue = sorted((files[name].st_mtime, [name]) for name in loose if files[name].st_mtime < old)
+    queue += sorted((max(files[n].st_mtime for n in members), members) for members in entries.values()
+                    if max(files[n].st_mtime for n in members) < old)
     removed = 0
     goal = AFTER_REMOVAL * limit
     for _, members in queue:
         if total - removed <= goal:
             break
-        for name, size in members:  # the .npz first: the entry is gone before its side files
-            try:
-                (folder / name).unlink()
-                removed += size
-            except OSError:
-                pass
+        for i, name in enumerate(members):  # an entry's .npz first: gone before its side files
+            gone = _remove(folder / name, files[name])
+            if gone is None and i == 0:
+                break  # changed since the scan, or held open: the entry stays whole
+            removed += gone or 0
     return removed
 
 
-def _ours(name: str) -> bool:
-    """Whether the file ``name`` is one the cache writes (an entry, a side
-    file, an unfinished temporary): the folder may be one the user chose
-    and share with files of their own, which are never counted or removed."""
-    return name.startswith(ENTRY_PREFIX) or (name.startswith("." + ENTRY_PREFIX) and name.endswith(".tmp"))
+def _listing(folder: Path) -> dict[str, os.stat_result]:
+    """The cache's own regular files in ``folder`` with their status (none
+    when it cannot be read; a file gone meanwhile left out)."""
+    files = {}
+    try:
+        scan = list(os.scandir(folder))
+    except OSError:
+        return files
+    for e in scan:
+        if not (_ENTRY.fullmatch(e.name) or _SIDE.fullmatch(e.name) or _UNFINISHED.fullmatch(e.name)):
+            continue
+        try:
+            if e.is_file(follow_symlinks=False):
+                files[e.name] = e.stat(follow_symlinks=False)
+        except OSError:
+            pass
+    return files
+
+
+def _remove(path: Path, seen: os.stat_result) -> int | None:
+    """Remove ``path`` if it is still the file ``seen`` was; the bytes it
+    held (0 when another process removed it first), or None when it changed
+    or cannot be removed."""
+    try:
+        st = path.stat()
+        if (st.st_ino, st.st_mtime_ns, st.st_size) != (seen.st_ino, seen.st_mtime_ns, seen.st_size):
+            return None
+        path.unlink()
+        return st.st_size
+    except FileNotFoundError:
+        return seen.st_size  # another pruner took it: counted, so this one does not go further
+    except OSError:
+        return None
 
 
 def _entry_of(name: str, stems) -> str | None:

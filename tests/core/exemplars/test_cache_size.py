@@ -19,8 +19,7 @@ def _entry(key: str, megabytes: int, used_hours_ago: float) -> list[str]:
     files = sorted(p.name for p in path.parent.glob(path.stem + ".*"))
     when = time.time() - used_hours_ago * 3600
     for name in files:
-        if name.endswith(".npz"):
-            os.utime(path.parent / name, (when, when))
+        os.utime(path.parent / name, (when, when))
     return files
 
 
@@ -55,12 +54,13 @@ def test_the_least_recently_used_entries_go_whole_down_to_four_fifths_of_the_lim
 
 def test_files_that_are_not_the_caches_are_never_counted_nor_removed(folder):
     # TERRASYNTH_CACHE_DIR may name a folder of the user's own.
-    mine = [folder / "N44W072.hgt", folder / "notes.txt", folder / ".hidden.tmp"]
+    mine = [folder / "N44W072.hgt", folder / "notes.txt", folder / ".hidden.tmp", folder / "example-video.mp4",
+            folder / "example-v1-holiday.jpg"]
     for path in mine:
         path.write_bytes(b"x" * 3 * MB)
         os.utime(path, (time.time() - 30 * 86400,) * 2)
     entry = _entry("a", 2, used_hours_ago=30)
-    assert cache_size.keep_within(folder, 4 * MB) == 0  # the cache's own 2 MB are within 4 MB
+    assert cache_size.keep_within(folder, 4 * MB) == 0  # the cache's own 2 MB are within 4 MB (15 MB in all)
     assert cache_size.keep_within(folder, 1 * MB) >= 2 * MB
     assert all(path.exists() for path in mine) and not any((folder / name).exists() for name in entry)
 
@@ -85,7 +85,38 @@ def test_a_read_marks_an_entry_used_and_a_write_keeps_the_folder_within_the_limi
     assert cache.load_arrays("a") is not None and cache.load_arrays("c") is not None
 
 
-@pytest.mark.parametrize("value", ["", "lots", "-1", "0", "inf", "nan"])
+def test_an_entry_being_rewritten_is_kept_whole(folder):
+    # A writer lays fresh side files beside an old .npz before replacing it.
+    files = _entry("a", 4, used_hours_ago=30)
+    side = folder / next(name for name in files if not name.endswith(".npz"))
+    os.utime(side)  # laid just now
+    _entry("b", 4, used_hours_ago=20)
+    cache_size.keep_within(folder, 2 * MB)
+    assert all((folder / name).exists() for name in files) and cache.load_arrays("b") is None
+
+
+def test_an_entry_used_since_the_scan_is_kept(folder, monkeypatch):
+    files = _entry("a", 4, used_hours_ago=30)
+    listing = cache_size._listing
+
+    def listed_then_read(where):
+        seen = listing(where)
+        os.utime(folder / next(n for n in files if n.endswith(".npz")))  # read meanwhile by another process
+        return seen
+
+    monkeypatch.setattr(cache_size, "_listing", listed_then_read)
+    assert cache_size.keep_within(folder, 1 * MB) == 0
+    assert all((folder / name).exists() for name in files)
+
+
+def test_a_write_never_fails_for_the_limit(folder, monkeypatch):
+    monkeypatch.setenv("TERRASYNTH_CACHE_MAX_GB", "1e308")
+    monkeypatch.setattr(cache_size, "_last_scan", float("-inf"))
+    cache.save_arrays("a", {"heights": np.zeros(1000)})
+    assert cache.load_arrays("a") is not None
+
+
+@pytest.mark.parametrize("value", ["", "lots", "-1", "0", "nan"])
 def test_a_limit_that_is_not_a_positive_number_is_the_default(monkeypatch, value):
     monkeypatch.setenv("TERRASYNTH_CACHE_MAX_GB", value)
     assert cache_size.cache_limit() == cache_size.DEFAULT_LIMIT_BYTES
@@ -94,3 +125,24 @@ def test_a_limit_that_is_not_a_positive_number_is_the_default(monkeypatch, value
 def test_the_limit_is_read_in_gib(monkeypatch):
     monkeypatch.setenv("TERRASYNTH_CACHE_MAX_GB", "0.5")
     assert cache_size.cache_limit() == 2**29
+    monkeypatch.setenv("TERRASYNTH_CACHE_MAX_GB", "inf")
+    assert cache_size.cache_limit() == 10**6 * 2**30
+
+
+def test_what_another_process_removed_meanwhile_counts_as_removed(folder, monkeypatch):
+    # Two processes pruning from the same listing must not both go on to
+    # newer entries.
+    a = _entry("a", 4, used_hours_ago=30)
+    b = _entry("b", 4, used_hours_ago=20)
+    c = _entry("c", 4, used_hours_ago=10)
+    listing = cache_size._listing
+
+    def listed_then_pruned_elsewhere(where):
+        seen = listing(where)
+        for name in a:
+            (folder / name).unlink()
+        return seen
+
+    monkeypatch.setattr(cache_size, "_listing", listed_then_pruned_elsewhere)
+    cache_size.keep_within(folder, 11 * MB)  # 12 MB listed, down to 8.8: "a" alone is enough
+    assert all((folder / name).exists() for name in b + c)
