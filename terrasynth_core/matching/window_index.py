@@ -99,11 +99,10 @@ PCA_SAMPLE = 8_000
 NPROBE = 32
 
 _TOP, _BOTTOM, _LEFT, _RIGHT = 1, 2, 4, 8
-#: The zones (see :func:`zone_of`) of windows with terrain on two sides or
-#: more, the most first: where a live stroke's crop, a hole in kept
-#: terrain, fills (its windows on one side only are few).
-HOLE_ZONES = tuple(sorted((zone for zone in range(1, 16) if bin(zone).count("1") >= 2),
-                          key=lambda zone: (-bin(zone).count("1"), zone)))
+#: Every zone (see :func:`zone_of`), those with more sides filled first:
+#: the order a live stroke's crop, a hole in kept terrain, most needs them
+#: (though its first windows may hold terrain on one side only).
+ZONES_BY_SIDES = tuple(sorted(range(1, 16), key=lambda zone: (-bin(zone).count("1"), zone)))
 
 
 def zone_of(filled: np.ndarray, overlap: int) -> int:
@@ -614,15 +613,15 @@ class LazyIndexes:
             self._indexes[zone] = got
             return got
 
-    def make_zones(self, zones=HOLE_ZONES, cancel: Callable[[], bool] | None = None) -> None:
+    def make_zones(self, zones=ZONES_BY_SIDES, cancel: Callable[[], bool] | None = None) -> None:
         """Build (or load) the indexes of ``zones`` now, in their order;
         ``cancel`` is asked before each and True stops there (the zones made
         so far are kept).
 
-        A whole-map run asks for the zones its windows make, mostly one or
-        two sides filled; a live stroke's crop fills holes in kept terrain
-        (:data:`HOLE_ZONES`), built in the stroke's time (0.3-0.4 s each
-        for a 1201x1201 example) unless made beforehand.
+        A whole-map run asks for the zones its windows make; a live
+        stroke's crop fills holes in kept terrain and asks for others, built
+        in the stroke's time (0.3-0.4 s each for a 1201x1201 example) unless
+        made beforehand.
         """
         for zone in zones:
             if cancel is not None and cancel():

@@ -416,8 +416,8 @@ def prepare_resynthesis(examples: Sequence[HeightField | np.ndarray], sketch: Sk
     """Make, and keep, what a re-synthesis of this map reads from its
     examples before it places a patch: their feature pools and fill
     searches as a stroke's crop run (no landform pass) uses them, with
-    the searches' zone indexes a crop's holes ask for (on disk, for the
-    fill's workers; :data:`~terrasynth_core.matching.window_index.HOLE_ZONES`).
+    every zone index of the searches (on disk, for the fill's workers;
+    :data:`~terrasynth_core.matching.window_index.ZONES_BY_SIDES`).
 
     They are kept in the core by what they are made of, so the first live
     stroke after a run need not make them (0.4-0.5 s for a 1201x1201
@@ -439,7 +439,8 @@ def prepare_resynthesis(examples: Sequence[HeightField | np.ndarray], sketch: Sk
     _pools, searches = examples_read(session.layout, session.params)
     # With the zones a crop's holes ask for, which a whole-map run may not
     # have made: the first strokes built them (0.3-0.4 s each, 15 MB on
-    # disk for a 1201x1201 example).
+    # disk for a 1201x1201 example).  All 15: leaving out those of windows
+    # filled on one side, the first stroke built one (1.6 s against 0.7 s).
     for search in searches:
         if search is not None and search.indexes is not None:
             search.indexes.make_zones(cancel=cancel)

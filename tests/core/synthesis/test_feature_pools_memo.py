@@ -186,16 +186,15 @@ def test_prepare_resynthesis_makes_what_the_first_stroke_reads(white_mountains, 
     np.testing.assert_array_equal(warm.heights, cold.heights)
 
 
-def test_prepare_resynthesis_makes_the_zone_indexes_of_the_crops_holes(white_mountains, sketch_dir, monkeypatch,
+def test_prepare_resynthesis_makes_every_zone_index_of_the_crops_searches(white_mountains, sketch_dir, monkeypatch,
                                                                           tmp_path):
-    """A crop's holes (windows with terrain on two sides or more) ask for
-    zones a whole-map run may not have made; the first strokes built them
-    (0.3-0.4 s each for a 1201x1201 example)."""
+    """A crop's holes ask for zones a whole-map run may not have made; the
+    first strokes built them (0.3-0.4 s each for a 1201x1201 example)."""
     import dataclasses
     import re
 
     from terrasynth_core.matching import fill_search
-    from terrasynth_core.matching.window_index import HOLE_ZONES
+    from terrasynth_core.matching.window_index import ZONES_BY_SIDES
     from terrasynth_core.synthesis import prepare_resynthesis
 
     monkeypatch.setenv("TERRASYNTH_CACHE_DIR", str(tmp_path))
@@ -213,8 +212,8 @@ def test_prepare_resynthesis_makes_the_zone_indexes_of_the_crops_holes(white_mou
         return found
 
     made_by_the_run = zones()
-    assert made_by_the_run and all(not set(HOLE_ZONES) <= z for z in made_by_the_run.values())
+    assert made_by_the_run and all(not set(ZONES_BY_SIDES) <= z for z in made_by_the_run.values())
     prepare_resynthesis([white_mountains], sketch, previous=first.heights, params=params, cancel=lambda: True)
     assert zones() == made_by_the_run  # cancelled before the first zone index
     prepare_resynthesis([white_mountains], sketch, previous=first.heights, params=params)
-    assert any(set(HOLE_ZONES) <= z for z in zones().values())
+    assert any(set(ZONES_BY_SIDES) <= z for z in zones().values())
