@@ -133,7 +133,7 @@ class LiveController(QObject):
         else:
             self._timer.stop()
             self.runner.cancel()
-            self._preparing.set()
+            self.stop_preparation()
         self.enabled_changed.emit(on)
 
     def schedule(self) -> None:
@@ -147,14 +147,14 @@ class LiveController(QObject):
 
     def stop_preparation(self) -> None:
         """Stop the background preparation at its next zone index: other
-        heavy work (variations, a large render) needs the cores.  The next
-        run's end prepares again."""
+        heavy work (a run, variations, a large render) needs the cores.  The
+        next run's end prepares again."""
         self._preparing.set()
 
     def wait(self) -> bool:
         """Cancel and wait for the worker's thread (at exit)."""
         self._timer.stop()
-        self._preparing.set()
+        self.stop_preparation()
         return self.runner.wait()
 
     # -- internals ------------------------------------------------------------------------
@@ -176,7 +176,7 @@ class LiveController(QObject):
         if running:
             self._timer.stop()
             self.runner.cancel()
-            self._preparing.set()  # the run needs the cores more
+            self.stop_preparation()  # the run needs the cores more
         else:
             # Strokes drawn during the run are not in its terrain.
             self.schedule()
@@ -190,7 +190,7 @@ class LiveController(QObject):
         # rather than making them twice.
         if not self._enabled or self.synthesis.running:
             return  # (a run's end prepares)
-        self._preparing.set()  # an older preparation stops at its next zone index
+        self.stop_preparation()  # an older one: this one makes what it would
         self._preparing = threading.Event()
         try:
             prepare = live_preparation(self.document, cancel=self._preparing.is_set)

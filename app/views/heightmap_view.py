@@ -25,7 +25,7 @@ from PySide6.QtCore import QPointF, QThreadPool, QTimer, Signal
 from PySide6.QtGui import QColor, QPen
 from PySide6.QtWidgets import QCheckBox, QGraphicsRectItem, QToolBar, QVBoxLayout, QWidget
 
-from terrasynth_core.pictures import height_range, patch_colours, shaded_relief, shaded_window, water_rgba
+from terrasynth_core.pictures import height_range, patch_colours, ringed, shaded_relief, shaded_window, water_rgba
 
 from ..controllers import FeatureGraphController
 from ..model.result import TerrainResult
@@ -216,9 +216,7 @@ class HeightmapView(QWidget):
         self.heights[r0:r1, c0:c1] = event.heights
         # The window and a one-cell ring need recolouring (the ring's slopes
         # changed too); the next tick has every window since the last recoloured.
-        rows, cols = self.heights.shape
-        ring = (max(r0 - 1, 0), min(r1 + 1, rows), max(c0 - 1, 0), min(c1 + 1, cols))
-        self._unshaded = _joined(self._unshaded, ring)
+        self._unshaded = _joined(self._unshaded, ringed(event.bbox, self.heights.shape))
         self.outline.setRect(c0, r0, c1 - c0, r1 - r0)
         self.outline.setVisible(True)
         self.last_bbox = (r0, r1, c0, c1)
@@ -243,10 +241,9 @@ class HeightmapView(QWidget):
         """Recolour the windows pasted since the last tick on a pool thread,
         from a copy of their heights (and the one-cell margin their slopes
         read): the run goes on pasting into the buffer meanwhile."""
-        rows, cols = self.heights.shape
         pieces = []
         for r0, r1, c0, c1, _cells in self._unshaded:
-            R0, R1, C0, C1 = max(r0 - 1, 0), min(r1 + 1, rows), max(c0 - 1, 0), min(c1 + 1, cols)
+            R0, R1, C0, C1 = ringed((r0, r1, c0, c1), self.heights.shape)
             pieces.append(((r0, r1, c0, c1), self.heights[R0:R1, C0:C1].copy(), (r0 - R0, r1 - R0, c0 - C0, c1 - C0)))
         self._unshaded = []
         self._shading = True

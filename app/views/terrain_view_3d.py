@@ -194,11 +194,9 @@ class TerrainView3D(QWidget):
         for _ in range(2):
             self._dirty = True
             self._redraw(now=True)
-        self.live_updates = self.render_ms <= LIVE_FRAME_BUDGET_MS
-        log.info("3D frame: %.0f ms; live 3D updates %s", self.render_ms, "on" if self.live_updates else "off")
-        if not self.live_updates:
-            self.notice.setText(f"Live 3D off: a frame takes {self.render_ms:.0f} ms with this OpenGL; "
-                                "the terrain shows when a run ends.")
+        log.info("3D frame: %.0f ms", self.render_ms)
+        if self.render_ms > LIVE_FRAME_BUDGET_MS:
+            self._live_off(f"a frame takes {self.render_ms:.0f} ms with this OpenGL")
         if shown is None:
             self.heights = None
             self._clear_mesh()
@@ -213,11 +211,14 @@ class TerrainView3D(QWidget):
         ms = (time.perf_counter() - self._frame_started_at) * 1000
         self._slow_frames = self._slow_frames + 1 if ms > LOADED_FRAME_LIMIT_MS else 0
         if self._slow_frames >= SLOW_FRAMES:
-            self.live_updates = False
             self._timer.stop()
-            log.info("3D frame during a run: %.0f ms; live 3D updates off", ms)
-            self.notice.setText(f"Live 3D off: a frame took {ms:.0f} ms while the run kept the cores busy; "
-                                "the terrain shows when a run ends.")
+            self._live_off(f"a frame took {ms:.0f} ms while the run kept the cores busy")
+
+    def _live_off(self, why: str) -> None:
+        """No more redraws during runs (the terrain shows when a run ends), and say ``why``."""
+        self.live_updates = False
+        log.info("live 3D updates off: %s", why)
+        self.notice.setText(f"Live 3D off: {why}; the terrain shows when a run ends.")
 
     def _clear_mesh(self) -> None:
         self.plotter.clear()

@@ -115,13 +115,15 @@ def keep_within(folder: Path, limit: int, *, now: float | None = None) -> int:
     total = sum(st.st_size for st in files.values())
     if total <= limit:
         return 0
-    stems = {name[:-4] for name in files if _ENTRY.fullmatch(name)}
+    # (The listing holds the cache's names only: an .npz is an entry, a
+    # .tmp unfinished, anything else a side file.)
+    stems = {name[:-4] for name in files if name.endswith(".npz")}
     entries: dict[str, list[str]] = {stem: [stem + ".npz"] for stem in stems}
     loose = []  # side files without an entry, unfinished temporary files
     for name in files:
-        if _ENTRY.fullmatch(name):
+        if name.endswith(".npz"):
             continue
-        stem = _entry_of(name, stems) if _SIDE.fullmatch(name) else None
+        stem = None if name.endswith(".tmp") else _entry_of(name, stems)
         if stem is None:
             loose.append(name)
         else:

@@ -558,7 +558,7 @@ class LazyIndexes:
     from the disk cache) the first time it is asked for; thread-safe: a
     caller waits only while the zone it asks for is being made (a live
     stroke's search runs beside the background preparation building the
-    other zones, :meth:`make_zones`)."""
+    other zones, :meth:`make_all`)."""
 
     def __init__(self, example, window, overlap, positions, prior, *, load=None, save=None):
         self.example, self.window, self.overlap = example, window, overlap
@@ -613,17 +613,11 @@ class LazyIndexes:
             self._indexes[zone] = got
             return got
 
-    def make_zones(self, zones=ZONES_BY_SIDES, cancel: Callable[[], bool] | None = None) -> None:
-        """Build (or load) the indexes of ``zones`` now, in their order;
-        ``cancel`` is asked before each and True stops there (the zones made
-        so far are kept).
-
-        A whole-map run asks for the zones its windows make; a live
-        stroke's crop fills holes in kept terrain and asks for others, built
-        in the stroke's time (0.3-0.4 s each for a 1201x1201 example) unless
-        made beforehand.
-        """
-        for zone in zones:
+    def make_all(self, cancel: Callable[[], bool] | None = None) -> None:
+        """Build (or load) every zone's index now, those with more sides
+        filled first (:data:`ZONES_BY_SIDES`); ``cancel`` is asked before
+        each and True stops there (the zones made so far are kept)."""
+        for zone in ZONES_BY_SIDES:
             if cancel is not None and cancel():
                 return
             self.get(zone)

@@ -20,8 +20,8 @@ from typing import TYPE_CHECKING
 from .._lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from .colours import (TERRAIN_LUT, height_range, height_ticks, patch_colours, ramp_strip, shaded_relief,
-        shaded_window, terrain_colours, thumbnail)
+    from .colours import (TERRAIN_LUT, height_range, height_ticks, patch_colours, ramp_strip, ringed,
+        shaded_relief, shaded_window, terrain_colours, thumbnail)
     from .files import save_png
     from .masks import BAND_COLOURS, mask_picture
     from .overlay import RIDGE_COLOUR, VALLEY_COLOUR, render_overlay
@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 # Loaded on first use (terrasynth_core._lazy): importing the package costs nothing.
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     ".colours": (
-        "TERRAIN_LUT", "height_range", "height_ticks", "patch_colours", "ramp_strip", "shaded_relief",
+        "TERRAIN_LUT", "height_range", "height_ticks", "patch_colours", "ramp_strip", "ringed", "shaded_relief",
         "shaded_window", "terrain_colours", "thumbnail"
     ),
     ".files": ("save_png",),

@@ -138,6 +138,13 @@ def shaded_relief(heights: np.ndarray, *, cell_size=None, vrange: tuple[float, f
     return rgba
 
 
+def ringed(bbox: tuple[int, int, int, int], shape: tuple[int, int]) -> tuple[int, int, int, int]:
+    """The window ``bbox`` (r0, r1, c0, c1) with a one-cell ring, within a
+    grid of ``shape``: the cells whose shading reads the window's heights."""
+    r0, r1, c0, c1 = bbox
+    return max(r0 - 1, 0), min(r1 + 1, shape[0]), max(c0 - 1, 0), min(c1 + 1, shape[1])
+
+
 def shaded_window(heights: np.ndarray, bbox: tuple[int, int, int, int], *, cell_size=None,
                   vrange: tuple[float, float]) -> np.ndarray:
     """:func:`shaded_relief` of the window ``bbox`` (r0, r1, c0, c1) of ``heights``.
@@ -150,8 +157,7 @@ def shaded_window(heights: np.ndarray, bbox: tuple[int, int, int, int], *, cell_
     ndarray of uint8, shape (r1 - r0, c1 - c0, 4)
     """
     r0, r1, c0, c1 = bbox
-    rows, cols = heights.shape
-    R0, R1, C0, C1 = max(r0 - 1, 0), min(r1 + 1, rows), max(c0 - 1, 0), min(c1 + 1, cols)
+    R0, R1, C0, C1 = ringed(bbox, heights.shape)
     rgba = shaded_relief(heights[R0:R1, C0:C1], cell_size=cell_size, vrange=vrange)
     return rgba[r0 - R0:r1 - R0, c0 - C0:c1 - C0]
 

@@ -424,7 +424,7 @@ def prepare_resynthesis(examples: Sequence[HeightField | np.ndarray], sketch: Sk
     example, and 0.3-0.4 s per zone index); a stroke asking for them while
     this runs waits for them rather than making them twice.  The arguments
     are those of :func:`resynthesize_region`; ``cancel`` is asked between
-    zone indexes (about 4 s in all for a new 1201x1201 example, nothing once
+    zone indexes (about 5 s in all for a new 1201x1201 example, nothing once
     they are on disk) and True stops there.  The selection is a cell at
     the map's centre: the pools do not depend on it, nor do the searches on
     a map of one style (with several, only the styles within the crop
@@ -442,8 +442,8 @@ def prepare_resynthesis(examples: Sequence[HeightField | np.ndarray], sketch: Sk
     # disk for a 1201x1201 example).  All 15: leaving out those of windows
     # filled on one side, the first stroke built one (1.6 s against 0.7 s).
     for search in searches:
-        if search is not None and search.indexes is not None:
-            search.indexes.make_zones(cancel=cancel)
+        if search is not None:
+            search.make_indexes(cancel)
 
 
 # -- cutting the inputs --------------------------------------------------------------------
