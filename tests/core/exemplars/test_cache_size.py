@@ -146,3 +146,19 @@ def test_what_another_process_removed_meanwhile_counts_as_removed(folder, monkey
     monkeypatch.setattr(cache_size, "_listing", listed_then_pruned_elsewhere)
     cache_size.keep_within(folder, 11 * MB)  # 12 MB listed, down to 8.8: "a" alone is enough
     assert all((folder / name).exists() for name in b + c)
+
+
+def test_one_process_prunes_at_a_time(folder, monkeypatch):
+    # Pruners listing the folder at different moments removed twice what
+    # was needed; a second one skips while the first holds the lock.
+    pytest.importorskip("fcntl")
+    pruned = []
+    monkeypatch.setattr(cache_size, "keep_within", lambda where, limit: pruned.append(where))
+    monkeypatch.setattr(cache_size, "_last_scan", float("-inf"))
+    with cache_size._pruning(folder) as first:
+        assert first
+        cache_size.written(folder)  # another pruner: skipped
+    assert pruned == []
+    monkeypatch.setattr(cache_size, "_last_scan", float("-inf"))
+    cache_size.written(folder)
+    assert pruned == [folder]
