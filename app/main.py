@@ -53,6 +53,7 @@ def main(argv: list[str] | None = None) -> int:
               "graphical session, or use terrasynth-cli for scripted synthesis.", file=sys.stderr)
         return EXIT_NO_DISPLAY
 
+    from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
@@ -62,10 +63,14 @@ def main(argv: list[str] | None = None) -> int:
     from .model.project import PROJECT_EXTENSION
     from .model.recovery import RecoveryStore
     from .views.main_window import MainWindow
+    from .workers import freeze_start_up
 
     window = MainWindow(recovery=RecoveryStore(recovery_directory()))
     window.autosave.handle_termination()  # SIGTERM/SIGINT: no temporary left, unsaved work kept
     window.show()
+    # Once the event loop has shown the window: what the app made to start
+    # leaves the cyclic collector (no full collection walks it again).
+    QTimer.singleShot(0, freeze_start_up)
     if not window.files.offer_recovery() and args.file is not None:
         if args.file.suffix.lower() == PROJECT_EXTENSION:
             window.files.open_project(str(args.file))
