@@ -63,14 +63,28 @@ def main(argv: list[str] | None = None) -> int:
     from .model.project import PROJECT_EXTENSION
     from .model.recovery import RecoveryStore
     from .views.main_window import MainWindow
+    from .views.terrain_view_3d import importing_ahead
     from .workers import freeze_start_up
 
     window = MainWindow(recovery=RecoveryStore(recovery_directory()))
     window.autosave.handle_termination()  # SIGTERM/SIGINT: no temporary left, unsaved work kept
     window.show()
-    # Once the event loop has shown the window: what the app made to start
-    # leaves the cyclic collector (no full collection walks it again).
-    QTimer.singleShot(0, freeze_start_up)
+
+    def once_imported() -> None:
+        if importing_ahead():
+            QTimer.singleShot(100, once_imported)
+        else:
+            freeze_start_up()
+
+    def started() -> None:
+        # What the app made to start leaves the cyclic collector for good:
+        # once the window is shown, and again once the 3D view's libraries
+        # (imported on a helper thread meanwhile) are in.
+        freeze_start_up()
+        if importing_ahead():
+            QTimer.singleShot(100, once_imported)
+
+    QTimer.singleShot(0, started)
     if not window.files.offer_recovery() and args.file is not None:
         if args.file.suffix.lower() == PROJECT_EXTENSION:
             window.files.open_project(str(args.file))

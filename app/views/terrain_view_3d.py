@@ -75,7 +75,18 @@ def _import_ahead() -> None:
         except Exception:  # (start() imports it again and shows why)
             pass
 
-    threading.Thread(target=load, name="terrasynth-import-3d", daemon=True).start()
+    global _IMPORTING
+    _IMPORTING = threading.Thread(target=load, name="terrasynth-import-3d", daemon=True)
+    _IMPORTING.start()
+
+
+#: The thread importing pyvistaqt ahead (:func:`_import_ahead`), once started.
+_IMPORTING: threading.Thread | None = None
+
+
+def importing_ahead() -> bool:
+    """Whether the 3D view's libraries are still being imported ahead."""
+    return _IMPORTING is not None and _IMPORTING.is_alive()
 
 
 class TerrainView3D(QWidget):
