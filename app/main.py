@@ -71,10 +71,8 @@ def main(argv: list[str] | None = None) -> int:
     window.show()
 
     def once_imported() -> None:
-        if importing_ahead():
+        if importing_ahead() or not freeze_start_up():
             QTimer.singleShot(100, once_imported)
-        else:
-            freeze_start_up()
 
     def started() -> None:
         # What the app made to start leaves the cyclic collector for good:

@@ -150,7 +150,10 @@ def test_the_start_up_objects_leave_the_collector_for_good():
     # 55-100 ms on the GUI thread, one without them about a millisecond.
     assert gc.get_freeze_count() == 0
     try:
-        workers.freeze_start_up()
+        workers._hold_collector(True)
+        assert not workers.freeze_start_up() and gc.get_freeze_count() == 0  # not a request's objects
+        workers._hold_collector(False)
+        assert workers.freeze_start_up()
         frozen = gc.get_freeze_count()
         assert frozen > 10_000
         workers._hold_collector(True)
