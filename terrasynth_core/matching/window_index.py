@@ -281,8 +281,16 @@ class ZoneIndex:
         of it approximates the search's score, see the module notes)."""
         _single_thread()
         k = min(count, self.positions.shape[0])
-        dist, ids = self._faiss().search(vector, k)
+        index = self._faiss()
+        dist, ids = index.search(vector, k)
         found = ids[0] >= 0
+        if found.sum() < k and index.nprobe < index.nlist:
+            # The probed lists held fewer windows than asked: an example
+            # whose windows are all alike (a flat DEM) has k-means centres
+            # that tie, most of their lists empty, and a query probing those
+            # found nothing at all.  Every list, then.
+            dist, ids = index.search(vector, k, params=faiss_module().SearchParametersIVF(nprobe=index.nlist))
+            found = ids[0] >= 0
         if distances:
             return self.positions[ids[0][found]], dist[0][found]
         return self.positions[ids[0][found]]

@@ -323,3 +323,18 @@ def test_a_zone_made_is_handed_out_while_another_zone_is_being_built():
     asking.join(30)
     assert not waited and [g.zone for g in got] == [3, 5]
     assert indexes.get(15).zone == 15
+
+
+def test_an_example_whose_windows_are_all_alike_still_offers_windows():
+    # A flat DEM as a style: its index's k-means centres tie, most lists are
+    # empty, and the probed ones held nothing, so a fill window had no
+    # candidate at all (an IndexError in the CLI).  The search widens to
+    # every list when the probed ones come back short.
+    flat = np.full((300, 300), 500.0, np.float32)
+    search = FillSearch(flat, (32, 32), coarse_factor=1, use_cache=False)
+    assert search.indexes is not None
+    filled = np.zeros((32, 32), bool)
+    filled[:, :10] = True
+    target = np.random.default_rng(0).normal(500.0, 5.0, (32, 32)).astype(np.float32)
+    assert len(search.candidates(target, filled)) == search.shortlist
+    assert len(search.best(target, filled, 3, np.random.default_rng(0))) >= 1
