@@ -127,6 +127,12 @@ class UsageRegistry:
         self._sources: list[tuple[float, float]] = []
         self._boxes: list[tuple[int, int, int, int]] = []
         self._centres: list[tuple[float, float]] = []
+        # Per recorded source, how many recorded sources share its window
+        # (itself included), kept as they come: counted afresh from all
+        # pairs for every candidate ranking, a sketch of a thousand strokes
+        # spent minutes there (the pairs grow with the square of the
+        # patches, the rankings with their number).
+        self._own: list[int] = []
 
     def __len__(self) -> int:
         return len(self._examples)
@@ -134,6 +140,14 @@ class UsageRegistry:
     def record(self, example: int, source, bbox, centre) -> None:
         """A feature patch from ``example`` at ``source`` (row, col) was
         placed on the output window ``bbox`` around ``centre``."""
+        if self._examples:
+            ex, src, _, _ = self._arrays()
+            shared = _near(np.array([int(example)]), np.array([source], dtype=float), ex, src, self.same_window)[0]
+            for i in np.flatnonzero(shared):
+                self._own[i] += 1
+            self._own.append(1 + int(shared.sum()))
+        else:
+            self._own.append(1)
         self._examples.append(int(example))
         self._sources.append((float(source[0]), float(source[1])))
         self._boxes.append(tuple(int(v) for v in bbox))
@@ -148,6 +162,7 @@ class UsageRegistry:
         out._sources = list(self._sources)
         out._boxes = list(self._boxes)
         out._centres = list(self._centres)
+        out._own = list(self._own)
         return out
 
     def _arrays(self):
@@ -167,7 +182,7 @@ class UsageRegistry:
         ex, src, _, _ = self._arrays()
         near = _near(examples, sources, ex, src, self.same_window)  # (N, M)
         # Each used source's window as it stands (itself included).
-        own = _near(ex, src, ex, src, self.same_window).sum(axis=1)  # (M,)
+        own = np.array(self._own, dtype=np.int64)  # (M,)
         load = near.sum(axis=1) + 1
         grown = np.where(near, own[None, :] + 1, 0).max(axis=1)
         return np.maximum(load, grown)
