@@ -280,8 +280,9 @@ def read_sketch(path) -> SketchMap:
             if not sketch.has_strokes:
                 # Transparent pixels say nothing, whatever colour they keep underneath.
                 rgb = np.asarray(image.convert(target))
-                opaque = rgb[..., 3] >= 128 if rgb.shape[2] == 4 else np.ones(rgb.shape[:2], bool)
-                _refuse_other_colours(rgb[..., :3][opaque], path)
+                # (Masked only with an alpha channel: a boolean index of
+                # every pixel took 9 s of an 8000x8000 blank sketch's 16.)
+                _refuse_other_colours(rgb[..., :3][rgb[..., 3] >= 128] if rgb.shape[2] == 4 else rgb, path)
     except FileNotFoundError:
         raise SketchError(f"sketch file {path} does not exist") from None
     except (UnidentifiedImageError, OSError, ValueError) as exc:
@@ -299,8 +300,11 @@ def _refuse_other_colours(rgb: np.ndarray, path: Path) -> None:
     flat = rgb.reshape(-1, 3)
     if not len(flat):
         return
-    colours, counts = np.unique(flat, axis=0, return_counts=True)
-    background = colours[np.argmax(counts)]
+    # The most common colour, counted as 24-bit codes (np.unique over rows
+    # sorted every pixel: 31 s for a blank 8000x8000 sketch, against 1 s).
+    codes = (flat[:, 0].astype(np.int32) << 16) | (flat[:, 1].astype(np.int32) << 8) | flat[:, 2]
+    top = int(np.argmax(np.bincount(codes, minlength=1 << 24)))
+    background = np.array([top >> 16, (top >> 8) & 255, top & 255], dtype=np.int16)
     drawn = np.abs(flat.astype(np.int16) - background).max(axis=1) > 32
     share = drawn.mean()
     if share > 0.001:
