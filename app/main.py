@@ -69,20 +69,16 @@ def main(argv: list[str] | None = None) -> int:
     window = MainWindow(recovery=RecoveryStore(recovery_directory()))
     window.autosave.handle_termination()  # SIGTERM/SIGINT: no temporary left, unsaved work kept
     window.show()
+    # What the app made to start leaves the cyclic collector for good (no
+    # request runs yet), and again what the 3D view's libraries add once
+    # their import on a helper thread is done.
+    freeze_start_up()
 
     def once_imported() -> None:
         if importing_ahead() or not freeze_start_up():
             QTimer.singleShot(100, once_imported)
 
-    def started() -> None:
-        # What the app made to start leaves the cyclic collector for good:
-        # once the window is shown, and again once the 3D view's libraries
-        # (imported on a helper thread meanwhile) are in.
-        freeze_start_up()
-        if importing_ahead():
-            QTimer.singleShot(100, once_imported)
-
-    QTimer.singleShot(0, started)
+    QTimer.singleShot(100, once_imported)
     if not window.files.offer_recovery() and args.file is not None:
         if args.file.suffix.lower() == PROJECT_EXTENSION:
             window.files.open_project(str(args.file))

@@ -59,6 +59,10 @@ WATER_OPACITY = 0.6
 _HEADLESS_PLATFORMS = {"offscreen", "minimal", "vnc"}
 
 
+#: The thread importing pyvistaqt ahead (:func:`_import_ahead`), once started.
+_IMPORTING: threading.Thread | None = None
+
+
 @functools.cache  # (once per process, however many views are made)
 def _import_ahead() -> None:
     """Import pyvistaqt (VTK) on a helper thread while the app starts: on
@@ -79,9 +83,6 @@ def _import_ahead() -> None:
     _IMPORTING = threading.Thread(target=load, name="terrasynth-import-3d", daemon=True)
     _IMPORTING.start()
 
-
-#: The thread importing pyvistaqt ahead (:func:`_import_ahead`), once started.
-_IMPORTING: threading.Thread | None = None
 
 
 def importing_ahead() -> bool:

@@ -140,14 +140,12 @@ class UsageRegistry:
     def record(self, example: int, source, bbox, centre) -> None:
         """A feature patch from ``example`` at ``source`` (row, col) was
         placed on the output window ``bbox`` around ``centre``."""
-        if self._examples:
-            ex, src, _, _ = self._arrays()
-            shared = _near(np.array([int(example)]), np.array([source], dtype=float), ex, src, self.same_window)[0]
-            for i in np.flatnonzero(shared):
-                self._own[i] += 1
-            self._own.append(1 + int(shared.sum()))
-        else:
-            self._own.append(1)
+        shared = _near(np.array([int(example)]), np.array([source], dtype=float).reshape(1, 2),
+                       np.array(self._examples, dtype=np.int64),
+                       np.array(self._sources, dtype=float).reshape(-1, 2), self.same_window)[0]
+        for i in np.flatnonzero(shared):
+            self._own[i] += 1
+        self._own.append(1 + int(shared.sum()))
         self._examples.append(int(example))
         self._sources.append((float(source[0]), float(source[1])))
         self._boxes.append(tuple(int(v) for v in bbox))
